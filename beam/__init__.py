@@ -1,0 +1,11 @@
+"""Beam discrepancy explorer: headless library (no UI imports).
+
+Euler–Bernoulli cantilever with a piezoelectric patch, discretised by Galerkin's method with
+modified cubic B-splines; a catalogue of optional physical effects; a fast modal response;
+measurement files; Bayesian inference; residual diagnostics.
+"""
+
+from beam.errors import BeamInputError
+
+__all__ = ["BeamInputError"]
+__version__ = "0.1.0"

@@ -1,0 +1,3 @@
+from beam.cli.main import main
+
+raise SystemExit(main())

@@ -1,0 +1,386 @@
+"""The cantilever model: base beam plus any set of effects, composed at assembly time.
+
+``BeamModel(geometry, effects)`` assembles the Galerkin parts once. Each effect declares terms
+``parameter * part`` (:class:`beam.effects.Term`); a call forms M = sum rho_i M_i,
+C = sum c_i C_i, K = sum k_i K_i and the force from the parameter values, for one or many
+parameter sets at once (values given as arrays of shape (B,)).
+
+Responses:
+
+* :meth:`BeamModel.response` — the fast path: modal truncation to ``modes`` modes, exact
+  damping in the retained subspace (complex modes), exact ZOH stepping, vectorised over
+  parameter sets; the tip cubic spring is integrated in modal coordinates
+  (:mod:`beam.nonlinear`).
+* :meth:`BeamModel.response_full` — the reference: the full state space (all 2n states) stepped
+  exactly under ZOH by :func:`scipy.signal.lsim` (linear models only).
+
+Mode shapes are cached: they depend only on the ratios of the mass coefficients and of the
+stiffness coefficients, so a change of EI alone (or of rho alone, or of any damping or of k_p)
+reuses them and rescales the frequencies.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.signal
+
+from beam import modal
+from beam.assembly import GalerkinParts, assemble_parts
+from beam.effects import BASE_PARAMETERS, BASE_TERMS, EFFECTS, PARAMETER_SPECS, Term, parse_effects
+from beam.errors import BeamInputError
+from beam.geometry import BeamGeometry
+
+_SHAPE_CACHE_SIZE = 256
+#: Galerkin parts that damping terms may multiply (their modal projections are cached).
+_DAMPING_PARTS = ("mass_beam", "stiffness_beam", "stiffness_patch")
+_DENSITY = "linear_density_kg_m"
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where each term's coefficient comes from, for one set of given parameter names."""
+
+    terms: tuple[Term, ...]
+    columns: np.ndarray  # row of the value table for each term
+    mass: np.ndarray  # indices into terms, base (rho) first
+    stiffness: np.ndarray  # base (EI) first
+    damping: np.ndarray
+    force: np.ndarray
+    damping_map: np.ndarray  # (n_damping_terms, len(_DAMPING_PARTS)) 0/1
+
+
+class BeamModel:
+    """Euler–Bernoulli cantilever with a piezo patch and optional effects.
+
+    Parameters
+    ----------
+    geometry : BeamGeometry
+        Beam, patch and sensor (m), linear density (kg/m).
+    effects : iterable of str or str
+        Effect ids from :data:`beam.effects.EFFECTS` (or a comma-separated string).
+    intervals : int
+        Number N of uniform B-spline intervals (default 16).
+    """
+
+    def __init__(self, geometry: BeamGeometry, effects: Iterable[str] | str = (), intervals: int = 16) -> None:
+        if isinstance(intervals, bool) or int(intervals) != intervals or not 2 <= intervals <= 400:
+            raise BeamInputError(f"intervals must be an integer in [2, 400], got {intervals!r}")
+        self.geometry = geometry
+        self.effects = parse_effects(effects)
+        self.intervals = int(intervals)
+        frees_root = any(EFFECTS[e].frees_root_rotation for e in self.effects)
+        self.parts: GalerkinParts = assemble_parts(geometry, self.intervals, frees_root)
+        self._shape_cache: OrderedDict[bytes, tuple[np.ndarray, ...]] = OrderedDict()
+        self._layouts: dict[tuple[str, ...], _Layout] = {}
+        self._accepted = frozenset(self.accepted_parameter_names)
+        self._required = frozenset(self.parameter_names)
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Required parameters of the base model and its effects, base first."""
+        names = [p.name for p in BASE_PARAMETERS]
+        for effect_id in self.effects:
+            names.extend(EFFECTS[effect_id].required_parameter_names)
+        return tuple(names)
+
+    @property
+    def accepted_parameter_names(self) -> tuple[str, ...]:
+        """Required plus optional parameters this model understands."""
+        names = [p.name for p in BASE_PARAMETERS]
+        for effect_id in self.effects:
+            names.extend(EFFECTS[effect_id].parameter_names)
+        return tuple(names)
+
+    @property
+    def is_nonlinear(self) -> bool:
+        return any(EFFECTS[e].nonlinear for e in self.effects)
+
+    @property
+    def size(self) -> int:
+        """Number of Galerkin degrees of freedom n (the full state space has 2n states)."""
+        return self.parts.size
+
+    def _table(self, parameters: Mapping[str, float | np.ndarray]) -> tuple[tuple[str, ...], np.ndarray, bool]:
+        """Validate values; returns (names, table (len(names) + 1, B) with rho last, batched)."""
+        if not parameters.keys() <= self._accepted:
+            unknown = sorted(set(parameters) - self._accepted)[0]
+            raise BeamInputError(
+                f"parameter {unknown!r} is not part of this model (effects: {', '.join(self.effects) or 'none'}); "
+                f"expected {', '.join(self.accepted_parameter_names)}"
+            )
+        if not self._required <= parameters.keys():
+            missing = [name for name in self.parameter_names if name not in parameters][0]
+            raise BeamInputError(f"missing value for parameter {missing!r}")
+        names = tuple(parameters)
+        values = list(parameters.values())
+        if all(isinstance(v, float) for v in values):  # one parameter set of plain floats: fast path
+            table = np.array(values)
+        else:
+            try:
+                table = np.array(np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in values)), ndmin=2)
+            except ValueError:
+                raise BeamInputError("parameter arrays must all have the same length") from None
+        batched = table.ndim > 1
+        if table.ndim > 2:
+            raise BeamInputError("parameter values must be scalars or 1-d arrays")
+        table = table.reshape(len(names), -1)
+        if not np.isfinite(table).all() or (table < 0).any() or (table[names.index("bending_stiffness_Nm2")] <= 0).any():
+            for name, row in zip(names, table):
+                if not np.isfinite(row).all():
+                    raise BeamInputError(f"parameter {name!r} must be finite, got {row}")
+                if (row < 0).any() or (name == "bending_stiffness_Nm2" and (row <= 0).any()):
+                    raise BeamInputError(f"parameter {name!r} must be positive, got {row}")
+        density = np.full((1, table.shape[1]), self.geometry.linear_density_kg_m)
+        return names, np.concatenate([table, density]), batched
+
+    def _layout(self, names: tuple[str, ...]) -> _Layout:
+        """The terms present for these given names, and where their coefficients sit (cached)."""
+        layout = self._layouts.get(names)
+        if layout is None:
+            rows = {name: i for i, name in enumerate(names + (_DENSITY,))}
+            candidates = list(BASE_TERMS) + [t for e in self.effects for t in EFFECTS[e].terms]
+            terms = tuple(
+                t for t in candidates if t.parameter in rows or PARAMETER_SPECS[t.parameter].required
+            )
+
+            def where(target: str) -> np.ndarray:
+                return np.array([i for i, t in enumerate(terms) if t.target == target], dtype=int)
+
+            damping = where("damping")
+            damping_map = np.zeros((damping.size, len(_DAMPING_PARTS)))
+            for row, index in enumerate(damping):
+                damping_map[row, _DAMPING_PARTS.index(terms[index].part)] = 1.0
+            layout = _Layout(
+                terms, np.array([rows[t.parameter] for t in terms]), where("mass"), where("stiffness"),
+                damping, where("force"), damping_map,
+            )
+            self._layouts[names] = layout
+        return layout
+
+    def _coefficients(self, parameters: Mapping[str, float | np.ndarray]) -> tuple[_Layout, np.ndarray, dict, bool]:
+        """(layout, coefficient table (T, B), values by name (B,), batched)."""
+        names, table, batched = self._table(parameters)
+        layout = self._layout(names)
+        values = dict(zip(names, table))
+        return layout, table[layout.columns], values, batched
+
+    def _combine(self, layout: _Layout, coef: np.ndarray, target: str) -> np.ndarray:
+        first = self.parts.patch_force if target == "force" else self.parts.mass_beam
+        total = np.zeros((coef.shape[1],) + first.shape)
+        for term, c in zip(layout.terms, coef):
+            if term.target == target:
+                part = getattr(self.parts, term.part)
+                total += c.reshape((-1,) + (1,) * part.ndim) * part
+        return total
+
+    def system_matrices(self, parameters: Mapping[str, float | np.ndarray]) -> dict[str, np.ndarray]:
+        """M, C, K (B, n, n) and the force per volt f (B, n) of the Galerkin model.
+
+        M q'' + C q' + K q = f V(t) (- k3 (tip @ q)³ tip with the tip cubic spring).
+        """
+        layout, coef, _, _ = self._coefficients(parameters)
+        return {target: self._combine(layout, coef, target) for target in ("mass", "damping", "stiffness", "force")}
+
+    # ------------------------------------------------------------------ modes
+    def _reduced_modes(self, layout: _Layout, coef: np.ndarray, n_modes: int) -> dict[str, np.ndarray]:
+        """Retained undamped modes and the projections the response needs, batched over B.
+
+        Mode shapes depend only on the ratios of the mass coefficients and of the stiffness
+        coefficients, so they are solved once per distinct ratio (scaled to rho = EI = 1), cached
+        with their projections, and rescaled: omega² = (EI/rho) omega_unit², shapes / sqrt(rho).
+
+        Returns omega2 (B, m), damping (B, m, m), force (B, m), sensor (B, m), tip (B, m).
+        """
+        batch = coef.shape[1]
+        mass_coef, stiff_coef = coef[layout.mass].T, coef[layout.stiffness].T
+        mass_scale, stiff_scale = mass_coef[:, 0], stiff_coef[:, 0]  # rho and EI: always > 0
+        keys = np.concatenate([mass_coef / mass_scale[:, None], stiff_coef / stiff_scale[:, None]], axis=1)
+        key_bytes = [row.tobytes() + bytes([n_modes]) for row in keys]
+        missing = {k: row for k, row in zip(key_bytes, keys) if k not in self._shape_cache}
+        if missing:
+            self._solve_shapes(np.array(list(missing.values())), list(missing), layout, n_modes)
+        damping_coef = coef[layout.damping].T @ layout.damping_map  # (B, len(_DAMPING_PARTS))
+        force_coef = coef[layout.force].sum(axis=0)
+        if all(k == key_bytes[0] for k in key_bytes):  # one shape for every set: broadcast it
+            omega2, projections, force, sensor, tip = self._shape_cache[key_bytes[0]]
+            damping = (damping_coef @ projections.reshape(len(_DAMPING_PARTS), -1)).reshape(batch, n_modes, n_modes)
+        else:
+            entries = [self._shape_cache[k] for k in key_bytes]
+            omega2, projections, force, sensor, tip = (np.stack(parts) for parts in zip(*entries))
+            damping = np.einsum("bp,bpij->bij", damping_coef, projections)
+        inv_root_mass = 1.0 / np.sqrt(mass_scale)[:, None]
+        return {
+            "omega2": omega2 * (stiff_scale / mass_scale)[:, None],
+            "damping": damping / mass_scale[:, None, None],
+            "force": force * (force_coef[:, None] * inv_root_mass),
+            "sensor": sensor * inv_root_mass,
+            "tip": tip * inv_root_mass,
+        }
+
+    def _solve_shapes(self, rows: np.ndarray, keys: list[bytes], layout: _Layout, n_modes: int) -> None:
+        """Solve the undamped eigenproblem for normalised coefficient rows and cache the projections."""
+        n_mass = layout.mass.size
+        mass = sum(rows[:, j, None, None] * getattr(self.parts, layout.terms[i].part) for j, i in enumerate(layout.mass))
+        stiff = sum(
+            rows[:, n_mass + j, None, None] * getattr(self.parts, layout.terms[i].part)
+            for j, i in enumerate(layout.stiffness)
+        )
+        omega2, shapes = modal.undamped_modes(mass, stiff)
+        kept = shapes[:, :, :n_modes]
+        projections = np.stack(
+            [np.einsum("bni,nk,bkj->bij", kept, getattr(self.parts, name), kept) for name in _DAMPING_PARTS], axis=1
+        )
+        force = kept.transpose(0, 2, 1) @ self.parts.patch_force
+        sensor = self.parts.sensor_values @ kept
+        tip = self.parts.tip_values @ kept
+        for i, key in enumerate(keys):
+            self._shape_cache[key] = (omega2[i, :n_modes], projections[i], force[i], sensor[i], tip[i])
+            if len(self._shape_cache) > _SHAPE_CACHE_SIZE:
+                self._shape_cache.popitem(last=False)
+
+    def natural_modes(self, parameters: Mapping[str, float], count: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Natural frequencies |lambda|/2pi (Hz) and damping ratios -Re(lambda)/|lambda| of the full model.
+
+        From the eigenvalues lambda of the full first-order system, one per conjugate pair,
+        lowest first. A rigid-body mode (free root, k_theta = 0) has frequency 0 and ratio 0.
+        """
+        matrices = self.system_matrices(parameters)
+        if matrices["mass"].shape[0] != 1:
+            raise BeamInputError("natural_modes takes one parameter set")
+        n = self.size
+        count = n if count is None else count
+        if isinstance(count, bool) or int(count) != count or not 1 <= count <= n:
+            raise BeamInputError(f"count must be between 1 and {n} (the number of Galerkin modes), got {count}")
+        poles = _first_order_poles(matrices["mass"][0], matrices["damping"][0], matrices["stiffness"][0])
+        frequencies, ratios = _frequencies_and_ratios(poles)
+        return frequencies[: int(count)], ratios[: int(count)]
+
+    # ------------------------------------------------------------------ responses
+    def _check_record(self, voltage_V: np.ndarray, sample_interval_s: float) -> np.ndarray:
+        voltage = np.asarray(voltage_V, dtype=float)
+        if voltage.ndim != 1 or voltage.size < 2:
+            raise BeamInputError("voltage_V must be a 1-d array of at least two samples")
+        if not np.all(np.isfinite(voltage)):
+            raise BeamInputError("voltage_V holds NaN or infinite values")
+        if not (np.isfinite(sample_interval_s) and sample_interval_s > 0):
+            raise BeamInputError(f"sample_interval_s must be positive, got {sample_interval_s}")
+        return voltage
+
+    def reduced_system(self, parameters: Mapping[str, float | np.ndarray], modes: int | None = 4):
+        """Retained modes in modal coordinates: ``(reduced, values, batched)``.
+
+        ``reduced`` holds omega2 (B, m) (rad²/s²), damping (B, m, m) (1/s), force per volt (B, m),
+        sensor and tip output rows (B, m), for mass-normalised shapes; ``values`` maps each given
+        parameter name to its (B,) values.
+        """
+        n_modes = self.size if modes is None else modes
+        if isinstance(n_modes, bool) or int(n_modes) != n_modes or not 1 <= n_modes <= self.size:
+            raise BeamInputError(
+                f"modes must be between 1 and {self.size} (the mesh of {self.intervals} intervals holds "
+                f"{self.size} modes), got {modes}"
+            )
+        layout, coef, values, batched = self._coefficients(parameters)
+        return self._reduced_modes(layout, coef, int(n_modes)), values, batched
+
+    def modal_system(self, parameters: Mapping[str, float | np.ndarray], modes: int | None = 4) -> modal.ComplexModes:
+        """Retained complex modes (:class:`beam.modal.ComplexModes`).
+
+        Inputs: voltage (index 0) and a unit tip force (index 1); outputs: sensor (0) and tip (1).
+        """
+        reduced, _, _ = self.reduced_system(parameters, modes)
+        return _complex_modes_of(reduced)
+
+    def response(
+        self,
+        parameters: Mapping[str, float | np.ndarray],
+        voltage_V: np.ndarray,
+        sample_interval_s: float,
+        modes: int | None = 4,
+    ) -> np.ndarray:
+        """Sensor displacement y[k] = w(x_obs, t_k) (m) for the voltage record ``voltage_V`` (V).
+
+        Starts at rest; V[k] is held over [t_k, t_k+1). ``modes=None`` keeps all modes. Returns
+        shape (n,) for scalar parameters, (B, n) when any parameter is an array of length B.
+        With ``tip_cubic_stiffness_N_m3`` > 0 the nonlinear modal integrator is used.
+        """
+        voltage = self._check_record(voltage_V, sample_interval_s)
+        reduced, values, batched = self.reduced_system(parameters, modes)
+        cubic = values.get("tip_cubic_stiffness_N_m3")
+        if cubic is not None and np.any(cubic > 0):
+            from beam.nonlinear import integrate_tip_cubic
+
+            out = integrate_tip_cubic(_complex_modes_of(reduced), cubic, voltage, sample_interval_s)
+        else:
+            out = modal.modal_response(
+                reduced["omega2"], reduced["damping"], reduced["force"], reduced["sensor"], sample_interval_s, voltage
+            )
+        return out if batched else out[0]
+
+    def response_full(
+        self, parameters: Mapping[str, float | np.ndarray], voltage_V: np.ndarray, sample_interval_s: float
+    ) -> np.ndarray:
+        """Reference response of the full state space (all modes) by :func:`scipy.signal.lsim` (ZOH)."""
+        voltage = self._check_record(voltage_V, sample_interval_s)
+        if np.any(np.asarray(parameters.get("tip_cubic_stiffness_N_m3", 0.0)) > 0):
+            raise BeamInputError("the full state-space reference is linear; use response() for tip_cubic_spring")
+        _, _, batched = self._table(parameters)
+        matrices = self.system_matrices(parameters)
+        batch = matrices["mass"].shape[0]
+        time = np.arange(voltage.size) * sample_interval_s
+        out = np.empty((batch, voltage.size))
+        for b in range(batch):
+            a, bvec, c = full_state_space(
+                matrices["mass"][b], matrices["damping"][b], matrices["stiffness"][b], matrices["force"][b],
+                self.parts.sensor_values,
+            )
+            _, y, _ = scipy.signal.lsim((a, bvec[:, None], c[None, :], np.zeros((1, 1))), voltage, time, interp=False)
+            out[b] = y
+        return out if batched else out[0]
+
+
+def _complex_modes_of(reduced: dict[str, np.ndarray]) -> modal.ComplexModes:
+    return modal.complex_modes(
+        reduced["omega2"],
+        reduced["damping"],
+        np.stack([reduced["force"], reduced["tip"]], axis=1),
+        np.stack([reduced["sensor"], reduced["tip"]], axis=1),
+    )
+
+
+def full_state_space(mass, damping, stiffness, force, output) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """First-order form z = [q, q'], z' = A z + b V, y = c z of M q'' + C q' + K q = f V."""
+    n = mass.shape[0]
+    m_inv_k = np.linalg.solve(mass, stiffness)
+    m_inv_c = np.linalg.solve(mass, damping)
+    a = np.zeros((2 * n, 2 * n))
+    a[:n, n:] = np.eye(n)
+    a[n:, :n] = -m_inv_k
+    a[n:, n:] = -m_inv_c
+    b = np.concatenate([np.zeros(n), np.linalg.solve(mass, force)])
+    c = np.concatenate([output, np.zeros(n)])
+    return a, b, c
+
+
+def _first_order_poles(mass, damping, stiffness) -> np.ndarray:
+    a, _, _ = full_state_space(mass, damping, stiffness, np.zeros(mass.shape[0]), np.zeros(mass.shape[0]))
+    return np.linalg.eigvals(a)
+
+
+def _frequencies_and_ratios(poles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One (frequency Hz, damping ratio) per mode from first-order poles (pairs or real pairs)."""
+    scale = max(np.abs(poles).max(), 1.0)
+    oscillatory = poles[poles.imag > 1e-9 * scale]
+    real = np.sort(poles[np.abs(poles.imag) <= 1e-9 * scale].real)[::-1]  # closest to zero first
+    omegas = list(np.abs(oscillatory))
+    ratios = list(-oscillatory.real / np.abs(oscillatory))
+    for first, second in zip(real[0::2], real[1::2]):  # an overdamped or rigid mode: two real poles
+        omega = np.sqrt(max(first * second, 0.0))
+        omegas.append(omega)
+        ratios.append(-(first + second) / (2 * omega) if omega > 0 else 0.0)
+    order = np.argsort(omegas)
+    return np.asarray(omegas)[order] / (2 * np.pi), np.asarray(ratios)[order]
