@@ -1,0 +1,89 @@
+"""The tip cubic spring integrator: linear limit, an independent ODE solver, hardening."""
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from beam.geometry import BeamGeometry
+from beam.model import BeamModel
+from beam.nonlinear import choose_substeps, integrate_tip_cubic
+
+GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)
+PARAMETERS = {"bending_stiffness_Nm2": 0.491, "patch_coupling_NmV": 1.746e-2, "air_damping_Ns_m2": 0.013,
+              "kelvin_voigt_Nm2s": 0.649e-5}
+EFFECTS = ["air_damping", "kelvin_voigt", "tip_cubic_spring"]
+DT = 1e-3
+
+
+def chirp(n=600):
+    t = np.arange(n) * DT
+    return np.where(t < 0.5, 10 * np.sin(2 * np.pi * (2 * t + 150 * t**2)), 0.0)
+
+
+def test_zero_cubic_stiffness_reproduces_the_linear_response():
+    model = BeamModel(GEOMETRY, EFFECTS)
+    parameters = dict(PARAMETERS, tip_cubic_stiffness_N_m3=0.0)
+    linear = model.response(parameters, chirp(), DT, modes=4)
+    system = model.modal_system(parameters, modes=4)
+    nonlinear_path = integrate_tip_cubic(system, np.zeros(1), chirp(), DT, substeps=3)[0]
+    np.testing.assert_allclose(nonlinear_path, linear, atol=1e-11 * np.abs(linear).max())
+
+
+def _reference(model, parameters, voltage, modes):
+    """solve_ivp (DOP853, rtol 1e-12) on the real modal equations, one sample interval at a time."""
+    reduced, _, _ = model.reduced_system(parameters, modes)
+    omega2, damping, force = reduced["omega2"][0], reduced["damping"][0], reduced["force"][0]
+    sensor, tip = reduced["sensor"][0], reduced["tip"][0]
+    k3 = parameters["tip_cubic_stiffness_N_m3"]
+
+    def rhs(_, x, volts):
+        eta, velocity = x[:modes], x[modes:]
+        w_tip = tip @ eta
+        return np.concatenate([velocity, -omega2 * eta - damping @ velocity + force * volts - k3 * w_tip**3 * tip])
+
+    state, out = np.zeros(2 * modes), np.zeros(voltage.size)
+    for k, volts in enumerate(voltage):
+        out[k] = sensor @ state[:modes]
+        state = solve_ivp(rhs, (0, DT), state, args=(volts,), method="DOP853", rtol=1e-12, atol=1e-16).y[:, -1]
+    return out
+
+
+def test_strongly_nonlinear_response_matches_an_independent_ode_solver_at_fourth_order():
+    model = BeamModel(GEOMETRY, EFFECTS)
+    parameters = dict(PARAMETERS, tip_cubic_stiffness_N_m3=3e8)
+    voltage = chirp(500)
+    reference = _reference(model, parameters, voltage, modes=3)
+    linear = BeamModel(GEOMETRY, EFFECTS[:2]).response(PARAMETERS, voltage, DT, modes=3)
+    assert np.abs(linear - reference).max() > 0.3 * np.abs(reference).max()  # the spring matters here
+    automatic = model.response(parameters, voltage, DT, modes=3)
+    assert np.abs(automatic - reference).max() <= 2e-4 * np.abs(reference).max()
+    system = model.modal_system(parameters, modes=3)
+    errors = [np.abs(integrate_tip_cubic(system, np.array([3e8]), voltage, DT, substeps=s)[0] - reference).max()
+              for s in (4, 8, 16)]
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(orders > 3.5), orders
+
+
+def _zero_crossing_frequency(signal, start, stop):
+    segment = signal[start:stop]
+    crossings = np.flatnonzero(np.diff(np.sign(segment)) > 0)
+    return (crossings.size - 1) / ((crossings[-1] - crossings[0]) * DT)
+
+
+def test_hardening_raises_the_frequency_at_large_amplitude_and_it_relaxes_as_motion_decays():
+    voltage = np.where(np.arange(8000) < 90, 40.0, 0.0)  # a pulse, then free decay of mode 1
+    damped = dict(PARAMETERS, air_damping_Ns_m2=0.15)
+    linear = BeamModel(GEOMETRY, EFFECTS[:2]).response(damped, voltage, DT, modes=2)
+    stiff = BeamModel(GEOMETRY, EFFECTS).response(dict(damped, tip_cubic_stiffness_N_m3=2e7), voltage, DT, modes=2)
+    early, late = (200, 1500), (6000, 8000)
+    f_linear = _zero_crossing_frequency(linear, *early)
+    f_early = _zero_crossing_frequency(stiff, *early)
+    f_late = _zero_crossing_frequency(stiff, *late)
+    assert f_early > 1.05 * f_linear  # hardening: higher frequency at large amplitude
+    assert abs(f_late / _zero_crossing_frequency(linear, *late) - 1) < 0.5 * (f_early / f_linear - 1)
+
+
+def test_substeps_grow_with_cubic_stiffness():
+    model = BeamModel(GEOMETRY, EFFECTS)
+    soft = choose_substeps(model.modal_system(dict(PARAMETERS, tip_cubic_stiffness_N_m3=1.0), 4), np.array([1.0]), chirp(), DT)
+    hard = choose_substeps(model.modal_system(dict(PARAMETERS, tip_cubic_stiffness_N_m3=1e12), 4), np.array([1e12]), chirp(), DT)
+    assert hard[0] > soft[0] >= 1
