@@ -26,7 +26,6 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.signal
 
 from beam import modal
 from beam.assembly import GalerkinParts, assemble_parts
@@ -232,9 +231,8 @@ class BeamModel:
         )
         omega2, shapes = modal.undamped_modes(mass, stiff)
         kept = shapes[:, :, :n_modes]
-        projections = np.stack(
-            [np.einsum("bni,nk,bkj->bij", kept, getattr(self.parts, name), kept) for name in _DAMPING_PARTS], axis=1
-        )
+        kept_t = np.swapaxes(kept, 1, 2)
+        projections = np.stack([kept_t @ getattr(self.parts, name) @ kept for name in _DAMPING_PARTS], axis=1)
         force = kept.transpose(0, 2, 1) @ self.parts.patch_force
         sensor = self.parts.sensor_values @ kept
         tip = self.parts.tip_values @ kept
@@ -331,6 +329,8 @@ class BeamModel:
         _, _, batched = self._table(parameters)
         matrices = self.system_matrices(parameters)
         batch = matrices["mass"].shape[0]
+        import scipy.signal  # only the reference path needs it (a slow import)
+
         time = np.arange(voltage.size) * sample_interval_s
         out = np.empty((batch, voltage.size))
         for b in range(batch):
