@@ -30,6 +30,7 @@ MAX_SUBSTEPS = 4000
 def integrate_tip_cubic(
     system: ComplexModes, cubic_N_m3: np.ndarray, voltage: np.ndarray, sample_interval_s: float,
     substeps: int | np.ndarray | None = None,
+    static_gains: np.ndarray | None = None,
 ) -> np.ndarray:
     """Sensor displacement (B, n) (m) with the cubic tip spring, from rest under a ZOH voltage.
 
@@ -45,6 +46,10 @@ def integrate_tip_cubic(
         dt (s).
     substeps : int or (B,) array, optional
         Substeps per sample; chosen automatically (see the module notes) when omitted.
+    static_gains : (B, 2) array, optional
+        Quasi-static displacement per volt of the discarded modes at the sensor and the tip (m/V),
+        added to the output and to the tip displacement the spring acts on (static correction of
+        the voltage input; the spring's own force acts on the retained modes only).
     """
     voltage = np.ascontiguousarray(voltage, dtype=float)
     batch = system.poles.shape[0]
@@ -52,13 +57,14 @@ def integrate_tip_cubic(
     if substeps is None:
         substeps = choose_substeps(system, cubic, voltage, sample_interval_s)
     substeps = np.broadcast_to(np.asarray(substeps, dtype=np.int64), (batch,)).copy()
+    static = np.zeros((batch, 2)) if static_gains is None else np.ascontiguousarray(np.broadcast_to(static_gains, (batch, 2)), dtype=float)
     return _etdrk4(
         np.ascontiguousarray(system.poles),
         np.ascontiguousarray(system.input_gains[:, 0]),
         np.ascontiguousarray(system.input_gains[:, 1]),
         np.ascontiguousarray(system.output_gains[:, 0]),
         np.ascontiguousarray(system.output_gains[:, 1]),
-        np.ascontiguousarray(cubic), voltage, float(sample_interval_s), substeps,
+        np.ascontiguousarray(cubic), voltage, float(sample_interval_s), substeps, static,
     )
 
 
@@ -109,7 +115,7 @@ def _phi123(z):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True, nogil=True)
-def _etdrk4(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, voltage, dt, substeps):  # pragma: no cover
+def _etdrk4(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, voltage, dt, substeps, static):  # pragma: no cover
     batch, n_poles = poles.shape
     n = voltage.shape[0]
     out = np.zeros((batch, n))
@@ -141,19 +147,20 @@ def _etdrk4(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, voltage, dt
             acc = 0.0
             for j in range(n_poles):
                 acc += (gamma_sensor[b, j] * xi[j]).real
-            out[b, k] = acc
             u = voltage[k]
+            out[b, k] = acc + static[b, 0] * u
+            tip_static = static[b, 1] * u
             for _ in range(substeps[b]):
-                s_n = _tip_force(gamma_tip[b], xi, k3)
+                s_n = _tip_force(gamma_tip[b], xi, k3, tip_static)
                 for j in range(n_poles):
                     a[j] = e_half[j] * xi[j] + q_half[j] * (beta_u[b, j] * u + beta_tip[b, j] * s_n)
-                s_a = _tip_force(gamma_tip[b], a, k3)
+                s_a = _tip_force(gamma_tip[b], a, k3, tip_static)
                 for j in range(n_poles):
                     bb[j] = e_half[j] * xi[j] + q_half[j] * (beta_u[b, j] * u + beta_tip[b, j] * s_a)
-                s_b = _tip_force(gamma_tip[b], bb, k3)
+                s_b = _tip_force(gamma_tip[b], bb, k3, tip_static)
                 for j in range(n_poles):
                     c[j] = e_half[j] * a[j] + q_half[j] * (beta_u[b, j] * u + beta_tip[b, j] * (2.0 * s_b - s_n))
-                s_c = _tip_force(gamma_tip[b], c, k3)
+                s_c = _tip_force(gamma_tip[b], c, k3, tip_static)
                 for j in range(n_poles):
                     forcing_u = beta_u[b, j] * u
                     xi[j] = (
@@ -166,8 +173,8 @@ def _etdrk4(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, voltage, dt
 
 
 @numba.njit(cache=True, nogil=True)
-def _tip_force(gamma_tip, state, k3):  # pragma: no cover - jitted
-    w = 0.0
+def _tip_force(gamma_tip, state, k3, w_static):  # pragma: no cover - jitted
+    w = w_static
     for j in range(state.shape[0]):
         w += (gamma_tip[j] * state[j]).real
     return -k3 * w * w * w

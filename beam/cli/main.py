@@ -18,6 +18,8 @@ COMMAND_MODULES = (
     "beam.cli.modes_command",
     "beam.cli.simulate_command",
     "beam.cli.toy_command",
+    "beam.cli.calibrate_command",
+    "beam.cli.diagnose_command",
 )
 
 

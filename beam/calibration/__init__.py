@@ -1,0 +1,32 @@
+"""Calibrate the beam model on measurements (window, modes, effects, likelihood).
+
+See :func:`calibrate`, :func:`calibration_preview` and :func:`calibration_stream`.
+"""
+
+from beam.calibration.problem import (
+    DEFAULT_EFFECTS,
+    DEFAULT_MODES,
+    DEFAULT_WINDOW_FRACTION,
+    BeamCalibrationSetup,
+    BeamForwardModel,
+    build_problem,
+    make_setup,
+    parameter_prior,
+)
+from beam.calibration.run import CalibrationResult, calibrate, calibration_preview, calibration_stream, prepare
+
+__all__ = [
+    "DEFAULT_EFFECTS",
+    "DEFAULT_MODES",
+    "DEFAULT_WINDOW_FRACTION",
+    "BeamCalibrationSetup",
+    "BeamForwardModel",
+    "CalibrationResult",
+    "build_problem",
+    "calibrate",
+    "calibration_preview",
+    "calibration_stream",
+    "make_setup",
+    "parameter_prior",
+    "prepare",
+]
