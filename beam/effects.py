@@ -47,6 +47,10 @@ class ParameterSpec:
         Default prior range (log-uniform) when a measurement gives no ``[nominal]`` value.
     required : bool
         Optional parameters default to 0 and are calibrated only when asked for.
+    absent_at : {"low", "high"}
+        The end of the range where the effect vanishes (a rigid clamp is k_theta -> infinity).
+        The range reaches far enough that the effect is negligible there, so that a model with
+        the effect nests the model without it.
     """
 
     name: str
@@ -56,6 +60,7 @@ class ParameterSpec:
     prior_low: float
     prior_high: float
     required: bool = True
+    absent_at: str = "low"
 
     @property
     def label(self) -> str:
@@ -153,14 +158,16 @@ EFFECTS: dict[str, Effect] = {
             "tip_mass",
             "Tip mass",
             "point mass at the free end x = L (translation only)",
-            (ParameterSpec("tip_mass_kg", "kg", "m_t", "point mass at the tip", 1e-5, 0.2),),
+            (ParameterSpec("tip_mass_kg", "kg", "m_t", "point mass at the tip", 1e-7, 0.2),),
             (Term("mass", "mass_tip", "tip_mass_kg"),),
         ),
         Effect(
             "clamp_compliance",
             "Compliant clamp",
             "rotational spring at the root instead of a rigid clamp: EI w''(0) = k_theta w'(0)",
-            (ParameterSpec("clamp_stiffness_Nm_rad", "N m/rad", "k_θ", "rotational stiffness of the clamp", 0.01, 1e4),),
+            (ParameterSpec(
+                "clamp_stiffness_Nm_rad", "N m/rad", "k_θ", "rotational stiffness of the clamp", 0.01, 1e6, absent_at="high"
+            ),),
             (Term("stiffness", "stiffness_clamp", "clamp_stiffness_Nm_rad"),),
             frees_root_rotation=True,
         ),
@@ -169,8 +176,8 @@ EFFECTS: dict[str, Effect] = {
             "Patch stiffening",
             "the bonded patch adds density and bending stiffness on [p_l, p_r]",
             (
-                ParameterSpec("patch_added_density_kg_m", "kg/m", "Δρ", "density added by the patch", 1e-3, 5.0),
-                ParameterSpec("patch_added_stiffness_Nm2", "N m²", "ΔEI", "bending stiffness added by the patch", 1e-3, 10.0),
+                ParameterSpec("patch_added_density_kg_m", "kg/m", "Δρ", "density added by the patch", 1e-6, 5.0),
+                ParameterSpec("patch_added_stiffness_Nm2", "N m²", "ΔEI", "bending stiffness added by the patch", 1e-6, 10.0),
                 ParameterSpec(
                     "patch_added_kelvin_voigt_Nm2s", "N m² s", "Δc_I", "strain-rate damping added by the patch",
                     1e-9, 1e-3, required=False,
@@ -186,7 +193,7 @@ EFFECTS: dict[str, Effect] = {
             "tip_cubic_spring",
             "Hardening tip spring",
             "nonlinear restoring force -k3 w(L, t)^3 at the tip",
-            (ParameterSpec("tip_cubic_stiffness_N_m3", "N/m³", "k_3", "cubic stiffness at the tip", 1e2, 1e12),),
+            (ParameterSpec("tip_cubic_stiffness_N_m3", "N/m³", "k_3", "cubic stiffness at the tip", 1.0, 1e7),),
             (Term("tip_cubic", "tip_values", "tip_cubic_stiffness_N_m3"),),
             nonlinear=True,
         ),

@@ -106,6 +106,20 @@ class CalibrationResult:
             return math.nan
         return self.bands.coverage(self.setup.measurement.displacement_m, self.held_out_mask)
 
+    def map_prediction(self) -> np.ndarray:
+        """The MAP model's displacement over the whole record (m): the point prediction."""
+        values = {name: np.atleast_1d(v) for name, v in self.laplace.map.values.items()}
+        return self.problem.predict(values, self.setup.measurement.time_s)[0]
+
+    @property
+    def rmse_prediction_map(self) -> float:
+        """Held-out RMSE of the MAP prediction (m): robust where the Laplace draws are not
+        (a parameter pressed against a bound spreads them)."""
+        if not self.held_out_mask.any():
+            return math.nan
+        residual = (self.setup.measurement.displacement_m - self.map_prediction())[self.held_out_mask]
+        return float(np.sqrt(np.mean(residual**2)))
+
     # -- output -----------------------------------------------------------------------------
     def to_json(self) -> dict:
         """The summary of the CLI's ``--json`` (see the README)."""
@@ -167,10 +181,12 @@ def prepare(
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
     modes: int = DEFAULT_MODES,
     likelihood: str = "iid",
+    extra_guesses: Iterable[dict[str, float]] = (),
 ) -> tuple[BeamCalibrationSetup, Problem]:
-    """Validated setup and inference problem (with the spectral initial guesses)."""
+    """Validated setup and inference problem (spectral initial guesses, then ``extra_guesses``)."""
     setup = make_setup(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)
-    problem = build_problem(setup, initial_guesses=lambda p: initial_guesses(p, setup))
+    extra = [dict(g) for g in extra_guesses]
+    problem = build_problem(setup, initial_guesses=lambda p: initial_guesses(p, setup) + extra)
     return setup, problem
 
 
