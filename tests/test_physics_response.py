@@ -66,8 +66,25 @@ def test_single_mode_pulse_response_matches_its_closed_form():
 
     t = np.arange(n) * DT
     expected = step(t) - np.where(t >= width_samples * DT, step(t - width_samples * DT), 0.0)
-    got = model.response(parameters, voltage, DT, modes=1)
+    got = model.response(parameters, voltage, DT, modes=1, static_correction=False)
     np.testing.assert_allclose(got, expected, atol=1e-10 * np.abs(expected).max())
+    # the static correction adds the discarded modes' quasi-static response D V[k], exactly
+    corrected = model.response(parameters, voltage, DT, modes=1)
+    np.testing.assert_allclose(corrected - got, reduced["static"][0, 0] * voltage, atol=1e-15)
+
+
+def test_static_correction_reduces_the_truncation_error_and_vanishes_with_all_modes():
+    effects, extra = CASES["patch (non-proportional)"]
+    model = BeamModel(GEOMETRY, effects)
+    parameters = dict(BASE, **extra)
+    voltage = chirp(1500, stop=150.0)
+    full = model.response_full(parameters, voltage, DT)
+    for modes in (3, 4):
+        plain = relative_l2(model.response(parameters, voltage, DT, modes, static_correction=False), full)
+        corrected = relative_l2(model.response(parameters, voltage, DT, modes), full)
+        assert corrected < 0.7 * plain
+    reduced, _, _ = model.reduced_system(parameters, modes=None)
+    np.testing.assert_allclose(reduced["static"], 0.0, atol=1e-20)
 
 
 def test_batch_equals_one_call_per_parameter_set():
