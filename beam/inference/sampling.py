@@ -1,0 +1,380 @@
+"""Posterior sampling with emcee's affine-invariant ensemble, streamed and seeded.
+
+Usage
+-----
+Stream progress (a dashboard can stop at any step by leaving the loop)::
+
+    run = EnsembleRun(problem, seed=1)          # MAP + Laplace, walkers drawn around the MAP
+    for progress in run.sample(2000, every=50):
+        show(progress.step, progress.total, progress.acceptance_fraction)
+        if stop_requested():
+            break
+    result = run.result(target_ess=1000)
+
+stream a run to a target ESS (chunks sized from the diagnostics)::
+
+    for progress in run.sample_to_ess(1000, every=25):
+        show(progress.step, progress.total)     # total grows if a chunk is added
+    result = run.result(target_ess=1000)
+
+or sample until a target ESS in one call::
+
+    result = sample_posterior(problem, target_ess=1000, seed=1)
+
+Design
+------
+* The log probability is :meth:`Problem.log_posterior` in internal coordinates, evaluated with
+  ``vectorize=True`` (one model call per half-ensemble move).
+* Walkers start from the Laplace Gaussian (:mod:`beam.inference.laplace`), so little burn-in
+  is needed; burn-in is nevertheless discarded: ``BURN_AUTOCORR_TIMES`` autocorrelation times,
+  at most half the chain.
+* Default moves (:func:`default_moves`): half emcee's differential-evolution ``DEMove``
+  (affine invariant, no tuning), half an independence Metropolis-Hastings proposal from a
+  widened multivariate-t version of the Laplace Gaussian (:func:`LaplaceIndependenceMove`).
+  The latter is exact MH (the proposal density ratio enters the acceptance) and decorrelates
+  the walkers in a few steps when the preview is good; the DE half keeps the ensemble mixing
+  when it is not (skewed posteriors, curved ridges, MAP near a bound). Measured on
+  the toy: integrated autocorrelation time ~4 steps (iid, no discrepancy) against ~12 for
+  DE alone and ~30 for the stretch move. ``DESnookerMove`` is left out: its per-walker
+  Python loop cost more than it gained here. Without a usable preview (``laplace.ok`` False)
+  the independence half is dropped and the mixture is ``DEMove`` 0.8 / ``DESnookerMove`` 0.2,
+  the combination suggested in the emcee documentation for multimodal or non-Gaussian targets.
+* Seeding: ``seed`` fixes the initial walker positions (``numpy.random.default_rng``) and
+  emcee's internal ``RandomState`` (passed through :class:`emcee.State`); a run is
+  reproducible for a given seed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from beam.inference.diagnostics import (
+    MIN_AUTOCORR_TIMES,
+    RHAT_MAX,
+    assess,
+    autocorr_time,
+    ess_bulk,
+    rhat,
+)
+from beam.inference.laplace import LaplaceResult, preview
+from beam.inference.problem import Problem
+from beam.inference.results import PosteriorResult
+
+__all__ = ["BURN_AUTOCORR_TIMES", "EnsembleRun", "LaplaceIndependenceMove", "Progress", "default_moves", "sample_posterior"]
+
+#: Burn-in length in autocorrelation times (capped at half the chain).
+BURN_AUTOCORR_TIMES = 3.0
+
+
+@dataclass(frozen=True)
+class Progress:
+    """One progress report of :meth:`EnsembleRun.sample`.
+
+    Attributes
+    ----------
+    step : int
+        Ensemble steps taken so far (all calls of ``sample`` together).
+    total : int
+        Step count this call of ``sample`` will reach if not stopped.
+    acceptance_fraction : float
+        Mean acceptance fraction over walkers and all steps so far.
+    elapsed_s : float
+        Seconds since this call of ``sample`` started.
+    """
+
+    step: int
+    total: int
+    acceptance_fraction: float
+    elapsed_s: float
+
+
+def _laplace_t_proposal(mean: np.ndarray, cov: np.ndarray, scale: float, df: float):
+    """Independence proposal from a multivariate t: draws and log density (up to a constant)."""
+    chol = np.linalg.cholesky(cov) * scale
+    inv_chol = np.linalg.inv(chol)
+    d = mean.size
+
+    def log_q(x: np.ndarray) -> np.ndarray:
+        u = (x - mean) @ inv_chol.T
+        return -0.5 * (df + d) * np.log1p(np.einsum("ij,ij->i", u, u) / df)
+
+    def propose(coords: np.ndarray, random) -> tuple[np.ndarray, np.ndarray]:
+        n = coords.shape[0]
+        g = random.standard_normal((n, d))
+        w = random.chisquare(df, n) / df
+        q = mean + (g / np.sqrt(w)[:, None]) @ chol.T
+        return q, log_q(coords) - log_q(q)
+
+    return propose
+
+
+def LaplaceIndependenceMove(laplace: LaplaceResult, *, scale: float = 1.3, df: float = 6.0):
+    """An emcee ``MHMove`` proposing independently from a widened multivariate t.
+
+    Parameters
+    ----------
+    laplace : LaplaceResult
+        Supplies the centre and covariance (internal coordinates).
+    scale : float
+        Multiplier of the Laplace standard deviations (> 1 to cover the posterior tails).
+    df : float
+        Degrees of freedom of the t (heavier tails than the Gaussian).
+
+    Returns
+    -------
+    emcee.moves.MHMove
+        Exact Metropolis-Hastings: the proposal ratio ``log q(x) - log q(x')`` is passed to
+        emcee as the move's ``factors``.
+    """
+    import emcee
+
+    return emcee.moves.MHMove(_laplace_t_proposal(laplace.mean, laplace.cov, scale, df))
+
+
+def default_moves(laplace: LaplaceResult | None):
+    """The default move mixture (see the module docstring)."""
+    import emcee
+
+    if laplace is None or not laplace.ok:
+        return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    return [(LaplaceIndependenceMove(laplace), 0.5), (emcee.moves.DEMove(), 0.5)]
+
+
+class EnsembleRun:
+    """An emcee ensemble over a problem's internal coordinates, started from the Laplace preview.
+
+    Parameters
+    ----------
+    problem : Problem
+        The calibration problem.
+    laplace : LaplaceResult, optional
+        Preview to start from; computed with :func:`~beam.inference.laplace.preview` if None.
+    n_walkers : int, optional
+        Ensemble size (even); default ``max(32, 8 * ndim)`` rounded up to even.
+    seed : int
+        Seed of the initial positions and of emcee's random state.
+    moves : emcee moves, optional
+        As accepted by :class:`emcee.EnsembleSampler`; default :func:`default_moves`.
+    init_scale : float
+        Multiplier of the Laplace standard deviations for the initial walker cloud.
+    """
+
+    def __init__(
+        self,
+        problem: Problem,
+        laplace: LaplaceResult | None = None,
+        *,
+        n_walkers: int | None = None,
+        seed: int = 0,
+        moves=None,
+        init_scale: float = 1.0,
+    ) -> None:
+        import emcee
+
+        t0 = time.perf_counter()
+        self.problem = problem
+        self.laplace = preview(problem) if laplace is None else laplace
+        d = problem.ndim
+        if n_walkers is None:
+            n_walkers = max(32, 8 * d)
+        n_walkers = int(n_walkers) + int(n_walkers) % 2
+        if n_walkers < 2 * d:
+            raise ValueError(f"need at least 2 * ndim = {2 * d} walkers, got {n_walkers}")
+        self.n_walkers = n_walkers
+        self.seed = int(seed)
+        rng = np.random.default_rng(seed)
+        p0 = self.laplace.draws_internal(n_walkers, rng, scale=init_scale)
+        random_state = np.random.RandomState(int(rng.integers(2**32 - 1))).get_state()
+        self._state = emcee.State(p0, random_state=random_state)
+        self.moves = default_moves(self.laplace) if moves is None else moves
+        self.sampler = emcee.EnsembleSampler(n_walkers, d, problem.log_posterior, vectorize=True, moves=self.moves)
+        self._cache: dict[tuple[int, int], tuple] = {}  # (n_steps, n_burn) -> (tau, ess, rhat)
+        self.seconds = time.perf_counter() - t0 + self.laplace.seconds
+
+    @property
+    def n_steps(self) -> int:
+        """Ensemble steps stored so far."""
+        return int(self.sampler.iteration)
+
+    def sample(self, n_steps: int, *, every: int = 1) -> Iterator[Progress]:
+        """Advance the ensemble by ``n_steps``, yielding a :class:`Progress` every ``every`` steps.
+
+        The generator may be abandoned at any point; steps taken so far are kept and a later
+        call continues from the last state.
+        """
+        t0 = time.perf_counter()
+        start = self.n_steps
+        total = start + int(n_steps)
+        try:
+            for i, state in enumerate(
+                self.sampler.sample(self._state, iterations=int(n_steps), store=True, skip_initial_state_check=True), 1
+            ):
+                self._state = state
+                if i % every == 0 or i == n_steps:
+                    acc = float(np.mean(self.sampler.backend.accepted) / max(self.n_steps, 1))
+                    yield Progress(step=start + i, total=total, acceptance_fraction=acc, elapsed_s=time.perf_counter() - t0)
+        finally:
+            self.seconds += time.perf_counter() - t0
+            self._trim_backend()
+
+    def _trim_backend(self) -> None:
+        """Drop storage emcee pre-allocated for steps never taken (generator left early).
+
+        emcee's in-memory backend grows by the requested number of steps up front and cannot
+        grow again while unused rows remain, so a stopped run must be trimmed to resume.
+        """
+        backend = self.sampler.backend
+        n = int(backend.iteration)
+        if len(backend.chain) > n:
+            backend.chain = backend.chain[:n]
+            backend.log_prob = backend.log_prob[:n]
+            if getattr(backend, "blobs", None) is not None:
+                backend.blobs = backend.blobs[:n]
+
+    def chain(self) -> np.ndarray:
+        """All stored positions, internal coordinates, shape (n_steps, n_walkers, ndim)."""
+        return self.sampler.get_chain()
+
+    def burn_in(self) -> int:
+        """Burn-in length: ``BURN_AUTOCORR_TIMES`` autocorrelation times, at most half the chain."""
+        n = self.n_steps
+        if n < 4:
+            return 0
+        tau = float(np.max(autocorr_time(self.chain()[n // 4 :])))
+        return int(min(n // 2, math.ceil(BURN_AUTOCORR_TIMES * tau)))
+
+    def result(self, *, target_ess: float | None = None, n_burn: int | None = None) -> PosteriorResult:
+        """Diagnostics and ArviZ InferenceData of the steps taken so far.
+
+        Parameters
+        ----------
+        target_ess : float, optional
+            ESS required for ``converged``.
+        n_burn : int, optional
+            Steps to discard; default :meth:`burn_in`.
+        """
+        t0 = time.perf_counter()
+        if self.n_steps < 2:
+            raise ValueError("sample at least two steps before asking for a result")
+        n_burn = self.burn_in() if n_burn is None else int(n_burn)
+        chain = self.chain()[n_burn:]
+        log_prob = self.sampler.get_log_prob()[n_burn:]
+        acceptance = float(np.mean(self.sampler.acceptance_fraction))
+        diag = assess(
+            self.problem.names,
+            chain,
+            n_steps=self.n_steps,
+            n_burn=n_burn,
+            acceptance_fraction=acceptance,
+            target_ess=target_ess,
+            precomputed=self._cache.get((self.n_steps, n_burn), (None, None, None)),
+        )
+        self.seconds += time.perf_counter() - t0
+        return PosteriorResult.from_chain(
+            self.problem,
+            chain,
+            log_prob,
+            diagnostics=diag,
+            laplace=self.laplace,
+            seed=self.seed,
+            seconds=self.seconds,
+        )
+
+    def sample_to_ess(self, target_ess: float = 1000.0, *, every: int = 25, max_steps: int = 20000, initial_steps: int | None = None) -> Iterator[Progress]:
+        """Sample in chunks until the run passes every convergence check, yielding progress.
+
+        Checks (see :mod:`beam.inference.diagnostics`): bulk ESS >= ``target_ess`` for every
+        parameter, chain after burn-in >= 20 autocorrelation times, R-hat <= 1.01. After each
+        chunk the burn-in, ESS and (once the ESS suffices) R-hat are re-estimated and the next
+        chunk is sized from them: ESS grows about linearly with the chain length and, for
+        autocorrelated chains, ``R-hat - 1`` shrinks about as ``tau / length``. ArviZ is
+        called once per chunk, never inside the sampling loop. Stops at ``max_steps`` in any
+        case. Yields a :class:`Progress` every ``every`` steps and at the end of each chunk;
+        its ``total`` is the step count planned so far (it grows when a chunk is added). The
+        caller may stop at any time and call :meth:`result`; the diagnostics computed here
+        are reused by it.
+        """
+        if initial_steps is None:
+            # Enough for the ESS (target * tau / n_walkers) and for R-hat (R-hat - 1 was measured
+            # ~ 0.9 tau / length on the toy) with a guessed tau of 4 steps, plus burn-in.
+            tau_guess = 4.0
+            need = max(1.2 * target_ess * tau_guess / self.n_walkers, 1.1 * 0.9 * tau_guess / (RHAT_MAX - 1.0))
+            initial_steps = math.ceil(need + BURN_AUTOCORR_TIMES * tau_guess)
+        steps = min(int(initial_steps), max_steps - self.n_steps)
+        while steps > 0:
+            yield from self.sample(steps, every=max(1, min(int(every), steps)))
+            t1 = time.perf_counter()
+            n_burn = self.burn_in()
+            chain = self.chain()[n_burn:]
+            tau = autocorr_time(chain)
+            ess = ess_bulk(chain)
+            rh = None
+            kept, tau_max, ess_min = chain.shape[0], float(np.max(tau)), float(np.min(ess))
+            grow = 1.0
+            if ess_min < target_ess:
+                grow = 1.1 * target_ess / max(ess_min, 1.0)
+            if kept < MIN_AUTOCORR_TIMES * tau_max:
+                grow = max(grow, 1.05 * MIN_AUTOCORR_TIMES * tau_max / kept)
+            if grow == 1.0:  # ESS and length suffice: check R-hat
+                rh = rhat(chain)
+                rh_max = float(np.max(rh))
+                if rh_max > RHAT_MAX:
+                    grow = max(1.2, (rh_max - 1.0) / (0.8 * (RHAT_MAX - 1.0)))
+            self._cache[(self.n_steps, n_burn)] = (tau, ess, rh)
+            self.seconds += time.perf_counter() - t1
+            if grow == 1.0:
+                return
+            want_total = math.ceil(kept * grow + BURN_AUTOCORR_TIMES * tau_max)
+            steps = int(min(max(want_total - self.n_steps, 20), max_steps - self.n_steps))
+
+    def run_to_ess(self, target_ess: float = 1000.0, *, max_steps: int = 20000, initial_steps: int | None = None) -> PosteriorResult:
+        """:meth:`sample_to_ess` without progress reports, then :meth:`result`.
+
+        ``result.diagnostics.converged`` tells whether the checks passed or ``max_steps``
+        stopped the run.
+        """
+        for _ in self.sample_to_ess(target_ess, every=10**9, max_steps=max_steps, initial_steps=initial_steps):
+            pass
+        return self.result(target_ess=target_ess)
+
+
+def sample_posterior(
+    problem: Problem,
+    *,
+    target_ess: float = 1000.0,
+    seed: int = 0,
+    laplace: LaplaceResult | None = None,
+    n_walkers: int | None = None,
+    max_steps: int = 20000,
+    moves=None,
+) -> PosteriorResult:
+    """MAP, Laplace preview, then emcee until the target bulk ESS (or ``max_steps``).
+
+    Parameters
+    ----------
+    problem : Problem
+        The calibration problem.
+    target_ess : float
+        Bulk ESS required of every parameter.
+    seed : int
+        Seed (initial positions and emcee random state).
+    laplace : LaplaceResult, optional
+        Reuse a preview already computed.
+    n_walkers : int, optional
+        Ensemble size (default ``max(32, 8 * ndim)``).
+    max_steps : int
+        Cap on ensemble steps.
+    moves : optional
+        emcee moves (default :func:`default_moves`).
+
+    Returns
+    -------
+    PosteriorResult
+    """
+    run = EnsembleRun(problem, laplace, n_walkers=n_walkers, seed=seed, moves=moves)
+    return run.run_to_ess(target_ess, max_steps=max_steps)
