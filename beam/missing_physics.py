@@ -26,6 +26,7 @@ MCMC; the command line uses the preview unless asked for MCMC).
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
@@ -142,8 +143,9 @@ def rank_candidates(
     candidates: Iterable[str] | None = None,
     explain: Explainer | None = None,
     base_result: CalibrationResult | None = None,
+    workers: int = 2,
 ) -> Ranking:
-    """Calibrate the current model and each candidate (preview), ranked best first."""
+    """Calibrate the current model and each candidate (preview, ``workers`` threads), ranked best first."""
     base = parse_effects(base)
     if base_result is None:
         base_result = calibration_preview(measurement, window=window, effects=base, modes=modes)
@@ -151,15 +153,23 @@ def rank_candidates(
     names = candidate_effects(base) if candidates is None else parse_effects(candidates)
     if set(names) & set(base):
         raise BeamInputError(f"candidate {sorted(set(names) & set(base))[0]!r} is already in the model")
-    ranked, results = [], {}
-    for effect in names:
+    def fit(effect: str) -> CalibrationResult | Exception:
         effects = tuple(e for e in EFFECTS if e in set(base) | {effect})
         try:
-            result = calibration_preview(measurement, window=window, effects=effects, modes=modes,
-                                         extra_guesses=candidate_starts(base_result, effect))
-        except (RuntimeError, FloatingPointError, ValueError, BeamInputError) as exc:  # a fit that failed: ranked last
+            return calibration_preview(measurement, window=window, effects=effects, modes=modes,
+                                       extra_guesses=candidate_starts(base_result, effect))
+        except (RuntimeError, FloatingPointError, ValueError, BeamInputError) as exc:  # a failed fit: ranked last
+            return exc
+
+    # the candidates are independent and the heavy kernels release the GIL: fit them in threads
+    with ThreadPoolExecutor(max_workers=max(1, int(workers))) as pool:
+        fits = dict(zip(names, pool.map(fit, names)))
+    ranked, results = [], {}
+    for effect in names:
+        result = fits[effect]
+        if isinstance(result, Exception):
             ranked.append(Candidate(effect, -math.inf, math.nan, math.nan, math.nan, False,
-                                    f"the fit with {effect} failed ({_one_line(exc)})", {}))
+                                    f"the fit with {effect} failed ({_one_line(result)})", {}))
             continue
         results[effect] = result
         delta = float(result.laplace.log_evidence - base_result.laplace.log_evidence)

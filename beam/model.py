@@ -124,7 +124,7 @@ class BeamModel:
                 table = np.array(np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in values)), ndmin=2)
             except ValueError:
                 raise BeamInputError("parameter arrays must all have the same length") from None
-        batched = table.ndim > 1
+        batched = any(np.ndim(v) > 0 for v in values)
         if table.ndim > 2:
             raise BeamInputError("parameter values must be scalars or 1-d arrays")
         table = table.reshape(len(names), -1)

@@ -186,8 +186,28 @@ def prepare(
     """Validated setup and inference problem (spectral initial guesses, then ``extra_guesses``)."""
     setup = make_setup(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)
     extra = [dict(g) for g in extra_guesses]
-    problem = build_problem(setup, initial_guesses=lambda p: initial_guesses(p, setup) + extra)
+    problem = build_problem(setup, initial_guesses=lambda p: best_guesses(p, initial_guesses(p, setup) + extra))
     return setup, problem
+
+
+#: Starting points a MAP search keeps after screening (each costs a least-squares run).
+KEPT_GUESSES = 3
+
+
+def best_guesses(problem: Problem, guesses: list[dict[str, float]], keep: int = KEPT_GUESSES) -> list[dict[str, float]]:
+    """The ``keep`` guesses with the smallest residual RMS on the window, scored in one
+    vectorised model call (the noise profiled out: for Gaussian noise the likelihood maximised
+    over its sd is a monotone function of the residual RMS)."""
+    if len(guesses) <= keep:
+        return guesses
+    names = [n for n in problem.names if n not in problem.noise_names]
+    batch = {name: np.array([g[name] for g in guesses], dtype=float) for name in names if all(name in g for g in guesses)}
+    if len(batch) != len(names):
+        return guesses[:keep]
+    residual = problem.data - problem.predict(batch)
+    rms = np.sqrt(np.mean(residual**2, axis=1))
+    rms[~np.isfinite(rms)] = np.inf
+    return [guesses[i] for i in np.argsort(rms, kind="stable")[:keep]]
 
 
 def calibration_preview(measurement: Measurement, **choices) -> CalibrationResult:
