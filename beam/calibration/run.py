@@ -278,6 +278,7 @@ def calibration_stream(
         yield from run.sample(steps, every=every)
         posterior = run.result(target_ess=target_ess)
     else:
-        posterior = run.run_to_ess(target_ess, max_steps=max_steps)
+        yield from run.sample_to_ess(target_ess, every=every, max_steps=max_steps)
+        posterior = run.result(target_ess=target_ess)
     bands = posterior.predict(time_s, n_draws=BAND_DRAWS, seed=seed)
     yield CalibrationResult(setup, problem, laplace, posterior, bands, time.perf_counter() - t0)

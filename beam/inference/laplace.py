@@ -72,9 +72,22 @@ class LaplaceResult:
         """Standard deviations of the internal coordinates."""
         return np.sqrt(np.diag(self.cov))
 
+    def draw_covariance(self) -> np.ndarray:
+        """``cov`` with each coordinate's sd capped at its prior's internal scale.
+
+        A posterior cannot be wider than its prior; where the Laplace Gaussian is (a MAP on a
+        bound with a flat direction, as for an effect the data do not need), drawing from it
+        uncapped would put almost every draw outside the support. Correlations are kept.
+        """
+        sd = np.sqrt(np.diag(self.cov))
+        cap = np.array([p.prior.internal_scale for p in self.problem.parameters], dtype=float)
+        factor = np.where(sd > cap, cap / np.where(sd > 0, sd, 1.0), 1.0)
+        return self.cov * np.outer(factor, factor)
+
     def draws_internal(self, n: int, rng: np.random.Generator, *, scale: float = 1.0, max_rounds: int = 50) -> np.ndarray:
-        """``n`` draws of ``N(mean, scale² cov)`` restricted to the prior support, shape (n, ndim)."""
-        chol = np.linalg.cholesky(self.cov) * scale
+        """``n`` draws of ``N(mean, scale² C)`` restricted to the prior support, shape (n, ndim),
+        with C the covariance capped at the priors' scales (:meth:`draw_covariance`)."""
+        chol = np.linalg.cholesky(self.draw_covariance()) * scale
         out, have = [], 0
         for _ in range(max_rounds):
             z = self.mean + rng.standard_normal((max(2 * (n - have), 16), self.mean.size)) @ chol.T
