@@ -18,8 +18,9 @@ A candidate *materially improves* the model when delta_log_evidence >= 5 nats (o
 20 %. The best such candidate is reported as missing; when none qualifies, nothing in the catalogue
 is missing.
 
-The error ladder adds the materially improving candidates one at a time, best first,
-re-calibrating at each step (the steps a user takes in the dashboard are re-calibrated with full
+The error ladder adds the materially improving candidates one at a time, best first, as long as
+each materially improves on the rung below (effects can explain the same misfit: once the best
+is in, the next may no longer help), re-calibrating at each step (the steps a user takes in the dashboard are re-calibrated with full
 MCMC; the command line uses the preview unless asked for MCMC).
 """
 
@@ -174,7 +175,7 @@ def rank_candidates(
         results[effect] = result
         delta = float(result.laplace.log_evidence - base_result.laplace.log_evidence)
         rmse = result.rmse_prediction_map
-        material = bool(delta >= MATERIAL_LOG_EVIDENCE and rmse <= (1 - MATERIAL_RMSE_FALL) * base_result.rmse_prediction_map)
+        material = improves(base_result, result)
         summary = result.summary()
         own = {name: summary[name] for name in EFFECTS[effect].required_parameter_names}
         sentence = explain(effect, base_result, result) if explain else EFFECTS[effect].physics
@@ -199,17 +200,29 @@ def error_ladder(
     if mcmc:
         steps[0] = _step(calibrate(measurement, window=setup.window, effects=setup.effects, modes=setup.modes, seed=seed), None, True)
     effects = list(setup.effects)
+    previous = base
     for candidate in [c for c in ranking.candidates if c.material][:max_steps]:
-        effects.append(candidate.effect)
-        chosen = tuple(e for e in EFFECTS if e in effects)
+        chosen = tuple(e for e in EFFECTS if e in set(effects) | {candidate.effect})
         if mcmc:
             result = calibrate(measurement, window=setup.window, effects=chosen, modes=setup.modes, seed=seed)
-        elif len(effects) == len(setup.effects) + 1:
+        elif len(effects) == len(setup.effects):
             result = ranking.results[candidate.effect]
         else:
-            result = calibration_preview(measurement, window=setup.window, effects=chosen, modes=setup.modes)
+            result = calibration_preview(measurement, window=setup.window, effects=chosen, modes=setup.modes,
+                                         extra_guesses=candidate_starts(previous, candidate.effect))
+        if len(effects) > len(setup.effects) and not improves(previous, result):
+            break  # on top of the rungs below, this effect no longer helps: the climb ends here
+        effects.append(candidate.effect)
         steps.append(_step(result, candidate.effect, mcmc))
+        previous = result
     return steps
+
+
+def improves(current: CalibrationResult, candidate: CalibrationResult) -> bool:
+    """Whether ``candidate`` materially improves on ``current`` (evidence and held-out error)."""
+    delta = float(candidate.laplace.log_evidence - current.laplace.log_evidence)
+    return bool(delta >= MATERIAL_LOG_EVIDENCE
+                and candidate.rmse_prediction_map <= (1 - MATERIAL_RMSE_FALL) * current.rmse_prediction_map)
 
 
 #: Where along their log prior range a candidate's own parameters start (besides the nested start).
