@@ -210,6 +210,14 @@ def best_guesses(problem: Problem, guesses: list[dict[str, float]], keep: int = 
     return [guesses[i] for i in np.argsort(rms, kind="stable")[:keep]]
 
 
+def default_walkers(n_parameters: int) -> int:
+    """max(16, 4 x parameters): R-hat <= 1.01, not the ESS, sets the run's length on the beam
+    (autocorrelation ~10 steps), so a lighter ensemble than the engine's default reaches the
+    same R-hat in about half the time (measured: 16 walkers 1.5 s, 40 walkers 2.6-5 s, both
+    ESS > 1000 on the baseline calibration)."""
+    return max(16, 4 * int(n_parameters))
+
+
 def calibration_preview(measurement: Measurement, **choices) -> CalibrationResult:
     """MAP + Laplace only: parameters, bands, RMSE and coverage in a fraction of a second."""
     t0 = time.perf_counter()
@@ -273,7 +281,7 @@ def calibration_stream(
                             time.perf_counter() - t0)
     if walkers is not None and walkers < 2 * problem.ndim:
         raise BeamInputError(f"walkers must be at least 2 x {problem.ndim} parameters = {2 * problem.ndim}, got {walkers}")
-    run = EnsembleRun(problem, laplace, n_walkers=walkers, seed=seed)
+    run = EnsembleRun(problem, laplace, n_walkers=walkers or default_walkers(problem.ndim), seed=seed)
     if steps is not None:
         yield from run.sample(steps, every=every)
         posterior = run.result(target_ess=target_ess)

@@ -34,7 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="effects added to the base model (default air_damping,kelvin_voigt; '' for none)")
     parser.add_argument("--likelihood", choices=LIKELIHOOD_CHOICES, default="iid",
                         help="iid Gaussian noise (default) or AR(1) correlated residuals")
-    parser.add_argument("--walkers", type=positive_int, default=None, metavar="W", help="emcee walkers (default max(32, 8 x parameters))")
+    parser.add_argument("--walkers", type=positive_int, default=None, metavar="W", help="emcee walkers (default max(16, 4 x parameters))")
     parser.add_argument("--steps", type=positive_int, default=None, metavar="S",
                         help="ensemble steps (default: sample until every parameter has ESS >= 1000)")
     parser.add_argument("--seed", type=non_negative_int, default=0, metavar="S", help="random seed (default 0)")

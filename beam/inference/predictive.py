@@ -161,6 +161,11 @@ def mixture_normal_quantiles(mu: np.ndarray, sd: np.ndarray, prob: float, *, rto
     return q
 
 
+#: Relative probability tolerance of the prediction band's edges: about 1e-4 of a standard
+#: deviation, far below the Monte Carlo error of a few hundred draws (and twice as fast as 1e-8).
+BAND_RTOL = 1e-4
+
+
 def predictive_bands(
     problem: Problem,
     values: Mapping[str, np.ndarray],
@@ -206,8 +211,8 @@ def predictive_bands(
         mean=f.mean(axis=0),
         credible_lower=cred[0],
         credible_upper=cred[1],
-        prediction_lower=mixture_normal_quantiles(f, sd, alpha),
-        prediction_upper=mixture_normal_quantiles(f, sd, 1.0 - alpha),
+        prediction_lower=mixture_normal_quantiles(f, sd, alpha, rtol=BAND_RTOL),
+        prediction_upper=mixture_normal_quantiles(f, sd, 1.0 - alpha, rtol=BAND_RTOL),
         level=float(level),
         n_draws=int(n),
     )
