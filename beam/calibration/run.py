@@ -227,29 +227,16 @@ def calibration_preview(measurement: Measurement, **choices) -> CalibrationResul
     return CalibrationResult(setup, problem, laplace, None, bands, time.perf_counter() - t0)
 
 
-def calibrate(
-    measurement: Measurement,
-    *,
-    window: tuple[float, float] | None = None,
-    effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int = DEFAULT_MODES,
-    likelihood: str = "iid",
-    walkers: int | None = None,
-    steps: int | None = None,
-    seed: int = 0,
-    target_ess: float = 1000.0,
-    max_steps: int = 20000,
-) -> CalibrationResult:
-    """Full calibration: preview, then emcee to ``target_ess`` (or exactly ``steps`` steps)."""
-    stream = calibration_stream(
-        measurement, window=window, effects=effects, modes=modes, likelihood=likelihood, walkers=walkers,
-        steps=steps, seed=seed, target_ess=target_ess, max_steps=max_steps,
-    )
-    result = None
-    for event in stream:
+def calibrate(measurement: Measurement, **options) -> CalibrationResult:
+    """Full calibration: preview, then emcee to ``target_ess`` (or exactly ``steps`` steps).
+
+    Takes the keyword options of :func:`calibration_stream` and returns its final result.
+    """
+    final = None
+    for event in calibration_stream(measurement, **options):
         if isinstance(event, CalibrationResult) and not event.is_preview:
-            result = event
-    return result
+            final = event
+    return final
 
 
 def calibration_stream(
@@ -268,6 +255,31 @@ def calibration_stream(
 ) -> Iterator[CalibrationResult | Progress]:
     """The calibration as a generator: the preview result, then :class:`Progress` while sampling,
     then the final result. A caller (the dashboard) can stop at any point by leaving the loop.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        The record (displacement in m, voltage in V).
+    window : (start_s, end_s), optional
+        Calibration window (s); default the first 30 % of the record.
+    effects : str or iterable of str
+        Effects added to the base model (default air_damping, kelvin_voigt).
+    modes : int
+        Retained modes (default 4).
+    likelihood : {"iid", "ar1"}
+        Noise model.
+    walkers : int, optional
+        Ensemble size (default :func:`default_walkers`).
+    steps : int, optional
+        Exactly this many ensemble steps instead of sampling to ``target_ess``.
+    seed : int
+        Seed of the sampler and of the band draws.
+    target_ess : float
+        Bulk ESS every parameter must reach (with R-hat <= 1.01).
+    max_steps : int
+        Cap on ensemble steps.
+    every : int
+        Steps between :class:`Progress` events.
     """
     if walkers is not None and (isinstance(walkers, bool) or walkers < 2):
         raise BeamInputError(f"walkers must be an integer >= 2, got {walkers}")
