@@ -1,0 +1,78 @@
+"""Beam discrepancy explorer: ``panel serve dashboard/app.py``.
+
+Builds one :class:`~dashboard.state.SessionState` per browser session, wires its updates onto
+the session's event loop, and shows the views of :data:`dashboard.views.VIEWS` as tabs of a
+:class:`pn.template.BootstrapTemplate` (all its resources are bundled with Panel, so the app
+works offline). The first toy run starts at once (no debounce), so the
+preview is on screen moments after the page has loaded (``pn.state.onload``). Needs nothing but the repository.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+_ROOT = str(Path(__file__).resolve().parents[1])
+if _ROOT not in sys.path:  # `panel serve dashboard/app.py` only puts dashboard/ on the path
+    sys.path.insert(0, _ROOT)
+
+import holoviews as hv
+import panel as pn
+from panel.io.state import set_curdoc
+
+from dashboard import exports, summaries, toy_jobs, toy_plots  # noqa: F401  (imported while the path is set)
+from dashboard.scheduler import shared_pool
+from dashboard.state import SessionState
+from dashboard.views import VIEWS
+
+__all__ = ["create_app", "session_dispatch"]
+
+TITLE = "Beam discrepancy explorer"
+
+
+def session_dispatch(doc):
+    """A dispatch function that runs callbacks on ``doc``'s event loop (safe from any thread)."""
+
+    def dispatch(fn):
+        with set_curdoc(doc):
+            pn.state.execute(fn, schedule=True)
+
+    return dispatch
+
+
+def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemplate:
+    """The template with one tab per view, all over one session state.
+
+    Parameters
+    ----------
+    session : SessionState, optional
+        Default: a new one whose updates are dispatched to the current document.
+    """
+    pn.extension(notifications=False)
+    hv.extension("bokeh", logo=False)
+    doc = pn.state.curdoc
+    if session is None:
+        session = SessionState(dispatch=session_dispatch(doc) if doc is not None else None)
+    if doc is not None and doc.session_context is not None:
+        pn.state.on_session_destroyed(lambda context: session.close())
+    views = {title: view(session=session) for title, view in VIEWS}
+    tabs = pn.Tabs(*views.items(), sizing_mode="stretch_width", css_classes=["beam-views"])
+
+    def start() -> None:
+        session.toy.request(debounce=False)
+        toy_jobs.schedule_warm_up(shared_pool())
+
+    if doc is not None and doc.session_context is not None:
+        # Not before the page is connected: plot updates that arrive earlier are re-scheduled
+        # by HoloViews on every tick until the websocket opens, which starves the event loop.
+        pn.state.onload(start)
+    else:
+        start()
+    template = pn.template.BootstrapTemplate(title=TITLE, main=[tabs], header_background="#2f4f6f")
+    template.session_state = session  # for tests and debugging
+    template.views = views
+    return template
+
+
+if __name__.startswith("bokeh"):
+    create_app().servable(title=TITLE)

@@ -1,0 +1,92 @@
+"""Downloads of a toy result: JSON summary, predictive-band CSV, posterior netCDF.
+
+Pure Python. Each function returns the file content (``io.BytesIO`` for
+:class:`panel.widgets.FileDownload`) or None when the result cannot provide it.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import tempfile
+
+import numpy as np
+
+__all__ = ["CSV_COLUMNS", "bands_csv", "filename", "posterior_netcdf", "summary_json"]
+
+#: Columns of the band CSV (units in the names; du = data unit).
+CSV_COLUMNS = (
+    "time_s", "data_du", "truth_du", "in_calibration_window", "posterior_mean_du",
+    "credible95_lower_du", "credible95_upper_du", "prediction95_lower_du", "prediction95_upper_du",
+)
+
+
+def _jsonable(obj):
+    """Plain JSON types; non-finite floats become None."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, (np.floating, float)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    return obj
+
+
+def filename(result, extension: str) -> str:
+    """A descriptive file name, e.g. ``toy_w5_d0.3_harmonic_iid_seed0.json``."""
+    sc = result.scenario
+    return f"toy_w{sc.window_s:g}_d{sc.discrepancy:g}_{sc.kind}_{sc.likelihood}_seed{sc.seed}.{extension}"
+
+
+def summary_json(result) -> io.BytesIO | None:
+    """The result's :meth:`~beam.toy.ToyResult.to_json` report (plus its stage and sweep) as UTF-8 JSON."""
+    if result is None:
+        return None
+    report = result.to_json()
+    report["stage"] = result.extra.get("stage", "final")
+    text = json.dumps(_jsonable(report), indent=1, allow_nan=False)
+    return io.BytesIO(text.encode("utf-8"))
+
+
+def bands_csv(result) -> io.BytesIO | None:
+    """Data, truth and the 95 % credible / prediction bands on the full horizon as CSV."""
+    if result is None:
+        return None
+    d, b = result.data, result.bands
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(CSV_COLUMNS)
+    cols = (d.time_s, d.data, d.truth, d.calibration.astype(int), b.mean, b.credible_lower, b.credible_upper,
+            b.prediction_lower, b.prediction_upper)
+    for row in zip(*cols):
+        writer.writerow([f"{v:.6g}" if isinstance(v, float) else int(v) for v in map(_scalar, row)])
+    return io.BytesIO(out.getvalue().encode("utf-8"))
+
+
+def _scalar(v):
+    return float(v) if isinstance(v, (float, np.floating)) else int(v)
+
+
+def posterior_netcdf(result) -> io.BytesIO | None:
+    """The MCMC posterior as an ArviZ netCDF-4 file, or None (preview or intermediate result)."""
+    posterior = None if result is None else result.posterior
+    if posterior is None:
+        return None
+    fd, path = tempfile.mkstemp(suffix=".nc", prefix="beam-posterior-")
+    os.close(fd)
+    try:
+        posterior.to_netcdf(path)
+        with open(path, "rb") as fh:
+            return io.BytesIO(fh.read())
+    finally:
+        os.unlink(path)

@@ -1,0 +1,52 @@
+"""The views of the app, as :class:`pn.viewable.Viewer` classes over one session state.
+
+Each view takes the browser session's :class:`~dashboard.state.SessionState` as its only
+argument; :data:`VIEWS` lists them in tab order. To add a view, write a Viewer with a
+``session`` parameter (and, if it runs ``beam`` jobs, a sub-state on the session that uses
+``session.slot(name, on_update)``), and put it in :data:`VIEWS`.
+"""
+
+from __future__ import annotations
+
+import panel as pn
+import param
+
+from dashboard.state import SessionState
+from dashboard.texts import PLACEHOLDER
+from dashboard.toy_view import ToyView
+
+__all__ = ["VIEWS", "BeamCalibrationView", "DiagnosisView", "PlaceholderView"]
+
+
+class PlaceholderView(pn.viewable.Viewer):
+    """A view still to come: a title and one paragraph."""
+
+    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+    title = "View"
+    what = ""
+
+    def __panel__(self):
+        return pn.pane.Markdown(PLACEHOLDER.format(title=self.title, what=self.what), sizing_mode="stretch_width")
+
+
+class BeamCalibrationView(PlaceholderView):
+    """Calibration of the cantilever beam model on measured or simulated data (next step)."""
+
+    title = "Beam calibration"
+    what = ("calibrate the piezo-driven cantilever (bundled B1TAPIH configuration) with and without the "
+            "missing physics, and compare the parameters and prediction bands.")
+
+
+class DiagnosisView(PlaceholderView):
+    """Residual diagnostics that reveal model discrepancy (next step)."""
+
+    title = "Diagnosis"
+    what = "residual diagnostics (autocorrelation, spectra, window dependence) that reveal missing physics."
+
+
+#: (tab title, Viewer class) in tab order.
+VIEWS = (
+    ("Toy periodic model", ToyView),
+    ("Beam calibration", BeamCalibrationView),
+    ("Diagnosis", DiagnosisView),
+)

@@ -1,0 +1,123 @@
+"""Browser benchmark of the dashboard (run on demand: ``python tests/benchmarks/bench_dashboard.py``).
+
+Not collected by pytest (file name ``bench_*.py``). Starts the real ``panel serve
+dashboard/app.py``, opens it in Debian's headless chromium and measures, *in the page*
+(``performance.now()`` from the key press to the first animation frame after the change):
+
+* page load -> first preview drawn, -> first posterior drawn (cold server: includes the
+  one-time import of the sampler's libraries);
+* window slider moved by one step -> the server's acknowledgement (status "queued" for the
+  new request: the round trip, for information) and -> preview drawn (target 0.5 s);
+* window slider moved by one step -> final MCMC posterior drawn (target 2 s).
+
+"Drawn" means: the prediction band's data source holds the new result (and, for the final,
+the status says ``final`` for the latest request) at an animation frame, plus one frame.
+Every move goes to a window not seen before, so no cached result is involved. Also prints the
+server-side time from request to final (the status text).
+
+Option: ``--moves N`` (default 8); the moves use the app's default scenario otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "browser"))
+
+from harness import READ_STATE_JS, launch, serve_app, settle, window_handle
+
+INSTALL_WATCHER_JS = """() => {
+  const read = READ_STATE;
+  const base = read();
+  const b = window.__bench = {t0: null, ack: null, preview: null, preview_stage: null, final: null, base: base};
+  document.addEventListener('keydown', () => { if (b.t0 === null) b.t0 = performance.now(); }, {capture: true, once: true});
+  const frame = () => {
+    if (b.t0 !== null) {
+      const s = read();
+      if (b.ack === null && s.requested > base.requested) b.ack = performance.now() - b.t0;
+      if (b.preview === null && s.shown > base.shown && s.band_sum !== base.band_sum) {
+        b.preview_stage = s.stage;
+        requestAnimationFrame(() => { b.preview = performance.now() - b.t0; });
+      }
+      if (b.final === null && s.stage === 'final' && s.shown > base.shown && s.shown === s.requested) {
+        requestAnimationFrame(() => { b.final = performance.now() - b.t0; });
+        return;
+      }
+    }
+    requestAnimationFrame(frame);
+  };
+  requestAnimationFrame(frame);
+  return base;
+}""".replace("READ_STATE", READ_STATE_JS)
+
+
+def _status_seconds(page) -> float | None:
+    text = page.evaluate("""() => { for (const m of Bokeh.documents[0].all_models)
+        if (typeof m.text === 'string' && m.text.includes('beam-status')) return m.text; return ''; }""")
+    match = re.search(r"ready in ([0-9.]+) s", text)
+    return float(match.group(1)) if match else None
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--moves", type=int, default=8, help="slider moves to time (each +0.5 s, from 5 s)")
+    args = parser.parse_args(argv)
+    if not 1 <= args.moves <= 19:
+        parser.error("--moves must be between 1 and 19 (the window slider goes from 5 s to 15 s)")
+
+    from playwright.sync_api import sync_playwright
+
+    with serve_app() as url, sync_playwright() as p:
+        context = launch(p, tempfile.mkdtemp(prefix="bench-chromium-"))
+        page = context.new_page()
+        t0 = time.perf_counter()
+        page.goto(url)
+        page.wait_for_function(f"() => ({READ_STATE_JS})().band_n > 0", timeout=120000, polling="raf")
+        load_preview = time.perf_counter() - t0
+        state = settle(page, timeout_ms=120000)
+        load_final = time.perf_counter() - t0
+        page.wait_for_timeout(3000)  # let the window sweep of the first scenario finish
+
+        acks, previews, finals, server, stages = [], [], [], [], []
+        for _ in range(args.moves):
+            base = page.evaluate(INSTALL_WATCHER_JS)
+            window_handle(page).focus()
+            page.keyboard.press("ArrowRight")
+            page.wait_for_function("() => window.__bench.final !== null", timeout=60000, polling="raf")
+            bench = page.evaluate("() => window.__bench")
+            acks.append(bench["ack"] / 1000.0)
+            previews.append(bench["preview"] / 1000.0)
+            stages.append(bench["preview_stage"])
+            finals.append(bench["final"] / 1000.0)
+            server.append(_status_seconds(page))
+            state = settle(page, after_request=base["shown"])
+        errors = state["stage"] != "final"
+        context.close()
+
+    def row(name, values, target):
+        med, worst = statistics.median(values), max(values)
+        ratio = f"{med / target:6.2f}" if target else f"{'-':>6s}"
+        tgt = f"{target:8.2f}" if target else f"{'-':>8s}"
+        print(f"{name:44s} {med:9.3f} {worst:9.3f} {tgt} {ratio}")
+
+    print(f"{'measure (browser, seconds)':44s} {'median':>9s} {'max':>9s} {'target':>8s} {'ratio':>6s}")
+    row("page load -> first result drawn", [load_preview], None)
+    row("page load -> first posterior drawn (cold)", [load_final], None)
+    row("slider -> server acknowledged the request", acks, None)
+    row(f"slider -> preview drawn ({args.moves} moves)", previews, 0.5)
+    row(f"slider -> final posterior drawn ({args.moves} moves)", finals, 2.0)
+    known = [s for s in server if s is not None]
+    if known:
+        row("server: request -> final published", known, None)
+    print(f"stage seen at the first redraw: {', '.join(sorted(set(stages)))}; last stage: {state['stage']}")
+    return 1 if errors else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,147 @@
+"""Shared by the browser tests and the dashboard benchmark: serve the app, drive chromium, read it.
+
+* :func:`serve_app` runs the real ``panel serve dashboard/app.py`` on a free port in its own
+  process group and stops the whole group afterwards.
+* :func:`launch` starts Debian's chromium (``/usr/bin/chromium``, never a downloaded browser)
+  headless with an empty profile.
+* :data:`READ_STATE_JS` reads what the page shows from the Bokeh document: the status
+  element's ``data-*`` attributes and the prediction band's data source.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+#: Debian's chromium; ``BEAM_TEST_CHROMIUM`` overrides it (e.g. to check the missing-browser message).
+CHROMIUM = os.environ.get("BEAM_TEST_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+MISSING_CHROMIUM = (
+    f"{CHROMIUM} not found: the browser tests drive Debian's chromium. "
+    "Install it with `apt-get update && apt-get install -y chromium` (not `playwright install`)."
+)
+
+#: Reads the page state from the Bokeh models: stage / request ids of the status element, the
+#: prediction band (sum and length of its upper-edge ``y``) and the window slider's value.
+READ_STATE_JS = """() => {
+  const doc = Bokeh.documents[0];
+  const out = {stage: null, requested: -1, shown: -1, band_n: 0, band_sum: null, window: null};
+  if (!doc) return out;
+  for (const m of doc.all_models) {
+    const text = typeof m.text === 'string' ? m.text.replace(/&quot;/g, '"') : null;  // HTML panes send escaped text
+    if (text !== null && text.includes('beam-status')) {
+      const attr = (k) => { const r = new RegExp(k + '="([^"]*)"').exec(text); return r ? r[1] : null; };
+      out.stage = attr('data-stage');
+      out.requested = Number(attr('data-requested'));
+      out.shown = Number(attr('data-shown'));
+    }
+    if (m.css_classes && m.css_classes.includes && m.css_classes.includes('beam-window-slider')) out.window = m.value;
+  }
+  const band = doc.get_model_by_name('prediction-band');
+  if (band) {
+    const y = band.data.upper;
+    out.band_n = y.length;
+    let s = 0; for (let i = 0; i < y.length; i++) s += y[i] * (1 + (i % 7));
+    out.band_sum = y.length ? s : null;
+  }
+  return out;
+}"""
+
+
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 right now."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+@contextlib.contextmanager
+def serve_app(timeout_s: float = 120.0, log_path: Path | None = None):
+    """Run ``panel serve dashboard/app.py`` and yield the app URL; kill its process group at exit."""
+    port = free_port()
+    log_path = log_path or Path(tempfile.mkdtemp(prefix="beam-serve-")) / "panel.log"
+    cmd = [sys.executable, "-m", "panel", "serve", "dashboard/app.py", "--port", str(port), "--address", "127.0.0.1",
+           f"--allow-websocket-origin=127.0.0.1:{port}"]
+    with open(log_path, "wb") as log:
+        proc = subprocess.Popen(cmd, cwd=REPO, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    url = f"http://127.0.0.1:{port}/app"
+    try:
+        deadline = time.monotonic() + timeout_s
+        while True:
+            if proc.poll() is not None:
+                raise RuntimeError(f"panel serve exited with status {proc.returncode}:\n{log_path.read_text()[-3000:]}")
+            try:
+                with urllib.request.urlopen(url, timeout=30) as response:
+                    if response.status == 200:
+                        break
+            except (urllib.error.URLError, ConnectionError, TimeoutError):
+                pass
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"panel serve did not answer within {timeout_s:g} s:\n{log_path.read_text()[-3000:]}")
+            time.sleep(0.3)
+        yield url
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(10)
+
+
+def launch(playwright, user_data_dir: str, **kwargs):
+    """Debian's chromium, headless, empty profile (a persistent context in ``user_data_dir``)."""
+    if not Path(CHROMIUM).exists():
+        raise FileNotFoundError(MISSING_CHROMIUM)
+    return playwright.chromium.launch_persistent_context(
+        user_data_dir, executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS,
+        viewport={"width": 1500, "height": 1000}, accept_downloads=True, **kwargs)
+
+
+def read_state(page) -> dict:
+    """:data:`READ_STATE_JS` evaluated on ``page``."""
+    return page.evaluate(READ_STATE_JS)
+
+
+def wait_for_result(page, *, after_request: int = 0, stage: str = "final", timeout_ms: float = 60000) -> dict:
+    """Wait until the page shows ``stage`` for a request newer than ``after_request``; returns the state."""
+    page.wait_for_function(
+        f"""() => {{ const s = ({READ_STATE_JS})();
+                   return s.stage === '{stage}' && s.shown > {after_request} && s.shown === s.requested && s.band_n > 0; }}""",
+        timeout=timeout_ms, polling="raf")
+    return read_state(page)
+
+
+def settle(page, *, after_request: int = 0, quiet_ms: int = 600, timeout_ms: float = 60000) -> dict:
+    """Wait for the final result of the *last* request (no new request for ``quiet_ms``)."""
+    state = wait_for_result(page, after_request=after_request, timeout_ms=timeout_ms)
+    while True:
+        page.wait_for_timeout(quiet_ms)
+        again = read_state(page)
+        if again["requested"] == state["requested"]:
+            return again
+        state = wait_for_result(page, after_request=after_request, timeout_ms=timeout_ms)
+
+
+def window_handle(page):
+    """The handle of the calibration-window slider."""
+    return page.locator(".beam-window-slider .noUi-handle").first

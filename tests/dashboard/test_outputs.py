@@ -1,0 +1,90 @@
+"""Read-outs, comparison table and downloads of toy results (no browser)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+
+import pytest
+
+from beam.toy import ToyScenario
+from dashboard import exports, toy_jobs
+from dashboard.summaries import PARAMETER_LABELS, compare_table, readouts, result_label, user_message
+
+
+@pytest.fixture(scope="module")
+def results():
+    """(preview, final) of a small scenario with discrepancy."""
+    stages = list(toy_jobs.toy_run(ToyScenario(discrepancy=0.3, kind="tone", target_ess=200, seed=2), use_cache=False))
+    return stages[0].value, stages[-1].value
+
+
+def test_readouts_have_units_and_sane_values(results):
+    _, final = results
+    r = readouts(final)
+    assert 0.0 <= r["coverage_pct"] <= 100.0 and 0.0 <= r["credible_truth_pct"] <= 100.0
+    assert r["rmse_du"] > 0 and r["frequency_sd_mHz"] > 0 and r["noise_sd_du"] > 0
+    assert math.isclose(r["coverage_pct"], 100 * final.coverage95_prediction)
+    assert all(math.isnan(v) for v in readouts(None).values())
+
+
+def test_compare_table_side_by_side(results):
+    preview, final = results
+    table = compare_table(final, preview)
+    assert list(table.columns) == ["Pinned", "Current", "Truth"]
+    for label in PARAMETER_LABELS.values():
+        if "AR(1)" not in label:
+            assert label in table.index
+    assert table.loc["Stage", "Pinned"] == "preview (MAP + Laplace)"
+    assert table.loc["Stage", "Current"] == "posterior (MCMC)"
+    assert "±" in table.loc["Frequency f (Hz)", "Current"]
+    assert list(compare_table(final).columns) == ["Current", "Truth"]
+    assert compare_table(None).empty
+    assert "window 5 s" in result_label(final) and "tone" in result_label(final)
+
+
+def test_json_summary_is_valid_json(results):
+    preview, final = results
+    report = json.loads(exports.summary_json(final).getvalue())
+    assert report["stage"] == "final" and report["scenario"]["kind"] == "tone"
+    assert set(report["posterior"]) >= {"amplitude", "frequency_Hz", "phase_rad", "noise_sd"}
+    assert json.loads(exports.summary_json(preview).getvalue())["stage"] == "preview"
+    assert exports.summary_json(None) is None
+
+
+def test_band_csv_has_one_row_per_sample(results):
+    _, final = results
+    rows = list(csv.reader(io.StringIO(exports.bands_csv(final).getvalue().decode())))
+    assert tuple(rows[0]) == exports.CSV_COLUMNS
+    assert len(rows) - 1 == final.data.time_s.size
+    first = dict(zip(rows[0], rows[1]))
+    assert first["in_calibration_window"] == "1" and float(first["time_s"]) == 0.0
+    lo, hi = float(first["prediction95_lower_du"]), float(first["prediction95_upper_du"])
+    assert lo < float(first["posterior_mean_du"]) < hi
+
+
+def test_netcdf_only_for_a_posterior(results, tmp_path):
+    preview, final = results
+    assert exports.posterior_netcdf(preview) is None
+    data = exports.posterior_netcdf(final).getvalue()
+    assert data[:4] == b"\x89HDF"  # netCDF-4 is HDF5
+    path = tmp_path / "post.nc"
+    path.write_bytes(data)
+    from beam.inference import load_inference_data
+
+    idata = load_inference_data(path)
+    assert "frequency_Hz" in idata.posterior
+
+
+def test_filenames_describe_the_scenario(results):
+    _, final = results
+    assert exports.filename(final, "csv") == "toy_w5_d0.3_tone_iid_seed2.csv"
+
+
+def test_user_messages_drop_command_line_options():
+    assert user_message("window (--window 12 s) must be shorter than the horizon (--horizon 10 s)") == (
+        "window (12 s) must be shorter than the horizon (10 s)")
+    assert user_message("noise sd (--noise) must not be negative, got -1") == "noise sd must not be negative, got -1"
+    assert user_message("frequency must lie in the prior range [0.2, 5] Hz") == "frequency must lie in the prior range [0.2, 5] Hz"

@@ -1,0 +1,93 @@
+"""The app and the toy view built without a browser: structure, labels, updates of the plots."""
+
+from __future__ import annotations
+
+import panel as pn
+import pytest
+from bokeh.document import Document
+from bokeh.models import ColumnDataSource
+from panel.io.state import set_curdoc
+
+from dashboard.app import create_app
+from dashboard.state import SessionState
+from dashboard.toy_view import ToyView
+from dashboard.views import VIEWS
+
+
+@pytest.fixture
+def session(pool):
+    s = SessionState(pool=pool, debounce_s=0.0, toy_inputs={"target_ess": 200, "horizon_s": 15.0})
+    yield s
+    s.close()
+    s.wait(10)
+
+
+def _sources(root, name):
+    return [m for m in root.select({"type": ColumnDataSource}) if m.name == name]
+
+
+def test_app_has_three_views_over_one_session(session):
+    doc = Document()
+    with set_curdoc(doc):
+        app = create_app(session)
+    assert app.session_state is session
+    tabs = app.main[0]
+    assert [title for title, _ in VIEWS] == ["Toy periodic model", "Beam calibration", "Diagnosis"]
+    assert list(tabs._names) == ["Toy periodic model", "Beam calibration", "Diagnosis"]
+    assert list(app.views) == list(tabs._names)
+    assert all(view.session is session for view in app.views.values())
+
+
+def test_widget_labels_carry_units(session):
+    view = ToyView(session=session)
+    names = [w.label for w in view._layout.select(pn.widgets.Widget) if hasattr(w, "value")]
+    for label in ("Calibration window (s)", "Discrepancy amplitude δ (du)", "Noise sd (du)", "Horizon (s)"):
+        assert label in names
+    numbers = [n.label for n in view._layout.select(pn.indicators.Number)]
+    assert any("(%)" in n for n in numbers) and any("(du)" in n for n in numbers)
+
+
+def test_results_flow_into_the_plot_sources(session):
+    view = ToyView(session=session)
+    root = view.__panel__().get_root(Document())
+    band = _sources(root, "prediction-band")
+    assert len(band) == 1 and len(band[0].data["upper"]) == 0
+    assert not view._sweep_built
+    session.toy.request(debounce=False)
+    assert session.wait(30)
+    assert view._sweep_built and len(view._sweep_tab) == 2  # sweep plots built when the sweep arrived
+    result = session.toy.result
+    assert list(band[0].data["upper"]) == list(result.bands.prediction_upper)
+    assert len(band[0].data["time_s"]) == result.data.time_s.size
+    before = list(band[0].data["upper"])
+    session.toy.window_s = 9.0
+    assert session.wait(30)
+    assert list(band[0].data["upper"]) != before
+    assert view._timeseries.window.right == 9.0
+
+
+def test_corner_plot_is_built_when_its_tab_opens(session):
+    view = ToyView(session=session)
+    session.toy.request(debounce=False)
+    assert session.wait(30)
+    assert view._corner is None
+    view._tabs.active = 1
+    corner = view._corner
+    assert corner is not None
+    assert len(corner.sources[("frequency_Hz", "current")].data["top"]) == 30
+    assert corner.spans["frequency_Hz"].visible
+    session.toy.pin()
+    assert len(corner.sources[("amplitude", "frequency_Hz", "pinned")].data["x"]) == 500
+
+
+def test_error_alert_shows_and_hides(session):
+    view = ToyView(session=session)
+    alert = view._layout.select(pn.pane.Alert)[0]
+    session.toy.request(debounce=False)
+    assert session.wait(30)
+    session.toy.param.update(horizon_s=10.0, window_s=12.0)
+    assert session.wait(30)
+    assert alert.visible and "horizon" in alert.object
+    session.toy.window_s = 5.0
+    assert session.wait(30)
+    assert not alert.visible
