@@ -160,16 +160,16 @@ class ToyScenario:
         if self.likelihood not in LIKELIHOODS:
             raise BeamInputError(f"unknown likelihood {self.likelihood!r}; expected one of {', '.join(LIKELIHOODS)}")
         if self.window_s <= 0.0:
-            raise BeamInputError(f"window (--window) must be positive, got {self.window_s:g} s")
+            raise BeamInputError(f"calibration window must be positive, got {self.window_s:g} s")
         if self.horizon_s <= self.window_s:
             raise BeamInputError(
-                f"window (--window {self.window_s:g} s) must be shorter than the horizon (--horizon {self.horizon_s:g} s)"
+                f"calibration window ({self.window_s:g} s) must be shorter than the horizon ({self.horizon_s:g} s)"
             )
         if self.noise_sd < 0.0:
-            raise BeamInputError(f"noise sd (--noise) must not be negative, got {self.noise_sd:g}")
+            raise BeamInputError(f"noise sd must not be negative, got {self.noise_sd:g}")
         if not NOISE_PRIOR[0] <= self.noise_sd <= NOISE_PRIOR[1]:
             raise BeamInputError(
-                f"noise sd (--noise) must lie in the noise_sd prior range [{NOISE_PRIOR[0]:g}, {NOISE_PRIOR[1]:g}], got {self.noise_sd:g}"
+                f"noise sd must lie in the noise_sd prior range [{NOISE_PRIOR[0]:g}, {NOISE_PRIOR[1]:g}], got {self.noise_sd:g}"
             )
         if not FREQUENCY_PRIOR_HZ[0] <= self.frequency_Hz <= FREQUENCY_PRIOR_HZ[1]:
             raise BeamInputError(
@@ -184,12 +184,12 @@ class ToyScenario:
         period = 1.0 / self.frequency_Hz
         if self.window_s < period:
             raise BeamInputError(
-                f"window (--window {self.window_s:g} s) is shorter than one period of the {self.frequency_Hz:g} Hz oscillation ({period:g} s)"
+                f"calibration window ({self.window_s:g} s) is shorter than one period of the {self.frequency_Hz:g} Hz oscillation ({period:g} s)"
             )
         if self.horizon_s * self.sample_rate_Hz > MAX_SAMPLES:
-            raise BeamInputError(f"horizon (--horizon {self.horizon_s:g} s) gives more than {MAX_SAMPLES} samples")
+            raise BeamInputError(f"horizon ({self.horizon_s:g} s) gives more than {MAX_SAMPLES} samples")
         if int(self.seed) != self.seed or self.seed < 0:
-            raise BeamInputError(f"seed (--seed) must be a non-negative integer, got {self.seed}")
+            raise BeamInputError(f"seed must be a non-negative integer, got {self.seed}")
         if self.target_ess <= 0:
             raise BeamInputError(f"target ESS must be positive, got {self.target_ess:g}")
         return self
