@@ -23,6 +23,7 @@ keys are errors, so a typo is never silently ignored.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -34,7 +35,7 @@ import numpy as np
 from beam.effects import BASE_PARAMETERS, EFFECTS, PARAMETER_SPECS, effects_switched_on
 from beam.errors import BeamInputError
 from beam.excitation import ALL_EXCITATION_KEYS, EXCITATION_KEYS, Excitation
-from beam.fileio import TomlReader, did_you_mean, load_toml
+from beam.fileio import TomlReader, as_finite_float, did_you_mean, load_toml, short_repr
 from beam.geometry import BeamGeometry
 from beam.measurement import GEOMETRY_TABLES, read_geometry, read_measurement_table, read_nominal, read_title
 
@@ -48,7 +49,7 @@ DEFAULT_INTERVALS = 16
 INTERVALS_RANGE = (2, 400)
 
 #: Largest number of samples a simulation may ask for.
-MAX_SAMPLES = 10_000_000
+MAX_SAMPLES = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -75,14 +76,19 @@ class Sampling:
     def __post_init__(self) -> None:
         for key in ("rate_Hz", "duration_s"):
             value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
-                raise BeamInputError(f"sampling {key}: must be a positive finite number, got {value!r}")
-        if isinstance(self.noise_m, bool) or not isinstance(self.noise_m, (int, float)) \
-                or not np.isfinite(self.noise_m) or self.noise_m < 0:
-            raise BeamInputError(f"sampling noise_m: must be a finite number >= 0, got {self.noise_m!r}")
+            number = as_finite_float(value)
+            if number is None or number <= 0:
+                raise BeamInputError(f"sampling {key}: must be a positive finite number, got {short_repr(value)}")
+        noise = as_finite_float(self.noise_m)
+        if noise is None or noise < 0:
+            raise BeamInputError(f"sampling noise_m: must be a finite number >= 0, got {short_repr(self.noise_m)}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise BeamInputError(f"sampling seed: must be an integer >= 0, got {self.seed!r}")
-        count = self.rate_Hz * self.duration_s
+            raise BeamInputError(f"sampling seed: must be an integer >= 0, got {short_repr(self.seed)}")
+        count = float(self.rate_Hz) * float(self.duration_s)
+        if not math.isfinite(count):
+            raise BeamInputError(
+                f"sampling: rate_Hz x duration_s = {count:g} samples; the limit is {MAX_SAMPLES:,}"
+            )
         if round(count) < 2:
             raise BeamInputError(
                 f"sampling: rate_Hz x duration_s = {count:g} samples; need at least 2"
@@ -185,10 +191,11 @@ def check_parameters(parameters: Mapping[str, Any], where: str) -> dict[str, flo
                 f"known parameters: {', '.join(PARAMETER_SPECS)}"
             )
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-            raise BeamInputError(f"{where} {name}: must be a number, got {value!r}")
-        if not np.isfinite(value) or value <= 0:
-            raise BeamInputError(f"{where} {name}: must be a positive finite number, got {value!r}")
-        checked[name] = float(value)
+            raise BeamInputError(f"{where} {name}: must be a number, got {short_repr(value)}")
+        number = as_finite_float(value)
+        if number is None or number <= 0:
+            raise BeamInputError(f"{where} {name}: must be a positive finite number, got {short_repr(value)}")
+        checked[name] = number
     for spec in BASE_PARAMETERS:
         if spec.name not in checked:
             required = ", ".join(p.name for p in BASE_PARAMETERS)
@@ -268,7 +275,10 @@ def _read_excitation(reader: TomlReader) -> Excitation | None:
     if kind == "file":
         file_name = reader.string("excitation", table, "file")
         recording = (reader.path.parent / file_name) if not Path(file_name).is_absolute() else Path(file_name)
-        time_s, voltage_V, _ = read_measurement_table(recording)
+        try:
+            time_s, voltage_V, _ = read_measurement_table(recording)
+        except BeamInputError as exc:  # name the config too: the recording is its reference
+            raise reader.fail("[excitation] file", str(exc)) from None
         step = float((time_s[-1] - time_s[0]) / (time_s.size - 1))
         return Excitation.from_recording(voltage_V, step, file=str(recording))
     values = {key: reader.number("excitation", table, key) for key in needed}

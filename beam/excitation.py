@@ -21,12 +21,12 @@ The chirp's instantaneous frequency sweeps linearly from f0 at t = 0 to f1 at t 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from beam.errors import BeamInputError
+from beam.fileio import as_finite_float, short_repr
 
 #: Keys each kind needs (all positive finite numbers except ``file``, a path string).
 EXCITATION_KEYS: dict[str, tuple[str, ...]] = {
@@ -113,10 +113,11 @@ class Excitation:
                     raise BeamInputError(f"excitation file: must be a path string, got {value!r}")
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-                raise BeamInputError(f"excitation {key}: must be a number, got {value!r}")
-            if not math.isfinite(value) or value <= 0:
-                raise BeamInputError(f"excitation {key}: must be a positive finite number, got {value!r}")
-            object.__setattr__(self, key, float(value))
+                raise BeamInputError(f"excitation {key}: must be a number, got {short_repr(value)}")
+            number = as_finite_float(value)
+            if number is None or number <= 0:
+                raise BeamInputError(f"excitation {key}: must be a positive finite number, got {short_repr(value)}")
+            object.__setattr__(self, key, number)
         if self.kind == "file":
             self._check_recording()
         elif self.recorded_voltage_V is not None or self.recorded_sample_interval_s is not None:
@@ -134,12 +135,14 @@ class Excitation:
             first = int(np.argmin(np.isfinite(voltage)))
             raise BeamInputError(f"excitation file: recorded voltage has a non-finite value at sample {first}")
         step = self.recorded_sample_interval_s
-        is_number = isinstance(step, (int, float, np.floating)) and not isinstance(step, bool)
-        if not is_number or not math.isfinite(step) or step <= 0:
-            raise BeamInputError(f"excitation file: sample interval must be a positive finite number (s), got {step!r}")
+        number = as_finite_float(step)
+        if number is None or number <= 0:
+            raise BeamInputError(
+                f"excitation file: sample interval must be a positive finite number (s), got {short_repr(step)}"
+            )
         voltage.setflags(write=False)
         object.__setattr__(self, "recorded_voltage_V", voltage)
-        object.__setattr__(self, "recorded_sample_interval_s", float(step))
+        object.__setattr__(self, "recorded_sample_interval_s", number)
 
     @classmethod
     def from_recording(cls, voltage_V: np.ndarray, sample_interval_s: float, file: str = "") -> Excitation:
@@ -186,12 +189,21 @@ class Excitation:
         on = (t >= 0) & (t < self.end_s)
         if self.kind == "pulse":
             return np.where(on, self.amplitude_V, 0.0)
-        if self.kind == "burst":
-            phase = self.frequency_Hz * t
-        else:
-            sweep_rate = (self.stop_Hz - self.start_Hz) / self.duration_s
-            phase = self.start_Hz * t + 0.5 * sweep_rate * t * t
-        return np.where(on, self.amplitude_V * np.sin(2.0 * np.pi * phase), 0.0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            if self.kind == "burst":
+                phase = self.frequency_Hz * t
+            else:
+                sweep_rate = (self.stop_Hz - self.start_Hz) / self.duration_s
+                phase = self.start_Hz * t + 0.5 * sweep_rate * t * t
+            values = np.where(on, self.amplitude_V * np.sin(2.0 * np.pi * phase), 0.0)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            where = float(np.ravel(t)[bad[0]])
+            raise BeamInputError(
+                f"excitation {self.describe()}: the phase overflows at t = {where:g} s; "
+                "use smaller frequencies or a longer duration"
+            )
+        return values
 
     def _recorded_voltage(self, t: np.ndarray) -> np.ndarray:
         samples = self.recorded_voltage_V

@@ -10,15 +10,18 @@ from __future__ import annotations
 
 import difflib
 import math
+import numbers
 import os
 import re
 import secrets
+import sys
 import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 from beam.errors import BeamInputError
+from beam.limits import MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
 
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -28,7 +31,9 @@ _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 # ---------------------------------------------------------------------------------------------
 
 
-def read_text_file(path: str | os.PathLike[str], what: str = "file") -> str:
+def read_text_file(
+    path: str | os.PathLike[str], what: str = "file", max_bytes: int = MAX_MEASUREMENT_BYTES
+) -> str:
     """Read a UTF-8 text file (an optional byte-order mark is dropped).
 
     Parameters
@@ -37,6 +42,9 @@ def read_text_file(path: str | os.PathLike[str], what: str = "file") -> str:
         File to read.
     what : str
         What the file is, for the message when it is missing (e.g. ``"sidecar"``).
+    max_bytes : int
+        Largest size read; a larger file is refused before it is read (default
+        :data:`beam.limits.MAX_MEASUREMENT_BYTES`).
 
     Returns
     -------
@@ -46,18 +54,12 @@ def read_text_file(path: str | os.PathLike[str], what: str = "file") -> str:
     Raises
     ------
     BeamInputError
-        The file is missing, is a directory, holds binary data (a NUL byte) or is not UTF-8;
+        The file is missing, is a directory or not a regular file (a device, a pipe), cannot
+        be read, is larger than ``max_bytes``, holds binary data (a NUL byte) or is not UTF-8;
         the message names the file and, for bad bytes, the line.
     """
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise BeamInputError(f"{path}: {what} not found") from None
-    except IsADirectoryError:
-        raise BeamInputError(f"{path}: is a directory, expected a {what}") from None
-    except PermissionError:
-        raise BeamInputError(f"{path}: permission denied") from None
+    raw = _read_bytes(path, what, max_bytes)
     if b"\x00" in raw:
         line = raw.count(b"\n", 0, raw.index(b"\x00")) + 1
         raise BeamInputError(f"{path}: line {line}: binary content (NUL byte); expected a UTF-8 text file")
@@ -70,13 +72,45 @@ def read_text_file(path: str | os.PathLike[str], what: str = "file") -> str:
         ) from None
 
 
+def _read_bytes(path: Path, what: str, max_bytes: int) -> bytes:
+    """At most ``max_bytes`` bytes of a regular file, or a BeamInputError saying why not."""
+    try:
+        if not path.exists():
+            raise BeamInputError(f"{path}: {what} not found")
+        if path.is_dir():
+            raise BeamInputError(f"{path}: is a directory, expected a {what}")
+        if not path.is_file():
+            raise BeamInputError(f"{path}: not a regular file (a device or a pipe?), expected a {what}")
+        with path.open("rb") as stream:
+            raw = stream.read(max_bytes + 1)  # bounded: the size on disk may change or lie
+    except BeamInputError:
+        raise
+    except PermissionError:
+        raise BeamInputError(f"{path}: permission denied") from None
+    except (OSError, ValueError) as exc:  # a name too long, a NUL in the name, an I/O error
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise BeamInputError(f"{path}: cannot read the {what}: {reason}") from None
+    if len(raw) > max_bytes:
+        hint = "; shorten the record or lower its sampling rate" if "CSV" in what else ""
+        raise BeamInputError(f"{path}: larger than the {_size(max_bytes)} allowed for a {what}{hint}")
+    return raw
+
+
+def _size(count: int) -> str:
+    """``64 MiB``, ``1 MiB``, ``512 KiB`` or ``100 bytes``."""
+    for unit, scale in (("MiB", 2**20), ("KiB", 2**10)):
+        if count >= scale and count % scale == 0:
+            return f"{count // scale} {unit}"
+    return f"{count} bytes"
+
+
 def load_toml(path: str | os.PathLike[str], what: str = "TOML file") -> dict[str, Any]:
     """Parse a TOML file; syntax errors report tomllib's line and column.
 
     Parameters
     ----------
     path : str or path-like
-        The TOML file.
+        The TOML file (at most :data:`beam.limits.MAX_TOML_BYTES`).
     what : str
         What the file is, for the message when it is missing.
 
@@ -84,12 +118,28 @@ def load_toml(path: str | os.PathLike[str], what: str = "TOML file") -> dict[str
     -------
     dict
         The parsed document.
+
+    Raises
+    ------
+    BeamInputError
+        Besides :func:`read_text_file`'s reasons: a syntax error, arrays or inline tables
+        nested too deeply, an integer of more than 4300 digits.
     """
-    text = read_text_file(path, what)
+    text = read_text_file(path, what, MAX_TOML_BYTES)
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise BeamInputError(f"{path}: TOML syntax error: {exc}") from None
+    except RecursionError:
+        raise BeamInputError(f"{path}: arrays or inline tables nested too deeply") from None
+    except ValueError as exc:  # int("1" * 5000): Python's limit on integer digits
+        if "digits" in str(exc):
+            raise BeamInputError(f"{path}: an integer has more than {sys.get_int_max_str_digits()} digits") from None
+        raise BeamInputError(f"{path}: a value cannot be read: {_one_line(str(exc))}") from None
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
 
 
 class TomlReader:
@@ -182,10 +232,12 @@ class TomlReader:
             return default
         value = table[key]
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.fail(where, f"must be a number, got {_type_name(value)} {value!r}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise self.fail(where, f"must be finite, got {value}")
+            raise self.fail(where, f"must be a number, got {_type_name(value)} {short_repr(value)}")
+        number = as_finite_float(value)
+        if number is None:
+            too_large = " (too large for a float)" if isinstance(value, int) else ""
+            raise self.fail(where, f"must be finite, got {short_repr(value)}{too_large}")
+        value = number
         if positive and (value < 0 or (value == 0 and not allow_zero)):
             bound = ">= 0" if allow_zero else "> 0"
             raise self.fail(where, f"must be {bound}, got {value!r}")
@@ -210,11 +262,11 @@ class TomlReader:
             return default
         value = table[key]
         if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(where, f"must be an integer, got {_type_name(value)} {value!r}")
+            raise self.fail(where, f"must be an integer, got {_type_name(value)} {short_repr(value)}")
         if minimum is not None and value < minimum:
-            raise self.fail(where, f"must be >= {minimum}, got {value}")
+            raise self.fail(where, f"must be >= {minimum}, got {short_repr(value)}")
         if maximum is not None and value > maximum:
-            raise self.fail(where, f"must be <= {maximum}, got {value}")
+            raise self.fail(where, f"must be <= {maximum}, got {short_repr(value)}")
         return value
 
     def string(
@@ -229,8 +281,29 @@ class TomlReader:
             return default
         value = table[key]
         if not isinstance(value, str):
-            raise self.fail(where, f"must be a string, got {_type_name(value)} {value!r}")
+            raise self.fail(where, f"must be a string, got {_type_name(value)} {short_repr(value)}")
         return value
+
+
+def as_finite_float(value: Any) -> float | None:
+    """``float(value)`` for a finite real number (not a boolean), else None.
+
+    Unlike ``math.isfinite``, never raises: an integer too large for a float (TOML integers
+    have no size limit in :mod:`tomllib`) and anything that is not a number give None.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return None
+    try:
+        number = float(value)
+    except (OverflowError, ValueError, TypeError):
+        return None
+    return number if math.isfinite(number) else None
+
+
+def short_repr(value: Any, limit: int = 40) -> str:
+    """``repr(value)`` cut to ``limit`` characters (a 400-digit integer would flood a message)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def did_you_mean(name: str, candidates: Iterable[str]) -> str:

@@ -1,22 +1,30 @@
 """Measurement files: ``NAME.csv`` (the samples) plus ``NAME.toml`` (what the lab knows).
 
 ``NAME.csv``
-    UTF-8 text, comma separated. The first line is exactly ``time_s,voltage_V,displacement_m``
-    (spaces around names are tolerated, the order is not negotiable); then one row per sample:
+    UTF-8 text (an optional byte-order mark is dropped; LF, CRLF or CR line endings), comma
+    separated, at most :data:`beam.limits.MAX_MEASUREMENT_BYTES` (64 MiB). The first line is
+    exactly ``time_s,voltage_V,displacement_m`` (spaces around names are tolerated, the order is
+    not negotiable); then one row per sample:
     time (s), piezo voltage (V), displacement at the sensor (m). Numbers are anything Python's
-    ``float`` reads (``1e-3``, ``-0.5``); NaN and infinity are rejected. Blank lines are allowed
-    only at the end. At least two rows. Time must increase uniformly: every step within
+    ``float`` reads (``1e-3``, ``-0.5``); NaN and infinity (``1e309`` included) are rejected. A
+    trailing comma is an error (it makes an empty fourth cell). Blank lines are allowed only at
+    the end. At least two rows. Time must increase uniformly: every step within
     ``UNIFORM_TIME_TOLERANCE`` (1 %) of the median step and every time stamp within 1 % of a step
     of the grid ``t_0 + k dt`` with ``dt = (t_last - t_0) / (n - 1)``. This accepts time stamps
     printed with a few significant digits and rejects a missing, repeated or out-of-order
-    sample. Time need not start at 0 and is kept as given; models assume the beam is at rest at
-    the first sample and the voltage is held over each sample interval.
+    sample. The sampling interval is at least :data:`MIN_SAMPLE_INTERVAL_S` (1e-12 s) and the
+    span of the time stamps must fit in a float. Time need not start at 0 and is kept as given;
+    models assume the beam is at rest at the first sample and the voltage is held over each
+    sample interval.
 
 ``NAME.toml``
     Optional ``title`` (string); ``[beam]`` ``length_m``, ``linear_density_kg_m``; ``[patch]``
-    ``start_m``, ``end_m``; ``[sensor]`` ``position_m``; optional ``[nominal]`` prior centres
-    keyed by parameter names of :data:`beam.effects.PARAMETER_SPECS` (positive finite). Unknown
-    tables or keys are errors.
+    ``start_m``, ``end_m``; ``[sensor]`` ``position_m``, with the length and density within
+    :data:`beam.limits.LENGTH_RANGE_M` (0.01-100 m) and
+    :data:`beam.limits.LINEAR_DENSITY_RANGE_KG_M` (1e-3 to 1e4 kg/m), where the model is finite;
+    optional ``[nominal]`` prior centres keyed by parameter names of
+    :data:`beam.effects.PARAMETER_SPECS` (positive finite). Unknown tables or keys are errors.
+    At most :data:`beam.limits.MAX_TOML_BYTES` (1 MiB).
 
 Errors are :class:`beam.errors.BeamInputError` with one line naming the file and the line
 (1-based, as an editor shows it) or key.
@@ -24,6 +32,7 @@ Errors are :class:`beam.errors.BeamInputError` with one line naming the file and
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -34,14 +43,21 @@ import numpy as np
 
 from beam.effects import PARAMETER_SPECS
 from beam.errors import BeamInputError
-from beam.fileio import TomlReader, atomic_write_texts, did_you_mean, dump_toml, load_toml, read_text_file
+from beam.fileio import (
+    TomlReader, as_finite_float, atomic_write_texts, did_you_mean, dump_toml, load_toml, read_text_file, short_repr,
+)
 from beam.geometry import BeamGeometry
+from beam.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M, MAX_MEASUREMENT_BYTES
 
 #: The CSV header, column by column.
 CSV_COLUMNS: tuple[str, str, str] = ("time_s", "voltage_V", "displacement_m")
 
 #: Largest allowed deviation of a time step from the record's step, as a fraction of the step.
 UNIFORM_TIME_TOLERANCE = 1e-2
+
+#: Smallest sampling interval (s): a sampling rate of 1 THz. Smaller steps are mistaken units
+#: (or subnormal numbers whose reciprocal overflows).
+MIN_SAMPLE_INTERVAL_S = 1e-12
 
 #: Tables of the measurement sidecar (and of a simulation config, which extends it).
 GEOMETRY_TABLES: dict[str, tuple[str, ...]] = {
@@ -92,6 +108,8 @@ class Measurement:
     toml_path: Path | None = None
 
     def __post_init__(self) -> None:
+        _check_label("name", self.name)
+        _check_label(f"measurement {self.name}: title", self.title)
         columns = {}
         for column in CSV_COLUMNS:
             values = np.array(getattr(self, column), dtype=float)
@@ -136,6 +154,16 @@ class Measurement:
         return self.sample_count * self.sample_interval_s
 
 
+def _check_label(what: str, value: Any) -> None:
+    """A name or title: a string that can be written as UTF-8 (no lone surrogate)."""
+    if not isinstance(value, str):
+        raise BeamInputError(f"{what} must be a string, got {type(value).__name__} {value!r}")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise BeamInputError(f"{what} {value!r} holds a character that UTF-8 cannot store") from None
+
+
 def check_nominal(nominal: Mapping[str, Any], where: str) -> dict[str, float]:
     """Validate prior centres: known parameter names, positive finite numbers.
 
@@ -159,10 +187,11 @@ def check_nominal(nominal: Mapping[str, Any], where: str) -> dict[str, float]:
                 f"known parameters: {', '.join(PARAMETER_SPECS)}"
             )
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-            raise BeamInputError(f"{where} {name}: must be a number, got {value!r}")
-        if not np.isfinite(value) or value <= 0:
-            raise BeamInputError(f"{where} {name}: must be a positive finite number, got {value!r}")
-        checked[name] = float(value)
+            raise BeamInputError(f"{where} {name}: must be a number, got {short_repr(value)}")
+        number = as_finite_float(value)
+        if number is None or number <= 0:
+            raise BeamInputError(f"{where} {name}: must be a positive finite number, got {short_repr(value)}")
+        checked[name] = number
     return checked
 
 
@@ -183,11 +212,24 @@ def time_grid_problem(time_s: np.ndarray) -> tuple[int | None, str] | None:
     n = time_s.size
     if n < 2:
         return None, f"{n} sample(s); need at least 2 to define the sampling interval"
-    steps = np.diff(time_s)
+    with np.errstate(over="ignore", invalid="ignore"):
+        steps = np.diff(time_s)
     not_increasing = np.flatnonzero(steps <= 0)
     if not_increasing.size:
         k = int(not_increasing[0]) + 1
         return k, f"time_s = {float(time_s[k])!r} does not increase (previous time_s = {float(time_s[k - 1])!r})"
+    span = float(time_s[-1]) - float(time_s[0])
+    step = span / (n - 1)
+    if not (math.isfinite(span) and np.all(np.isfinite(steps))):
+        return None, (
+            f"time_s runs from {float(time_s[0])!r} to {float(time_s[-1])!r}: the span overflows a float; "
+            "give times in seconds"
+        )
+    if step < MIN_SAMPLE_INTERVAL_S or not math.isfinite(1.0 / step):
+        return None, (
+            f"the sampling interval {step!r} s is too small (at least {MIN_SAMPLE_INTERVAL_S:g} s, "
+            f"a sampling rate of at most {1 / MIN_SAMPLE_INTERVAL_S:g} Hz); give times in seconds"
+        )
     typical_step = float(np.median(steps))
     tolerance = UNIFORM_TIME_TOLERANCE * typical_step
     irregular = np.flatnonzero(np.abs(steps - typical_step) > tolerance)
@@ -199,7 +241,6 @@ def time_grid_problem(time_s: np.ndarray) -> tuple[int | None, str] | None:
             f"the record's step {typical_step:.9g} s; samples must be uniformly spaced "
             f"(tolerance {UNIFORM_TIME_TOLERANCE:g} of a step)"
         )
-    step = (time_s[-1] - time_s[0]) / (n - 1)
     drift = np.abs(time_s - (time_s[0] + np.arange(n) * step))
     off_grid = np.flatnonzero(drift > UNIFORM_TIME_TOLERANCE * step)
     if off_grid.size:
@@ -219,6 +260,8 @@ def time_grid_problem(time_s: np.ndarray) -> tuple[int | None, str] | None:
 def measurement_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     """``(NAME.csv, NAME.toml)`` for a path to either file (or to ``NAME`` without suffix)."""
     path = Path(path)
+    if not path.name or path.name in (".", ".."):
+        raise BeamInputError(f"{path}: not a measurement file (expected NAME.csv, NAME.toml or NAME)")
     if path.name.endswith(".truth.toml"):
         raise BeamInputError(
             f"{path}: this is the true-parameter file of a simulation; read "
@@ -249,11 +292,12 @@ def read_measurement(path: str | os.PathLike[str]) -> Measurement:
         A missing or malformed file; one line naming the file and the line or key.
     """
     csv_path, toml_path = measurement_paths(path)
-    if not csv_path.exists() and not toml_path.exists():
+    csv_exists, toml_exists = _exists(csv_path), _exists(toml_path)
+    if not csv_exists and not toml_exists:
         raise BeamInputError(f"{path}: not found (a measurement is NAME.csv plus its sidecar NAME.toml)")
-    if not toml_path.exists():
+    if not toml_exists:
         raise BeamInputError(f"{csv_path}: sidecar {toml_path.name} not found next to it (it holds the geometry)")
-    if not csv_path.exists():
+    if not csv_exists:
         raise BeamInputError(f"{toml_path}: data file {csv_path.name} not found next to it")
     title, geometry, nominal = read_sidecar(toml_path)
     time_s, voltage_V, displacement_m = read_measurement_table(csv_path)
@@ -262,6 +306,15 @@ def read_measurement(path: str | os.PathLike[str]) -> Measurement:
         time_s=time_s, voltage_V=voltage_V, displacement_m=displacement_m, nominal=nominal,
         csv_path=csv_path, toml_path=toml_path,
     )
+
+
+def _exists(path: Path) -> bool:
+    """Whether ``path`` exists; a name the system refuses (too long, a NUL) is a BeamInputError."""
+    try:
+        return path.exists()
+    except (OSError, ValueError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise BeamInputError(f"{path}: cannot open: {reason}") from None
 
 
 def read_sidecar(path: str | os.PathLike[str]) -> tuple[str | None, BeamGeometry, dict[str, float]]:
@@ -296,6 +349,13 @@ def read_geometry(reader: TomlReader) -> BeamGeometry:
     for (table_name, key), value in values.items():
         if table_name in ("patch", "sensor") and value < 0:
             raise reader.fail(f"[{table_name}] {key}", f"must be >= 0 (m from the clamp), got {value!r}")
+    ranges = (("length_m", LENGTH_RANGE_M, "m"), ("linear_density_kg_m", LINEAR_DENSITY_RANGE_KG_M, "kg/m"))
+    for key, (low, high), unit in ranges:
+        value = values[("beam", key)]
+        if not low <= value <= high:
+            raise reader.fail(
+                f"[beam] {key}", f"must be between {low:g} and {high:g} {unit} (the model's range), got {value!r}"
+            )
     try:
         return BeamGeometry(
             length_m=values[("beam", "length_m")],
@@ -332,12 +392,14 @@ def read_measurement_table(path: str | os.PathLike[str]) -> tuple[np.ndarray, np
     Raises
     ------
     BeamInputError
-        Missing, empty, binary or non-UTF-8 file; wrong header; a row with the wrong number of
-        cells, a cell that is not a number or not finite; fewer than two rows; time not
-        uniformly increasing. The message names the file and the 1-based line.
+        Missing, empty, binary, non-UTF-8 or too large (over 64 MiB) file; wrong header; a row
+        with the wrong number of cells, a cell that is not a number or not finite; fewer than two
+        rows; time not uniformly increasing, or a sampling interval that is not representable.
+        The message names the file and the 1-based line.
     """
     path = Path(path)
-    lines = read_text_file(path, "measurement CSV").split("\n")
+    text = read_text_file(path, "measurement CSV", MAX_MEASUREMENT_BYTES)
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     while lines and not lines[-1].strip():
         lines.pop()
     if not lines:
@@ -351,8 +413,7 @@ def read_measurement_table(path: str | os.PathLike[str]) -> tuple[np.ndarray, np
     except ValueError:
         table = None
     if table is None or table.shape != (len(rows), len(CSV_COLUMNS)):
-        _raise_first_bad_row(path, rows)  # the fast parser failed or skipped a blank line
-        raise AssertionError("unreachable: rows parse one by one but not together")  # pragma: no cover
+        table = _parse_rows(path, rows)  # the fast parser failed or skipped a blank line
     bad_rows, bad_columns = np.nonzero(~np.isfinite(table))
     if bad_rows.size:
         row, column = int(bad_rows[0]), int(bad_columns[0])
@@ -384,6 +445,8 @@ def _check_header(path: Path, header: str) -> None:
     extra = [n for n in names if n not in CSV_COLUMNS]
     if len(names) == 1 and any(separator in header for separator in (";", "\t")):
         detail = "columns must be separated by commas"
+    elif tuple(names[:-1]) == CSV_COLUMNS and not names[-1]:
+        detail = "remove the trailing comma"
     elif missing and extra and all(_looks_numeric(n) for n in names):
         detail = "the first line holds numbers, the header is missing"
     elif missing and not extra:
@@ -407,18 +470,23 @@ def _looks_numeric(text: str) -> bool:
     return True
 
 
-def _raise_first_bad_row(path: Path, rows: list[str]) -> None:
-    """Parse row by row and raise for the first bad one (the slow path, only on error)."""
+def _parse_rows(path: Path, rows: list[str]) -> np.ndarray:
+    """Parse row by row with ``float`` and raise for the first bad row (the slow path).
+
+    Used when :func:`numpy.loadtxt` refuses the rows: either a row is bad, or a cell holds a
+    number that ``float`` reads and loadtxt does not (``1_000``, non-ASCII digits).
+    """
+    table = np.empty((len(rows), len(CSV_COLUMNS)))
     for offset, row in enumerate(rows):
         line = offset + 2
         if not row.strip():
             raise BeamInputError(f"{path}: line {line}: empty row (blank lines are only allowed at the end)")
         cells = row.split(",")
         if len(cells) != len(CSV_COLUMNS):
-            raise BeamInputError(
-                f"{path}: line {line}: {len(cells)} cell(s), expected {len(CSV_COLUMNS)} ({','.join(CSV_COLUMNS)})"
-            )
-        for column, cell in zip(CSV_COLUMNS, cells):
+            hint = "; remove the trailing comma" if len(cells) == len(CSV_COLUMNS) + 1 and not cells[-1].strip() else ""
+            expected = f"expected {len(CSV_COLUMNS)} ({','.join(CSV_COLUMNS)})"
+            raise BeamInputError(f"{path}: line {line}: {len(cells)} cell(s), {expected}{hint}")
+        for index, (column, cell) in enumerate(zip(CSV_COLUMNS, cells)):
             text = cell.strip()
             try:
                 value = float(text)
@@ -427,6 +495,8 @@ def _raise_first_bad_row(path: Path, rows: list[str]) -> None:
                 raise BeamInputError(f"{path}: line {line}: {column} = {shown!r} is not a number") from None
             if not np.isfinite(value):
                 raise BeamInputError(f"{path}: line {line}: {column} = {text!r} is not finite")
+            table[offset, index] = value
+    return table
 
 
 # ---------------------------------------------------------------------------------------------
@@ -484,6 +554,12 @@ def write_measurement(
     -------
     Measurement
         What was written, with ``csv_path`` and ``toml_path`` set.
+
+    Raises
+    ------
+    BeamInputError
+        Invalid data, or a CSV larger than :data:`beam.limits.MAX_MEASUREMENT_BYTES` (which
+        :func:`read_measurement` would refuse): nothing is written.
     """
     csv_path, toml_path = measurement_paths(prefix)
     name = csv_path.stem
@@ -512,8 +588,15 @@ def write_measurement(
             time_s=columns[0], voltage_V=columns[1], displacement_m=columns[2],
             nominal=dict(nominal or {}), csv_path=csv_path, toml_path=toml_path,
         )
+    csv_text = measurement_csv_text(measurement.time_s, measurement.voltage_V, measurement.displacement_m)
+    if len(csv_text) > MAX_MEASUREMENT_BYTES:  # ASCII: characters are bytes
+        raise BeamInputError(
+            f"{csv_path}: {measurement.sample_count:,} samples make {len(csv_text) / 2**20:.1f} MiB of CSV, more than "
+            f"the {MAX_MEASUREMENT_BYTES // 2**20} MiB read_measurement reads back; write a shorter record or "
+            "decimate it (beam.limits.decimate_measurement)"
+        )
     contents: dict[str | os.PathLike[str], str] = {
-        csv_path: measurement_csv_text(measurement.time_s, measurement.voltage_V, measurement.displacement_m),
+        csv_path: csv_text,
         toml_path: dump_toml(
             sidecar_document(measurement.title, measurement.geometry, measurement.nominal),
             header_comment="Measurement sidecar: what the lab knows about the beam (geometry, sensor, "

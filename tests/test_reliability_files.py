@@ -1,0 +1,799 @@
+"""Hostile measurement files: generated malformed CSV and TOML give exactly one clear error.
+
+Property-based (hypothesis, derandomised, no example database, so CI sees the same inputs):
+
+* :func:`test_generated_csv` - a valid table with one mutation from :data:`CSV_MUTATIONS`
+  (missing/extra/renamed/reordered columns, no header, NaN/inf/1e309, text in a cell, time
+  repeated, swapped or irregular, empty, header only, one row, non-UTF-8 and NUL bytes,
+  UTF-16, trailing commas, wrong separators, blank line inside) or a tolerated variant (BOM,
+  CRLF and CR line endings, spaces, trailing blank lines, 1e308, subnormals). A bad file gives
+  one BeamInputError whose one line starts with the file and names the line; a good one reads
+  back the exact values.
+* :func:`test_generated_sidecar` / :func:`test_generated_config` - the same for TOML: missing
+  or unknown keys and tables, wrong types (string, boolean, array, date, table, 400-digit
+  integer), NaN/inf, negative or zero lengths and densities, values outside the model's range,
+  patch or sensor outside the beam, bad nominal values, sampling that overflows.
+* :func:`test_arbitrary_content_raises_only_beam_input_error` - random bytes, random text and
+  byte-flipped valid files fed to ``read_measurement``, ``read_sidecar`` and ``load_config``:
+  nothing but BeamInputError may escape.
+* :func:`test_valid_files_round_trip_bit_exact` - write_measurement -> read_measurement.
+
+Decisions: CRLF and CR-only line endings and a UTF-8 byte-order mark are accepted (spreadsheet
+exports); a trailing comma is refused with a hint (it is an empty fourth cell).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from beam.config import load_config
+from beam.errors import BeamInputError
+from beam.geometry import BeamGeometry
+from beam.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M
+from beam.measurement import CSV_COLUMNS, measurement_csv_text, read_measurement, read_sidecar, write_measurement
+
+HEADER = ",".join(CSV_COLUMNS)
+SIDECAR = """title = "bench test"
+[beam]
+length_m = 0.4573
+linear_density_kg_m = 0.093
+[patch]
+start_m = 0.15
+end_m = 0.25
+[sensor]
+position_m = 0.27438
+"""
+CONFIG_EXTRA = """[parameters]
+bending_stiffness_Nm2 = 0.491
+patch_coupling_NmV = 0.01746
+[excitation]
+kind = "pulse"
+amplitude_V = 1.0
+width_s = 0.01
+[sampling]
+rate_Hz = 1000.0
+duration_s = 0.5
+"""
+
+#: Shared hypothesis settings: reproducible, no deadline (the first example imports scipy).
+FUZZ = dict(
+    deadline=None, derandomize=True, database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+#: Generated inputs per test (the README section "Limits and robustness" gives the totals).
+CSV_EXAMPLES = 250
+SIDECAR_EXAMPLES = 150
+CONFIG_EXAMPLES = 100
+JUNK_EXAMPLES = 500
+ROUND_TRIP_EXAMPLES = 60
+
+
+@dataclass
+class Expect:
+    """What reading a generated file must give: the values, or an error with these fragments."""
+
+    valid: bool
+    fragments: list[str] = field(default_factory=list)
+    arrays: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+
+def error(*fragments: str) -> Expect:
+    return Expect(False, list(fragments))
+
+
+def _assert_one_line_error(call, path: Path, fragments: list[str]) -> str:
+    """``call()`` raises exactly one BeamInputError, one line, starting with ``path``, naming the fragments."""
+    with pytest.raises(BeamInputError) as info:
+        call()
+    message = str(info.value)
+    assert type(info.value) is BeamInputError
+    assert "\n" not in message and "\r" not in message, message
+    assert message.startswith(f"{path}: "), message
+    for fragment in fragments:
+        assert fragment in message, (fragment, message)
+    return message
+
+
+# ---------------------------------------------------------------------------------------------
+# CSV: a valid table and its mutations
+# ---------------------------------------------------------------------------------------------
+
+finite_floats = st.floats(allow_nan=False, allow_infinity=False)
+
+
+@st.composite
+def tables(draw, min_rows: int = 2, max_rows: int = 30) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Uniform time (any start, rates from 1 mHz to 1 GHz) and arbitrary finite values."""
+    n = draw(st.integers(min_rows, max_rows))
+    rate = draw(st.sampled_from([1000.0, 2048.0, 51200.0]) | st.floats(1e-3, 1e9))
+    start = draw(st.sampled_from([0.0, 12.5]) | st.floats(-1e3, 1e3))
+    time_s = start + np.arange(n) / rate
+    columns = [np.array(draw(st.lists(finite_floats, min_size=n, max_size=n))) for _ in range(2)]
+    return time_s, columns[0], columns[1]
+
+
+def _rows(time_s, voltage, displacement) -> list[list[str]]:
+    return [[repr(t), repr(v), repr(d)] for t, v, d in zip(time_s.tolist(), voltage.tolist(), displacement.tolist())]
+
+
+def _text(header: list[str] | None, rows: list[list[str]], separator: str = ",", newline: str = "\n") -> str:
+    lines = ([separator.join(header)] if header is not None else []) + [separator.join(r) for r in rows]
+    return newline.join(lines) + newline
+
+
+def _valid(table) -> Expect:
+    return Expect(True, arrays=table)
+
+
+def m_tolerated_formatting(draw, table):
+    """BOM, CRLF or CR line endings, spaces around names and numbers, blank lines at the end."""
+    newline = draw(st.sampled_from(["\n", "\r\n", "\r"]))
+    pad = draw(st.sampled_from(["", " ", "  ", "\t"]))
+    header = [f"{pad}{name}{pad}" for name in CSV_COLUMNS]
+    rows = [[f"{pad}{cell}{pad}" for cell in row] for row in _rows(*table)]
+    text = _text(header, rows, newline=newline) + draw(st.sampled_from(["", newline, newline * 3, " \n\n"]))
+    bom = draw(st.sampled_from(["", "\ufeff"]))
+    return (bom + text).encode("utf-8"), _valid(table)
+
+
+def m_extreme_finite_values(draw, table):
+    """1e308, -1.7976931348623157e308, subnormals and signed zeros are finite: accepted exactly."""
+    time_s, voltage, displacement = (c.copy() for c in table)
+    specials = [1e308, -1.7976931348623157e308, 5e-324, -0.0, 2.2250738585072014e-308]
+    for column in (voltage, displacement):
+        column[draw(st.integers(0, column.size - 1))] = draw(st.sampled_from(specials))
+    return measurement_csv_text(time_s, voltage, displacement).encode(), _valid((time_s, voltage, displacement))
+
+
+def m_number_only_python_reads(draw, table):
+    """``1_000``, Arabic-Indic or full-width digits: Python's ``float`` reads them, so they are accepted."""
+    time_s, voltage, displacement = (c.copy() for c in table)
+    token = draw(st.sampled_from(["1_000", "\u0661\u0662", "\uff13.5", "-2_5e-1_0"]))
+    row = draw(st.integers(0, time_s.size - 1))
+    voltage[row] = float(token)
+    rows = _rows(time_s, voltage, displacement)
+    rows[row][1] = token
+    return _text(list(CSV_COLUMNS), rows).encode(), _valid((time_s, voltage, displacement))
+
+
+def m_missing_column(draw, table):
+    dropped = draw(st.integers(0, 2))
+    keep = [i for i in range(3) if i != dropped]
+    header = [CSV_COLUMNS[i] for i in keep]
+    rows = [[row[i] for i in keep] for row in _rows(*table)]
+    return _text(header, rows).encode(), error("line 1", f"missing column {CSV_COLUMNS[dropped]}")
+
+
+extra_names = st.from_regex(r"[A-Za-z][A-Za-z0-9_]{0,12}", fullmatch=True).filter(lambda s: s not in CSV_COLUMNS)
+
+
+def m_extra_column(draw, table):
+    name = draw(extra_names)
+    position = draw(st.integers(0, 3))
+    header = list(CSV_COLUMNS)
+    header.insert(position, name)
+    rows = [row[:position] + ["1.0"] + row[position:] for row in _rows(*table)]
+    return _text(header, rows).encode(), error("line 1", f"unexpected column {name!r}")
+
+
+def m_renamed_column(draw, table):
+    index = draw(st.integers(0, 2))
+    header = list(CSV_COLUMNS)
+    header[index] = draw(extra_names)
+    return _text(header, _rows(*table)).encode(), error("line 1", "header must be exactly")
+
+
+def m_reordered_columns(draw, table):
+    order = draw(st.permutations([0, 1, 2]).filter(lambda p: list(p) != [0, 1, 2]))
+    header = [CSV_COLUMNS[i] for i in order]
+    rows = [[row[i] for i in order] for row in _rows(*table)]
+    return _text(header, rows).encode(), error("line 1", "wrong order")
+
+
+def m_no_header(draw, table):
+    return _text(None, _rows(*table)).encode(), error("line 1", "header is missing")
+
+
+def m_non_finite_cell(draw, table):
+    rows = _rows(*table)
+    row, column = draw(st.integers(0, len(rows) - 1)), draw(st.integers(0, 2))
+    rows[row][column] = draw(st.sampled_from(["nan", "NaN", "-nan", "inf", "-inf", "Infinity", "1e309", "-1e400"]))
+    expect = error(f"line {row + 2}", f"{CSV_COLUMNS[column]} = ", "is not finite")
+    return _text(list(CSV_COLUMNS), rows).encode(), expect
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+junk_cells = st.text(
+    st.characters(blacklist_characters=",\r\n\x00", blacklist_categories=("Cs",)), max_size=12
+).filter(lambda s: not _is_float(s.strip()))
+
+
+def m_text_cell(draw, table):
+    rows = _rows(*table)
+    row, column = draw(st.integers(0, len(rows) - 1)), draw(st.integers(0, 2))
+    rows[row][column] = draw(junk_cells)
+    expect = error(f"line {row + 2}", f"{CSV_COLUMNS[column]} = ", "not a number")
+    return _text(list(CSV_COLUMNS), rows).encode(), expect
+
+
+def m_time_not_increasing(draw, table):
+    time_s = table[0].copy()
+    k = draw(st.integers(1, time_s.size - 1))
+    if draw(st.booleans()):
+        time_s[k] = time_s[k - 1]  # a repeated sample
+    else:
+        time_s[k - 1], time_s[k] = time_s[k], time_s[k - 1]  # out of order
+    text = measurement_csv_text(time_s, table[1], table[2])
+    return text.encode(), error(f"line {k + 2}", "does not increase")
+
+
+def m_irregular_time(draw, table):
+    time_s, voltage, displacement = table
+    if time_s.size < 4:
+        time_s = time_s[0] + np.arange(6) * (time_s[1] - time_s[0])
+        voltage, displacement = np.zeros(6), np.zeros(6)
+    step = (time_s[-1] - time_s[0]) / (time_s.size - 1)
+    k = draw(st.integers(1, time_s.size - 1))
+    shifted = time_s.copy()
+    shifted[k] += draw(st.sampled_from([-1.0, 1.0])) * draw(st.floats(0.05, 0.45)) * step
+    text = measurement_csv_text(shifted, voltage, displacement)
+    return text.encode(), error(f"line {k + 2}", "uniformly spaced")
+
+
+def m_empty(draw, table):
+    return draw(st.sampled_from([b"", b"\n", b" \n\n", b"\r\n\r\n", "\ufeff".encode()])), error("empty file")
+
+
+def m_header_only(draw, table):
+    return (HEADER + draw(st.sampled_from(["", "\n", "\r\n", "\n\n  \n"]))).encode(), error("header only")
+
+
+def m_one_row(draw, table):
+    return _text(list(CSV_COLUMNS), _rows(*table)[:1]).encode(), error("line 2", "the only data row")
+
+
+def m_not_utf8(draw, table):
+    rows = _rows(*table)
+    row = draw(st.integers(0, len(rows) - 1))
+    lines = [HEADER.encode()] + [",".join(r).encode() for r in rows]
+    lines[row + 1] += b" " + draw(st.sampled_from([b"\xb5m", b"\xe9", b"\xff", b"\xc3", b"\x80"]))
+    return b"\n".join(lines) + b"\n", error(f"line {row + 2}", "not UTF-8")
+
+
+def m_nul_byte(draw, table):
+    content = measurement_csv_text(*table).encode()
+    position = draw(st.integers(0, len(content)))
+    return content[:position] + b"\x00" + content[position:], error("binary content")
+
+
+def m_utf16(draw, table):
+    return measurement_csv_text(*table).encode("utf-16"), error("binary content")
+
+
+def m_trailing_comma(draw, table):
+    rows = _rows(*table)
+    if draw(st.booleans()):
+        text = _text(list(CSV_COLUMNS) + [""], [r + [""] for r in rows])
+        return text.encode(), error("line 1", "trailing comma")
+    return _text(list(CSV_COLUMNS), [r + [""] for r in rows]).encode(), error("line 2", "trailing comma")
+
+
+def m_other_separator(draw, table):
+    separator = draw(st.sampled_from([";", "\t"]))
+    return _text(list(CSV_COLUMNS), _rows(*table), separator=separator).encode(), error("line 1", "separated by commas")
+
+
+def m_blank_line_inside(draw, table):
+    rows = _rows(*table)
+    k = draw(st.integers(1, len(rows) - 1))
+    lines = [HEADER] + [",".join(r) for r in rows]
+    lines.insert(k + 1, draw(st.sampled_from(["", " ", "\t"])))
+    return ("\n".join(lines) + "\n").encode(), error(f"line {k + 2}", "empty row")
+
+
+def m_decimal_comma(draw, table):
+    rows = _rows(*table)
+    row = draw(st.integers(0, len(rows) - 1))
+    rows[row][1] = rows[row][1].replace(".", ",") if "." in rows[row][1] else rows[row][1] + ",5"
+    return _text(list(CSV_COLUMNS), rows).encode(), error(f"line {row + 2}", "4 cell(s)")
+
+
+def m_time_span_overflows(draw, table):
+    time_s = np.linspace(-1.0, 1.0, table[0].size) * 1.7e308  # finite stamps, the span overflows
+    return measurement_csv_text(time_s, table[1], table[2]).encode(), error("time_s", "overflows")
+
+
+CSV_MUTATIONS = [
+    m_tolerated_formatting, m_extreme_finite_values, m_number_only_python_reads, m_missing_column, m_extra_column,
+    m_renamed_column,
+    m_reordered_columns, m_no_header, m_non_finite_cell, m_text_cell, m_time_not_increasing, m_irregular_time,
+    m_empty, m_header_only, m_one_row, m_not_utf8, m_nul_byte, m_utf16, m_trailing_comma, m_other_separator,
+    m_blank_line_inside, m_decimal_comma, m_time_span_overflows,
+]
+
+
+@st.composite
+def csv_cases(draw) -> tuple[str, bytes, Expect]:
+    mutation = draw(st.sampled_from(CSV_MUTATIONS))
+    content, expect = mutation(draw, draw(tables()))
+    return mutation.__name__, content, expect
+
+
+def _write(directory: Path, name: str, content: bytes | str) -> Path:
+    path = directory / name
+    path.write_bytes(content if isinstance(content, bytes) else content.encode("utf-8"))
+    return path
+
+
+def check_csv_case(directory: Path, content: bytes, expect: Expect) -> None:
+    """Read a generated CSV (with a valid sidecar) and check the outcome."""
+    csv_path = _write(directory, "run.csv", content)
+    _write(directory, "run.toml", SIDECAR)
+    if expect.valid:
+        read = read_measurement(csv_path)
+        for column, expected in zip(CSV_COLUMNS, expect.arrays):
+            assert getattr(read, column).tobytes() == np.asarray(expected, dtype=float).tobytes(), column
+    else:
+        _assert_one_line_error(lambda: read_measurement(csv_path), csv_path, expect.fragments)
+
+
+@settings(max_examples=CSV_EXAMPLES, **FUZZ)
+@given(case=csv_cases())
+def test_generated_csv(tmp_path, case):
+    _, content, expect = case
+    check_csv_case(tmp_path, content, expect)
+
+
+# ---------------------------------------------------------------------------------------------
+# TOML: sidecar and config mutations
+# ---------------------------------------------------------------------------------------------
+
+GEOMETRY_KEYS = [("beam", "length_m"), ("beam", "linear_density_kg_m"), ("patch", "start_m"), ("patch", "end_m"),
+                 ("sensor", "position_m")]
+WRONG_TYPES = [('"0.4"', "string"), ("true", "boolean"), ("[0.4]", "array"), ("1979-05-27", "date"),
+               ("{ value = 0.4 }", "table")]
+
+
+def _set(text: str, table: str, key: str, value: str | None) -> str:
+    """Replace (or with None delete) ``key = ...`` inside ``[table]``."""
+    lines = text.splitlines()
+    current = None
+    for i, line in enumerate(lines):
+        stripped = line.strip()
+        if stripped.startswith("["):
+            current = stripped.strip("[]").strip()
+        elif current == table and stripped.split("=")[0].strip() == key:
+            if value is None:
+                del lines[i]
+            else:
+                lines[i] = f"{key} = {value}"
+            return "\n".join(lines) + "\n"
+    raise AssertionError(f"no [{table}] {key}")  # pragma: no cover
+
+
+def t_tolerated(draw, text):
+    """CRLF, BOM, comments and integer values are fine."""
+    newline = draw(st.sampled_from(["\n", "\r\n"]))
+    text = _set(text, "beam", "length_m", "1")
+    text = text.replace("\n", f"  # comment{newline}" if draw(st.booleans()) else newline)
+    return (draw(st.sampled_from(["", "\ufeff"])) + text).encode(), Expect(True)
+
+
+def t_missing_key(draw, text):
+    table, key = draw(st.sampled_from(GEOMETRY_KEYS))
+    return _set(text, table, key, None).encode(), error(f"[{table}] {key}: missing key")
+
+
+def t_missing_table(draw, text):
+    table = draw(st.sampled_from(["beam", "patch", "sensor"]))
+    lines, out, skipping = text.splitlines(), [], False
+    for line in lines:
+        if line.startswith("["):
+            skipping = line == f"[{table}]"
+        if not skipping:
+            out.append(line)
+    return ("\n".join(out) + "\n").encode(), error(f"[{table}]: missing table")
+
+
+def t_wrong_type(draw, text):
+    table, key = draw(st.sampled_from(GEOMETRY_KEYS))
+    value, kind = draw(st.sampled_from(WRONG_TYPES))
+    return _set(text, table, key, value).encode(), error(f"[{table}] {key}: must be a number, got {kind}")
+
+
+def t_not_finite(draw, text):
+    table, key = draw(st.sampled_from(GEOMETRY_KEYS))
+    value = draw(st.sampled_from(["nan", "inf", "-inf", "+nan", "1" + "0" * 400, "-1" + "0" * 400]))
+    return _set(text, table, key, value).encode(), error(f"[{table}] {key}: must be finite")
+
+
+def t_too_many_digits(draw, text):
+    table, key = draw(st.sampled_from(GEOMETRY_KEYS))
+    return _set(text, table, key, "1" * 5000).encode(), error("more than 4300 digits")
+
+
+def t_not_positive(draw, text):
+    key = draw(st.sampled_from(["length_m", "linear_density_kg_m"]))
+    value = draw(st.sampled_from(["0", "0.0", "-0.0", "-1", "-0.4573", "-1e308"]))
+    return _set(text, "beam", key, value).encode(), error(f"[beam] {key}: must be > 0")
+
+
+def t_outside_model_range(draw, text):
+    key, (low, high) = draw(st.sampled_from([("length_m", LENGTH_RANGE_M),
+                                             ("linear_density_kg_m", LINEAR_DENSITY_RANGE_KG_M)]))
+    value = draw(st.sampled_from([low / 2, high * 2, 1e308, 5e-324]))
+    return _set(text, "beam", key, repr(value)).encode(), error(f"[beam] {key}: must be between")
+
+
+def t_patch_outside(draw, text):
+    start, end = draw(st.sampled_from([(0.15, 0.5), (0.3, 0.2), (0.2, 0.2), (0.0, 1e308), (0.4573, 0.46)]))
+    content = _set(_set(text, "patch", "start_m", repr(start)), "patch", "end_m", repr(end))
+    return content.encode(), error("[patch]", "patch must satisfy")
+
+
+def t_negative_position(draw, text):
+    table, key = draw(st.sampled_from([("patch", "start_m"), ("patch", "end_m"), ("sensor", "position_m")]))
+    return _set(text, table, key, "-0.1").encode(), error(f"[{table}] {key}: must be >= 0")
+
+
+def t_sensor_outside(draw, text):
+    value = draw(st.sampled_from(["0", "0.0", "0.46", "1e308", "0.4574"]))
+    return _set(text, "sensor", "position_m", value).encode(), error("[sensor]", "sensor position_m must lie in")
+
+
+def t_unknown_key(draw, text):
+    table = draw(st.sampled_from(["beam", "patch", "sensor"]))
+    key = draw(st.sampled_from(["width_m", "lenght_m", "position", "x"]))
+    return text.replace(f"[{table}]\n", f"[{table}]\n{key} = 1.0\n").encode(), error(f"[{table}] {key}: unknown key")
+
+
+def t_unknown_table(draw, text):
+    table = draw(st.sampled_from(["parameters", "beams", "Beam", "extra"]))
+    return (text + f"[{table}]\nx = 1\n").encode(), error(f"[{table}]: unknown table")
+
+
+def t_bad_title(draw, text):
+    value = draw(st.sampled_from(["3", "true", "[1]", "1979-05-27"]))
+    return text.replace('title = "bench test"', f"title = {value}").encode(), error("title: must be a string")
+
+
+def t_bad_nominal(draw, text):
+    name, value, fragment = draw(st.sampled_from([
+        ("bending_stiffnes_Nm2", "0.5", "unknown parameter"),
+        ("air_damping_Ns_m2", "-0.01", "must be a positive finite number"),
+        ("air_damping_Ns_m2", "0", "must be a positive finite number"),
+        ("tip_mass_kg", "nan", "must be a positive finite number"),
+        ("tip_mass_kg", "'1 g'", "must be a number"),
+        ("kelvin_voigt_Nm2s", "1" + "0" * 400, "must be a positive finite number"),
+    ]))
+    return (text + f"[nominal]\n{name} = {value}\n").encode(), error(f"[nominal] {name}: {fragment}")
+
+
+def t_syntax_error(draw, text):
+    junk = draw(st.sampled_from(["length_m = 0.45 m", "= 3", "[beam", "x = [1, 2", 'x = "unterminated', "a.b.c"]))
+    return (text + junk + "\n").encode(), error("TOML syntax error")
+
+
+def t_nested_too_deep(draw, text):
+    depth = draw(st.integers(2000, 6000))
+    return (text + "x = " + "[" * depth + "]" * depth + "\n").encode(), Expect(False, [])
+
+
+def t_bytes(draw, text):
+    content, fragment = draw(st.sampled_from([
+        (text.replace("bench", "b\xe9nch").encode("latin-1"), "not UTF-8"),
+        (text.encode("utf-16"), "binary content"),
+        (text.encode()[:40] + b"\x00" + text.encode()[40:], "binary content"),
+    ]))
+    return content, error(fragment)
+
+
+SIDECAR_MUTATIONS = [
+    t_tolerated, t_missing_key, t_missing_table, t_wrong_type, t_not_finite, t_too_many_digits, t_not_positive,
+    t_outside_model_range, t_patch_outside, t_negative_position, t_sensor_outside, t_unknown_key, t_unknown_table,
+    t_bad_title, t_bad_nominal, t_syntax_error, t_nested_too_deep, t_bytes,
+]
+
+
+@st.composite
+def sidecar_cases(draw, base: str = SIDECAR):
+    mutation = draw(st.sampled_from(SIDECAR_MUTATIONS))
+    content, expect = mutation(draw, base)
+    return mutation.__name__, content, expect
+
+
+@settings(max_examples=SIDECAR_EXAMPLES, **FUZZ)
+@given(case=sidecar_cases())
+def test_generated_sidecar(tmp_path, case):
+    _, content, expect = case
+    path = _write(tmp_path, "run.toml", content)
+    _write(tmp_path, "run.csv", HEADER + "\n0,0,0\n0.001,1,1e-6\n")
+    if expect.valid:
+        title, geometry, nominal = read_sidecar(path)
+        assert isinstance(geometry, BeamGeometry) and read_measurement(path).sample_count == 2
+    else:
+        _assert_one_line_error(lambda: read_sidecar(path), path, expect.fragments)
+        _assert_one_line_error(lambda: read_measurement(path), path, expect.fragments)
+
+
+CONFIG = SIDECAR + CONFIG_EXTRA
+
+
+def c_sampling(draw, text):
+    key, value, fragment = draw(st.sampled_from([
+        ("rate_Hz", "0", "[sampling] rate_Hz: must be > 0"),
+        ("rate_Hz", "-1000", "[sampling] rate_Hz: must be > 0"),
+        ("rate_Hz", "1e308", "the limit is"),
+        ("rate_Hz", "nan", "[sampling] rate_Hz: must be finite"),
+        ("rate_Hz", '"1 kHz"', "[sampling] rate_Hz: must be a number"),
+        ("duration_s", "1e-9", "[sampling]: rate_Hz x duration_s"),
+        ("duration_s", "1e300", "the limit is"),
+        ("duration_s", "1" + "0" * 400, "[sampling] duration_s: must be finite"),
+    ]))
+    return _set(text, "sampling", key, value).encode(), error(fragment)
+
+
+def c_sampling_overflow(draw, text):
+    duration = draw(st.sampled_from(["1e308", "2e10"]))
+    text = _set(_set(text, "sampling", "rate_Hz", "1e308"), "sampling", "duration_s", duration)
+    return text.encode(), error("[sampling]: rate_Hz x duration_s = inf samples")
+
+
+def c_sampling_extras(draw, text):
+    line, fragment = draw(st.sampled_from([
+        ("seed = -1", "[sampling] seed: must be >= 0"),
+        ("seed = 1.5", "[sampling] seed: must be an integer"),
+        ("noise_m = -1e-6", "[sampling] noise_m: must be >= 0"),
+        ("noise_m = inf", "[sampling] noise_m: must be finite"),
+        ("rate = 1000", "[sampling] rate: unknown key"),
+    ]))
+    return text.replace("[sampling]\n", f"[sampling]\n{line}\n").encode(), error(fragment)
+
+
+def c_parameters(draw, text):
+    key, value, fragment = draw(st.sampled_from([
+        ("bending_stiffness_Nm2", "-0.491", "must be a positive finite number"),
+        ("bending_stiffness_Nm2", "0", "must be a positive finite number"),
+        ("bending_stiffness_Nm2", "1" + "0" * 400, "must be a positive finite number"),
+        ("patch_coupling_NmV", "nan", "must be a positive finite number"),
+        ("patch_coupling_NmV", "'0.017'", "must be a number"),
+        ("patch_coupling_NmV", None, "patch_coupling_NmV: missing"),
+    ]))
+    return _set(text, "parameters", key, value).encode(), error("[parameters]", fragment)
+
+
+def c_excitation(draw, text):
+    old, new, fragment = draw(st.sampled_from([
+        ('kind = "pulse"', 'kind = "square"', "unknown kind 'square'"),
+        ("width_s = 0.01", "width_s = 0", "[excitation] width_s: must be > 0"),
+        ("width_s = 0.01", "", "[excitation] width_s: missing key"),
+        ("width_s = 0.01", "width_s = 0.01\nfrequency_Hz = 3", "not used by a 'pulse' excitation"),
+        ("amplitude_V = 1.0", "amplitude_V = 1e999", "[excitation] amplitude_V: must be finite"),
+        ("amplitude_V = 1.0", "amplitude_V = -inf", "[excitation] amplitude_V: must be finite"),
+        ('kind = "pulse"\namplitude_V = 1.0\nwidth_s = 0.01', 'kind = "file"\nfile = "missing.csv"', "not found"),
+        ('kind = "pulse"\namplitude_V = 1.0\nwidth_s = 0.01', 'kind = "file"\nfile = ""', "is a directory"),
+        ('kind = "pulse"\namplitude_V = 1.0\nwidth_s = 0.01', 'kind = "file"\nfile = "/dev/zero"',
+         "not a regular file"),
+    ]))
+    return text.replace(old, new).encode(), Expect(False, [fragment])
+
+
+def c_model(draw, text):
+    value, fragment = draw(st.sampled_from([
+        ("1", "[model] intervals: must be >= 2"), ("401", "[model] intervals: must be <= 400"),
+        ("16.0", "[model] intervals: must be an integer"), ("1" + "0" * 400, "[model] intervals: must be <= 400"),
+    ]))
+    return (text + f"[model]\nintervals = {value}\n").encode(), error(fragment)
+
+
+def c_geometry(draw, text):
+    mutation = draw(st.sampled_from([m for m in SIDECAR_MUTATIONS if m not in (t_unknown_table, t_tolerated)]))
+    return mutation(draw, text)
+
+
+CONFIG_MUTATIONS = [c_sampling, c_sampling_overflow, c_sampling_extras, c_parameters, c_excitation, c_model, c_geometry]
+
+
+@settings(max_examples=CONFIG_EXAMPLES, **FUZZ)
+@given(data=st.data())
+def test_generated_config(tmp_path, data):
+    mutation = data.draw(st.sampled_from(CONFIG_MUTATIONS))
+    content, expect = mutation(data.draw, CONFIG)
+    path = _write(tmp_path, "sim.toml", content)
+    assert not expect.valid
+    message = _assert_one_line_error(lambda: load_config(path), path, [])
+    for fragment in expect.fragments:
+        assert fragment in message, (fragment, message)
+
+
+def test_the_unmutated_files_are_valid(tmp_path):
+    """The bases the mutations start from read fine (so every error above is the mutation's)."""
+    _write(tmp_path, "run.toml", SIDECAR)
+    _write(tmp_path, "run.csv", HEADER + "\n0,0,0\n0.001,1,1e-6\n")
+    assert read_measurement(tmp_path / "run").sample_count == 2
+    config = load_config(_write(tmp_path, "sim.toml", CONFIG))
+    assert config.sampling.sample_count == 500
+
+
+# ---------------------------------------------------------------------------------------------
+# anything at all: only BeamInputError may escape
+# ---------------------------------------------------------------------------------------------
+
+
+def _flipped(content: bytes):
+    """Strategy: ``content`` with a few bytes replaced, inserted or deleted."""
+    edits = st.lists(st.tuples(st.integers(0, len(content)), st.sampled_from(["set", "insert", "delete"]),
+                               st.integers(0, 255)), min_size=1, max_size=4)
+
+    def apply(changes):
+        data = bytearray(content)
+        for position, kind, byte in changes:
+            position = min(position, len(data))
+            if kind == "insert":
+                data[position:position] = bytes([byte])
+            elif data and position < len(data):
+                if kind == "set":
+                    data[position] = byte
+                else:
+                    del data[position]
+        return bytes(data)
+
+    return edits.map(apply)
+
+
+CELL_TOKENS = [
+    "0", "0.001", "1.5", "-0.0", "1e308", "-1.7976931348623157e308", "1e309", "5e-324", "nan", "-inf", "", " ",
+    "1_000", "\u0661\u0662", "\uff11", "0x1p3", "abc", "\ufeff1", "+1", "--1", "1e", ".", "1.", ".5", "1d3",
+    "Infinity", "\u00a01", "1\u2009", "1e-400", "\x0b1", "\u20281",
+]
+
+
+@st.composite
+def token_csv(draw) -> bytes:
+    """A CSV that is nearly right: mostly plain numbers, now and then a tricky cell or row."""
+    number = st.floats(-1e3, 1e3).map(repr)
+    cell = st.one_of(number, number, number, number, st.sampled_from(CELL_TOKENS))
+    width = st.sampled_from([3, 3, 3, 3, 3, 3, 2, 4])
+    header = draw(st.sampled_from([HEADER] * 6 + [HEADER + ",", " time_s ;voltage_V", "\ufeff" + HEADER, ""]))
+    count = draw(st.integers(0, 8))
+    rows = [[repr(k * 0.001)] + [draw(cell) for _ in range(draw(width) - 1)] for k in range(count)]
+    if rows and draw(st.booleans()):
+        rows[draw(st.integers(0, count - 1))][0] = draw(st.sampled_from(CELL_TOKENS))
+    newline = draw(st.sampled_from(["\n", "\r\n", "\r"]))
+    return newline.join([header] + [",".join(r) for r in rows]).encode("utf-8")
+
+
+TOML_KEYS = [
+    "length_m", "linear_density_kg_m", "start_m", "end_m", "position_m", "title", "rate_Hz", "duration_s", "seed",
+    "noise_m", "kind", "amplitude_V", "width_s", "file", "intervals", "bending_stiffness_Nm2", "patch_coupling_NmV",
+    "tip_mass_kg", "x",
+]
+TOML_VALUES = [
+    "0.4573", "1", "0", "-1", "1e308", "-1e308", "5e-324", "nan", "inf", "1" + "0" * 400, "true", '"x"', '"pulse"',
+    '"file"', '"/dev/null"', '""', "[1, 2]", "1979-05-27", "{ a = 1 }", "[" * 50 + "]" * 50, "2e10", "0.15",
+    "0.25", "16", "401", "-0", "0x10", "1_000", "9223372036854775808",
+]
+
+
+@st.composite
+def token_toml(draw) -> bytes:
+    """The valid sidecar or config with one to three values replaced by tricky ones, or a key added."""
+    lines = draw(st.sampled_from([SIDECAR, CONFIG])).splitlines()
+    for _ in range(draw(st.integers(1, 3))):
+        index = draw(st.sampled_from([i for i, line in enumerate(lines) if "=" in line]))
+        value = draw(st.sampled_from(TOML_VALUES))
+        if draw(st.integers(0, 4)) == 0:
+            lines.insert(index, f"{draw(st.sampled_from(TOML_KEYS))} = {value}")
+        else:
+            lines[index] = f"{lines[index].split('=')[0].strip()} = {value}"
+    return "\n".join(lines).encode("utf-8")
+
+
+VALID_CSV = measurement_csv_text(np.arange(6) / 1000.0, np.linspace(0, 1, 6), np.linspace(0, 1e-6, 6)).encode()
+junk = st.one_of(
+    st.binary(max_size=300),
+    st.text(max_size=300).map(lambda s: s.encode("utf-8", "surrogatepass")),
+    st.text(st.characters(codec="utf-8"), max_size=300).map(str.encode),
+    _flipped(VALID_CSV),
+    _flipped(SIDECAR.encode()),
+    _flipped(CONFIG.encode()),
+    token_csv(), token_csv(), token_csv(),
+    token_toml(), token_toml(), token_toml(),
+)
+
+
+def _only_beam_input_error(call) -> None:
+    try:
+        call()
+    except BeamInputError as exc:
+        message = str(exc)
+        assert message and "\n" not in message, repr(message)
+
+
+@settings(max_examples=JUNK_EXAMPLES, **FUZZ)
+@given(content=junk, target=st.sampled_from(["csv", "sidecar", "config"]))
+def test_arbitrary_content_raises_only_beam_input_error(tmp_path, content, target):
+    csv_content, toml_content = (content, SIDECAR.encode()) if target == "csv" else (VALID_CSV, content)
+    _write(tmp_path, "run.csv", csv_content)
+    path = _write(tmp_path, "run.toml", toml_content)
+    _only_beam_input_error(lambda: read_measurement(tmp_path / "run.csv"))
+    _only_beam_input_error(lambda: read_sidecar(path))
+    _only_beam_input_error(lambda: load_config(path))
+
+
+@pytest.mark.parametrize("given_path", ["", ".", "/", "..", "a" * 5000, "missing/dir/run", "run\x00.csv"])
+def test_odd_paths_give_a_beam_input_error(tmp_path, given_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for reader in (read_measurement, read_sidecar, load_config):
+        _only_beam_input_error(lambda: reader(given_path))
+        with pytest.raises(BeamInputError):
+            reader(given_path)
+
+
+def test_a_fifo_or_device_is_refused_without_blocking(tmp_path):
+    fifo = tmp_path / "run.toml"
+    import os
+
+    os.mkfifo(fifo)
+    (tmp_path / "run.csv").write_text(HEADER + "\n0,0,0\n1,0,0\n")
+    with pytest.raises(BeamInputError, match="not a regular file"):
+        read_measurement(tmp_path / "run.csv")
+    with pytest.raises(BeamInputError, match="not a regular file"):
+        load_config("/dev/zero")
+
+
+# ---------------------------------------------------------------------------------------------
+# valid files round-trip exactly
+# ---------------------------------------------------------------------------------------------
+
+
+@st.composite
+def geometries(draw) -> BeamGeometry:
+    length = draw(st.floats(*LENGTH_RANGE_M))
+    density = draw(st.floats(*LINEAR_DENSITY_RANGE_KG_M))
+    a, b = sorted(draw(st.lists(st.floats(0.0, 1.0), min_size=2, max_size=2, unique=True)))
+    assume(a * length < b * length)
+    sensor = draw(st.floats(1e-6, 1.0))
+    return BeamGeometry(length, density, a * length, b * length, sensor * length)
+
+
+nominal_values = st.dictionaries(
+    st.sampled_from(["bending_stiffness_Nm2", "patch_coupling_NmV", "air_damping_Ns_m2", "tip_mass_kg"]),
+    st.floats(min_value=5e-324, max_value=1.7976931348623157e308),
+)
+
+
+@settings(max_examples=ROUND_TRIP_EXAMPLES, **FUZZ)
+@given(table=tables(max_rows=50), geometry=geometries(), title=st.text(max_size=40), nominal=nominal_values)
+def test_valid_files_round_trip_bit_exact(tmp_path, table, geometry, title, nominal):
+    written = write_measurement(tmp_path / "rt", table, geometry=geometry, title=title, nominal=nominal)
+    read = read_measurement(tmp_path / "rt.csv")
+    for column, expected in zip(CSV_COLUMNS, table):
+        assert getattr(read, column).tobytes() == expected.tobytes(), column
+    assert (read.title, read.geometry, read.nominal) == (title, geometry, nominal)
+    assert read.sample_count == written.sample_count
+    assert tomllib.loads((tmp_path / "rt.toml").read_text(encoding="utf-8"))["title"] == title
+    assert math.isfinite(read.rate_Hz) and read.sample_interval_s > 0
+
+
+def test_a_title_utf8_cannot_store_is_refused_before_writing(tmp_path):
+    geometry = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)
+    with pytest.raises(BeamInputError, match="UTF-8 cannot store"):
+        write_measurement(tmp_path / "x", (np.arange(3.0), np.zeros(3), np.zeros(3)), geometry=geometry,
+                          title="bad \ud800 surrogate")
+    assert list(tmp_path.iterdir()) == []
