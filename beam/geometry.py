@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 
 from beam.errors import BeamInputError
+from beam.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M
 
 
 @dataclass(frozen=True)
@@ -35,10 +36,13 @@ class BeamGeometry:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise BeamInputError(f"{name} must be a finite number, got {value!r}")
-        if self.length_m <= 0:
-            raise BeamInputError(f"length_m must be positive, got {self.length_m}")
-        if self.linear_density_kg_m <= 0:
-            raise BeamInputError(f"linear_density_kg_m must be positive, got {self.linear_density_kg_m}")
+        for name, (low, high), unit in (("length_m", LENGTH_RANGE_M, "m"),
+                                        ("linear_density_kg_m", LINEAR_DENSITY_RANGE_KG_M, "kg/m")):
+            value = getattr(self, name)
+            if value <= 0:
+                raise BeamInputError(f"{name} must be positive, got {value}")
+            if not low <= value <= high:
+                raise BeamInputError(f"{name} must lie in [{low:g}, {high:g}] {unit} (where the model is finite), got {value:g}")
         if not 0 <= self.patch_start_m < self.patch_end_m <= self.length_m:
             raise BeamInputError(
                 f"patch must satisfy 0 <= start_m < end_m <= length_m = {self.length_m}, "

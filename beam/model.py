@@ -231,7 +231,11 @@ class BeamModel:
             rows[:, n_mass + j, None, None] * getattr(self.parts, layout.terms[i].part)
             for j, i in enumerate(layout.stiffness)
         )
-        omega2, shapes = modal.undamped_modes(mass, stiff)
+        try:
+            with np.errstate(over="raise", invalid="raise"):
+                omega2, shapes = modal.undamped_modes(mass, stiff)
+        except (np.linalg.LinAlgError, FloatingPointError, OverflowError) as exc:
+            raise BeamInputError(f"the beam's mass and stiffness matrices cannot be solved ({exc}); check the geometry and values") from None
         kept = shapes[:, :, :n_modes]
         # static (mode-acceleration) correction: the quasi-static response of the discarded
         # modes, sum over them of (c.phi)(phi.f)/omega² (= c K⁻¹ f minus the retained part),
@@ -338,6 +342,11 @@ class BeamModel:
                 reduced["omega2"], reduced["damping"], reduced["force"], reduced["sensor"], sample_interval_s, voltage
             )
             out += static[:, :1] * voltage
+        if not np.isfinite(out).all():
+            raise BeamInputError(
+                "the response is not finite (parameters or voltage out of any physical range, or the tip spring "
+                "too stiff for the amplitude); check the values"
+            )
         return out if batched else out[0]
 
     def response_full(

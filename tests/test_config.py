@@ -157,7 +157,7 @@ BAD_CONFIGS = [
     ("float seed", CONFIG.replace("seed = 7", "seed = 7.5"), "[sampling] seed: must be an integer, got float 7.5"),
     ("negative seed", CONFIG.replace("seed = 7", "seed = -1"), "[sampling] seed: must be >= 0"),
     ("too few samples", CONFIG.replace("duration_s = 0.5", "duration_s = 0.001"), "[sampling]: rate_Hz x duration_s = 1"),
-    ("too many samples", CONFIG.replace("duration_s = 0.5", "duration_s = 1e6"), "the limit is 10,000,000"),
+    ("too many samples", CONFIG.replace("duration_s = 0.5", "duration_s = 1e6"), "the limit is 1,000,000"),
     ("intervals too small", CONFIG + "[model]\nintervals = 1\n", "[model] intervals: must be >= 2"),
     ("intervals float", CONFIG + "[model]\nintervals = 16.0\n", "[model] intervals: must be an integer"),
     ("unknown model key", CONFIG + "[model]\nelements = 16\n", "[model] elements: unknown key"),

@@ -24,6 +24,7 @@ import numpy as np
 
 from beam.effects import PARAMETER_SPECS, parse_effects
 from beam.errors import BeamInputError
+from beam.limits import check_calibration_record
 from beam.inference import AR1_COEFFICIENT, LIKELIHOODS, NOISE_SD, LogNormal, LogUniform, Parameter, Problem, Uniform
 from beam.measurement import Measurement
 from beam.model import BeamModel
@@ -168,6 +169,7 @@ def make_setup(
         raise BeamInputError(f"unknown likelihood {likelihood!r}; expected one of {', '.join(LIKELIHOODS)}")
     effects = parse_effects(effects)
     window = resolve_window(measurement, window)
+    check_calibration_record(measurement, window)
     model = BeamModel(measurement.geometry, effects, intervals)
     if isinstance(modes, bool) or int(modes) != modes or not 1 <= modes <= model.size:
         raise BeamInputError(f"modes must be between 1 and {model.size} (the mesh holds {model.size} modes), got {modes}")

@@ -24,6 +24,7 @@ from beam.calibration.initial import initial_guesses
 from beam.calibration.problem import DEFAULT_EFFECTS, DEFAULT_MODES, BeamCalibrationSetup, build_problem, make_setup
 from beam.errors import BeamInputError
 from beam.fileio import atomic_write_texts
+from beam.limits import MAX_CALIBRATION_SAMPLES, decimate_measurement
 from beam.inference import NOISE_SD, EnsembleRun, LaplaceResult, PosteriorResult, PredictiveBands, Problem, Progress, preview
 from beam.inference.summaries import summarize_draws
 from beam.measurement import Measurement
@@ -183,7 +184,12 @@ def prepare(
     likelihood: str = "iid",
     extra_guesses: Iterable[dict[str, float]] = (),
 ) -> tuple[BeamCalibrationSetup, Problem]:
-    """Validated setup and inference problem (spectral initial guesses, then ``extra_guesses``)."""
+    """Validated setup and inference problem (spectral initial guesses, then ``extra_guesses``).
+
+    A record longer than :data:`beam.limits.MAX_CALIBRATION_SAMPLES` is decimated first (anti-
+    aliased; see :mod:`beam.limits`): ``setup.measurement`` is then the decimated record.
+    """
+    measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
     setup = make_setup(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)
     extra = [dict(g) for g in extra_guesses]
     problem = build_problem(setup, initial_guesses=lambda p: best_guesses(p, initial_guesses(p, setup) + extra))

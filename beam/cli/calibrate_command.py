@@ -45,10 +45,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.calibration import calibrate  # heavy imports only once the options are valid
     from beam.measurement import read_measurement
 
-    measurement = read_measurement(args.data)
+    measurement = read_measurement(args.data)  # a bad file fails before the heavy imports
+    from beam.calibration import calibrate
     result = calibrate(
         measurement, window=args.window, effects=args.effects, modes=args.modes, likelihood=args.likelihood,
         walkers=args.walkers, steps=args.steps, seed=args.seed,

@@ -29,11 +29,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.diagnosis import diagnose  # heavy imports only once the options are valid
     from beam.measurement import read_measurement
 
-    report = diagnose(read_measurement(args.data), window=args.window, modes=args.modes, base=args.base,
-                      ladder_mcmc=args.mcmc, seed=args.seed)
+    measurement = read_measurement(args.data)  # a bad file fails before the heavy imports
+    from beam.diagnosis import diagnose
+
+    report = diagnose(measurement, window=args.window, modes=args.modes, base=args.base, ladder_mcmc=args.mcmc,
+                      seed=args.seed)
     summary = report.to_json()
     if args.json:
         json.dump(summary, sys.stdout, allow_nan=False)

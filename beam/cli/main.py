@@ -65,6 +65,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("error: interrupted\n")
         return 2
+    except Exception as exc:  # a bug: still one line, never a traceback for the user
+        sys.stderr.write(f"error: internal error ({type(exc).__name__}: {_one_line(str(exc))[:300]}); please report it\n")
+        return 2
 
 
 def _one_line(text: str) -> str:
