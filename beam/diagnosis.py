@@ -21,7 +21,7 @@ from beam import diagnostics as dx
 from beam.calibration import DEFAULT_EFFECTS, DEFAULT_MODES, CalibrationResult, calibration_preview
 from beam.errors import BeamInputError
 from beam.measurement import Measurement
-from beam.missing_physics import MATERIAL_LOG_EVIDENCE, LadderStep, Ranking, error_ladder, rank_candidates
+from beam.missing_physics import MATERIAL_LOG_EVIDENCE, Explainer, LadderStep, Ranking, error_ladder, rank_candidates
 
 
 @dataclass
@@ -131,6 +131,25 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
                           fingerprints, dx.explain(fingerprints), notes)
 
 
+def explainer(residuals: ResidualReport) -> Explainer:
+    """The sentence of each candidate: its fingerprint sentence, led by the evidence when the data
+    favour the effect but its fingerprint is weak (a tip mass and a soft clamp lower the modes
+    almost alike)."""
+    scores = dx.effect_scores(residuals.fingerprints)
+
+    def explain(effect: str, base_fit: CalibrationResult, fit: CalibrationResult) -> str:
+        sentence = residuals.explanations.get(effect, "")
+        gain = float(fit.laplace.log_evidence - base_fit.laplace.log_evidence)
+        ratio = base_fit.rmse_prediction_map / max(fit.rmse_prediction_map, 1e-300)
+        if gain >= MATERIAL_LOG_EVIDENCE and ratio > 1.25 and scores.get(effect, 0.0) < 1.0:
+            pattern = sentence.split(": no sign")[0]
+            return (f"the data favour it strongly (+{gain:.0f} nats, held-out error /{ratio:.1f}) although its "
+                    f"fingerprint is ambiguous: {pattern}")
+        return sentence
+
+    return explain
+
+
 def diagnose(
     measurement: Measurement,
     *,
@@ -144,21 +163,7 @@ def diagnose(
     t0 = time.perf_counter()
     base_result = calibration_preview(measurement, window=window, effects=base, modes=modes)
     residuals = residual_report(base_result)
-    scores = dx.effect_scores(residuals.fingerprints)
-
-    def explain(effect: str, base_fit: CalibrationResult, fit: CalibrationResult) -> str:
-        """The fingerprint sentence, led by the evidence when the data favour the effect but its
-        fingerprint is weak (a tip mass and a soft clamp lower the modes almost alike)."""
-        sentence = residuals.explanations.get(effect, "")
-        gain = float(fit.laplace.log_evidence - base_fit.laplace.log_evidence)
-        ratio = base_fit.rmse_prediction_map / max(fit.rmse_prediction_map, 1e-300)
-        if gain >= MATERIAL_LOG_EVIDENCE and ratio > 1.25 and scores.get(effect, 0.0) < 1.0:
-            pattern = sentence.split(": no sign")[0]
-            return (f"the data favour it strongly (+{gain:.0f} nats, held-out error /{ratio:.1f}) although its "
-                    f"fingerprint is ambiguous: {pattern}")
-        return sentence
-
     ranking = rank_candidates(measurement, base=base_result.setup.effects, modes=modes, base_result=base_result,
-                              explain=explain)
+                              explain=explainer(residuals))
     ladder = error_ladder(measurement, ranking, mcmc=ladder_mcmc, seed=seed)
     return DiagnosisReport(measurement, residuals, ranking, ladder, time.perf_counter() - t0)

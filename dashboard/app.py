@@ -58,6 +58,15 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
     views = {title: view(session=session) for title, view in VIEWS}
     tabs = pn.Tabs(*views.items(), sizing_mode="stretch_width", css_classes=["beam-views"])
 
+    def opened(event) -> None:  # the beam views start their (heavier) jobs when first opened
+        view = list(views.values())[event.new]
+        if hasattr(view, "activate"):
+            if view is not views.get("Beam calibration") and hasattr(views.get("Beam calibration"), "activate"):
+                views["Beam calibration"].activate()
+            view.activate()
+
+    tabs.param.watch(opened, "active")
+
     def start() -> None:
         session.toy.request(debounce=False)
         toy_jobs.schedule_warm_up(shared_pool())

@@ -44,10 +44,18 @@ class CornerPlot:
         Parameters (keys of ``ToyResult.draws``), default :data:`PAIR_PARAMETERS`.
     size : int
         Width and height of one panel in pixels.
+    labels : dict, optional
+        Axis label (with unit) of each name, default :data:`PARAMETER_LABELS` (the toy's).
+
+    Notes
+    -----
+    ``update`` reads ``result.draws`` (a dict of arrays) and ``result.truth`` (a dict, may be
+    empty) of its arguments.
     """
 
-    def __init__(self, names=PAIR_PARAMETERS, size: int = 170) -> None:
+    def __init__(self, names=PAIR_PARAMETERS, size: int = 170, labels: dict | None = None) -> None:
         self.names = tuple(names)
+        labels = PARAMETER_LABELS if labels is None else labels
         n = len(self.names)
         self.ranges = ranges = {name: Range1d(0.0, 1.0) for name in self.names}
         self.hist_ranges: dict[str, Range1d] = {}
@@ -62,7 +70,7 @@ class CornerPlot:
                     continue
                 fig = figure(width=size, height=size, x_range=ranges[xname], toolbar_location=None,
                              tools="pan,wheel_zoom,reset", min_border=4)
-                fig.xaxis.axis_label = PARAMETER_LABELS[xname] if i == n - 1 else None
+                fig.xaxis.axis_label = labels[xname] if i == n - 1 else None
                 fig.xaxis.major_label_text_font_size = "8pt"
                 fig.yaxis.major_label_text_font_size = "8pt"
                 fig.xaxis.ticker.desired_num_ticks = 3
@@ -70,7 +78,7 @@ class CornerPlot:
                 if i == j:
                     fig.y_range = self.hist_ranges[xname] = Range1d(0.0, 1.0)
                     fig.yaxis.visible = False
-                    fig.title.text = PARAMETER_LABELS[xname]
+                    fig.title.text = labels[xname]
                     fig.title.text_font_size = "9pt"
                     for key, color, alpha in (("pinned", PINNED, 0.35), ("current", CURRENT, 0.6)):
                         src = ColumnDataSource(_hist(np.array([])), name=f"corner-{xname}-{key}")
@@ -82,7 +90,7 @@ class CornerPlot:
                     self.spans[xname] = span
                 else:
                     fig.y_range = ranges[yname]
-                    fig.yaxis.axis_label = PARAMETER_LABELS[yname] if j == 0 else None
+                    fig.yaxis.axis_label = labels[yname] if j == 0 else None
                     for key, color, alpha in (("pinned", PINNED, 0.25), ("current", CURRENT, 0.25)):
                         src = ColumnDataSource({"x": [], "y": []})
                         fig.scatter("x", "y", source=src, color=color, alpha=alpha, size=2)

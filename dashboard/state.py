@@ -10,7 +10,7 @@ Layout
 :class:`SessionState`
     Owns the run slots (one per activity; all share the process-wide
     :class:`~dashboard.scheduler.RunPool`) and one sub-state per view: ``toy``
-    (:class:`ToyState`). The beam-calibration and diagnosis views will add theirs beside it.
+    (:class:`ToyState`), ``beam`` and ``diagnosis`` (:mod:`dashboard.beam_state`).
 :class:`ToyState`
     Inputs of the toy scenario (parameters with units in their labels, from which the view
     builds its widgets) and outputs: the result shown (preview, then intermediate MCMC
@@ -29,6 +29,7 @@ import param
 
 from beam.toy import KINDS, ToyScenario
 from dashboard import scheduler as sch
+from dashboard.beam_state import BeamState, DiagnosisState
 from dashboard.summaries import user_message
 from dashboard.toy_jobs import sweep_key, toy_run, toy_sweep
 
@@ -190,19 +191,28 @@ class SessionState(param.Parameterized):
         Quiet time after an input change before a run starts.
     toy_inputs : dict, optional
         Initial values of :class:`ToyState` parameters (e.g. ``{"target_ess": 300}``).
+    beam_inputs : dict, optional
+        Initial values of :class:`~dashboard.beam_state.BeamState` parameters.
     """
 
     toy = param.ClassSelector(class_=ToyState, constant=True, doc="State of the toy periodic model view.")
+    beam = param.ClassSelector(class_=BeamState, constant=True, doc="State of the beam calibration view.")
+    diagnosis = param.ClassSelector(class_=DiagnosisState, constant=True, doc="State of the diagnosis view.")
 
     def __init__(self, *, pool: sch.RunPool | None = None, dispatch: Callable | None = None,
-                 debounce_s: float = 0.15, toy_inputs: dict | None = None, **params) -> None:
+                 debounce_s: float = 0.15, toy_inputs: dict | None = None, beam_inputs: dict | None = None,
+                 **params) -> None:
         super().__init__(**params)
         self._pool, self._dispatch, self._debounce = pool, dispatch, debounce_s
         self._slots: dict[str, sch.RunSlot] = {}
         toy = ToyState(**(toy_inputs or {}))
         toy.attach(self.slot("toy", toy._on_run_update), self.slot("toy-sweep", toy._on_sweep_update, debounce_s=0.0))
+        beam = BeamState(**(beam_inputs or {}))
+        beam.attach(self.slot("beam", beam._on_run_update))
+        diagnosis = DiagnosisState(beam=beam)
+        diagnosis.attach(self.slot("diagnosis", diagnosis._on_run_update, debounce_s=0.0))
         with param.edit_constant(self):
-            self.toy = toy
+            self.param.update(toy=toy, beam=beam, diagnosis=diagnosis)
 
     def slot(self, name: str, on_update: Callable[[sch.Update], None], *, debounce_s: float | None = None) -> sch.RunSlot:
         """A new named run slot of this session (one per activity: a new request cancels only its own)."""

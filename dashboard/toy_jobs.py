@@ -18,27 +18,32 @@ scenario once). ``ToyResult.extra["stage"]`` says which stage a result comes fro
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from collections import OrderedDict
 from collections.abc import Hashable, Iterator
 from dataclasses import replace
 
-import numpy as np
-
-from beam.inference.diagnostics import MIN_AUTOCORR_TIMES, RHAT_MAX, autocorr_time, ess_bulk, rhat
 from beam.inference.laplace import preview as laplace_preview
 from beam.inference.predictive import predictive_bands
-from beam.inference.sampling import BURN_AUTOCORR_TIMES, EnsembleRun
+from beam.inference.sampling import EnsembleRun
 from beam.inference.summaries import summarize_draws
-from beam.toy import ToyResult, ToyScenario, default_sweep_windows, phase_branch_centre, simulate, sweep_windows, toy_problem
+from beam.toy import (
+    ToyResult,
+    ToyScenario,
+    calibration_problem,
+    default_sweep_windows,
+    simulate,
+    sweep_windows,
+)
 from dashboard import scheduler as sch
 
-__all__ = ["LRU", "RESULTS", "SWEEPS", "schedule_warm_up", "stream_to_ess", "sweep_key", "toy_run", "toy_sweep", "warm_up"]
+__all__ = ["LRU", "RESULTS", "SWEEPS", "schedule_warm_up", "sweep_key", "toy_run", "toy_sweep", "warm_up"]
 
 #: Posterior draws behind the bands of a final result (as :func:`beam.toy.run_toy`).
 N_BAND_DRAWS = 500
+#: Cap on ensemble steps (as :meth:`beam.inference.EnsembleRun.run_to_ess`).
+MAX_STEPS = 20000
 #: Draws behind the preview bands (as :func:`beam.toy.run_toy`).
 N_PREVIEW_DRAWS = 400
 
@@ -123,44 +128,6 @@ def sweep_key(scenario: ToyScenario) -> ToyScenario:
     return replace(scenario, window_s=window, target_ess=0.0)
 
 
-def stream_to_ess(run: EnsembleRun, target_ess: float, *, every: int = 25, max_steps: int = 20000):
-    """:meth:`EnsembleRun.run_to_ess` as a generator of ``(Progress, planned_total_steps)``.
-
-    The same chunk plan as ``run_to_ess`` (so the same draws for a seed): an initial chunk
-    sized for the target ESS with a guessed autocorrelation time, then chunks sized from
-    the measured ESS, chain length in autocorrelation times and R-hat until all pass or
-    ``max_steps``. Yields every ``every`` steps and at the end of every chunk.
-    """
-    tau_guess = 4.0
-    need = max(1.2 * target_ess * tau_guess / run.n_walkers, 1.1 * 0.9 * tau_guess / (RHAT_MAX - 1.0))
-    steps = min(math.ceil(need + BURN_AUTOCORR_TIMES * tau_guess), max_steps - run.n_steps)
-    while steps > 0:
-        planned = run.n_steps + steps
-        for prog in run.sample(steps, every=max(1, min(every, steps))):
-            yield prog, planned
-        n_burn = run.burn_in()
-        chain = run.chain()[n_burn:]
-        tau = autocorr_time(chain)
-        ess = ess_bulk(chain)
-        rh = None
-        kept, tau_max, ess_min = chain.shape[0], float(np.max(tau)), float(np.min(ess))
-        grow = 1.0
-        if ess_min < target_ess:
-            grow = 1.1 * target_ess / max(ess_min, 1.0)
-        if kept < MIN_AUTOCORR_TIMES * tau_max:
-            grow = max(grow, 1.05 * MIN_AUTOCORR_TIMES * tau_max / kept)
-        if grow == 1.0:
-            rh = rhat(chain)
-            rh_max = float(np.max(rh))
-            if rh_max > RHAT_MAX:
-                grow = max(1.2, (rh_max - 1.0) / (0.8 * (RHAT_MAX - 1.0)))
-        run._cache[(run.n_steps, n_burn)] = (tau, ess, rh)  # reused by run.result(), as in run_to_ess
-        if grow == 1.0:
-            return
-        want_total = math.ceil(kept * grow + BURN_AUTOCORR_TIMES * tau_max)
-        steps = int(min(max(want_total - run.n_steps, 20), max_steps - run.n_steps))
-
-
 def _result(base: dict, stage: str, **fields) -> ToyResult:
     extra = {"stage": stage, **fields.pop("extra", {})}
     return ToyResult(**base, **fields, extra=extra)
@@ -200,9 +167,7 @@ def toy_run(
         return
     t0 = time.perf_counter()
     data = simulate(scenario)
-    t, y = data.time_s[data.calibration], data.data[data.calibration]
-    centre = phase_branch_centre(t, y)
-    problem = toy_problem(t, y, likelihood=scenario.likelihood, phase_centre_rad=centre)
+    problem, centre = calibration_problem(scenario, data)
     lap = laplace_preview(problem)
     preview_bands = lap.predict(data.time_s, n_draws=N_PREVIEW_DRAWS, seed=scenario.seed)
     base = {"scenario": scenario, "data": data, "problem": problem, "laplace": lap, "preview_bands": preview_bands,
@@ -218,7 +183,8 @@ def toy_run(
         warm_up()
     run = EnsembleRun(problem, lap, seed=scenario.seed)
     done, last_partial = 0.0, time.perf_counter()
-    for prog, planned in stream_to_ess(run, scenario.target_ess, every=every):
+    for prog in run.sample_to_ess(scenario.target_ess, every=every, max_steps=MAX_STEPS):
+        planned = prog.total  # the steps planned so far (grows when a chunk is added)
         done = max(done, min(prog.step / planned, 0.99))
         message = f"sampling: {prog.step} of {planned} ensemble steps"
         yield sch.progress(done, message)

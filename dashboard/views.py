@@ -11,6 +11,8 @@ from __future__ import annotations
 import panel as pn
 import param
 
+from dashboard.beam_view import BeamCalibrationView
+from dashboard.diagnosis_view import DiagnosisView
 from dashboard.state import SessionState
 from dashboard.texts import PLACEHOLDER
 from dashboard.toy_view import ToyView
@@ -27,21 +29,6 @@ class PlaceholderView(pn.viewable.Viewer):
 
     def __panel__(self):
         return pn.pane.Markdown(PLACEHOLDER.format(title=self.title, what=self.what), sizing_mode="stretch_width")
-
-
-class BeamCalibrationView(PlaceholderView):
-    """Calibration of the cantilever beam model on measured or simulated data (next step)."""
-
-    title = "Beam calibration"
-    what = ("calibrate the piezo-driven cantilever (bundled B1TAPIH configuration) with and without the "
-            "missing physics, and compare the parameters and prediction bands.")
-
-
-class DiagnosisView(PlaceholderView):
-    """Residual diagnostics that reveal model discrepancy (next step)."""
-
-    title = "Diagnosis"
-    what = "residual diagnostics (autocorrelation, spectra, window dependence) that reveal missing physics."
 
 
 #: (tab title, Viewer class) in tab order.

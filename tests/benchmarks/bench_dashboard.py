@@ -8,14 +8,17 @@ dashboard/app.py``, opens it in Debian's headless chromium and measures, *in the
   one-time import of the sampler's libraries);
 * window slider moved by one step -> the server's acknowledgement (status "queued" for the
   new request: the round trip, for information) and -> preview drawn (target 0.5 s);
-* window slider moved by one step -> final MCMC posterior drawn (target 2 s).
+* window slider moved by one step -> final MCMC posterior drawn (target 2 s);
+* beam calibration view (lab_run_1, 4 modes, air damping + Kelvin-Voigt): end of the
+  calibration window moved by one step (0.05 s) -> preview drawn (target 0.5 s) and -> final
+  posterior drawn (target 5 s).
 
 "Drawn" means: the prediction band's data source holds the new result (and, for the final,
 the status says ``final`` for the latest request) at an animation frame, plus one frame.
 Every move goes to a window not seen before, so no cached result is involved. Also prints the
 server-side time from request to final (the status text).
 
-Option: ``--moves N`` (default 8); the moves use the app's default scenario otherwise.
+Options: ``--moves N`` (default 8) toy moves, ``--beam-moves N`` (default 5) beam moves.
 """
 
 from __future__ import annotations
@@ -30,7 +33,16 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "browser"))
 
-from harness import READ_STATE_JS, launch, serve_app, settle, window_handle
+from harness import (
+    BEAM_FINAL,
+    READ_STATE_JS,
+    READ_STATUS_JS,
+    launch,
+    serve_app,
+    settle,
+    wait_for_status,
+    window_handle,
+)
 
 INSTALL_WATCHER_JS = """() => {
   const read = READ_STATE;
@@ -57,6 +69,47 @@ INSTALL_WATCHER_JS = """() => {
 }""".replace("READ_STATE", READ_STATE_JS)
 
 
+BEAM_WATCHER_JS = """() => {
+  const read = () => (READ_STATUS)('cal-status');
+  const base = read();
+  const b = window.__beam = {t0: null, preview: null, final: null, base: base};
+  document.addEventListener('keydown', () => { if (b.t0 === null) b.t0 = performance.now(); }, {capture: true, once: true});
+  const frame = () => {
+    if (b.t0 !== null) {
+      const s = read();
+      if (b.preview === null && s.shown > base.shown && s.band_sum !== base.band_sum) {
+        requestAnimationFrame(() => { b.preview = performance.now() - b.t0; });
+      }
+      if (b.final === null && s.stage === 'final' && s.preview === 0 && s.shown > base.shown && s.shown === s.requested) {
+        requestAnimationFrame(() => { b.final = performance.now() - b.t0; });
+        return;
+      }
+    }
+    requestAnimationFrame(frame);
+  };
+  requestAnimationFrame(frame);
+  return base;
+}""".replace("READ_STATUS", READ_STATUS_JS)
+
+
+def bench_beam(page, moves: int) -> tuple[list[float], list[float]]:
+    """Seconds from a key press on the window's end handle to the preview and to the final posterior drawn."""
+    page.locator(".bk-tab", has_text="Beam calibration").first.click()
+    wait_for_status(page, BEAM_FINAL, timeout_ms=120000)
+    previews, finals = [], []
+    for _ in range(moves):
+        page.evaluate(BEAM_WATCHER_JS)
+        page.locator(".beam-cal-window .noUi-handle").nth(1).focus()
+        page.keyboard.press("ArrowRight")
+        page.wait_for_function("() => window.__beam.final !== null && window.__beam.preview !== null",
+                               timeout=60000, polling="raf")
+        bench = page.evaluate("() => window.__beam")
+        previews.append(bench["preview"] / 1000.0)
+        finals.append(bench["final"] / 1000.0)
+        page.wait_for_timeout(300)
+    return previews, finals
+
+
 def _status_seconds(page) -> float | None:
     text = page.evaluate("""() => { for (const m of Bokeh.documents[0].all_models)
         if (typeof m.text === 'string' && m.text.includes('beam-status')) return m.text; return ''; }""")
@@ -67,6 +120,7 @@ def _status_seconds(page) -> float | None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--moves", type=int, default=8, help="slider moves to time (each +0.5 s, from 5 s)")
+    parser.add_argument("--beam-moves", type=int, default=5, help="beam window moves to time (each +0.05 s)")
     args = parser.parse_args(argv)
     if not 1 <= args.moves <= 19:
         parser.error("--moves must be between 1 and 19 (the window slider goes from 5 s to 15 s)")
@@ -98,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
             server.append(_status_seconds(page))
             state = settle(page, after_request=base["shown"])
         errors = state["stage"] != "final"
+        beam_previews, beam_finals = bench_beam(page, args.beam_moves) if args.beam_moves else ([], [])
         context.close()
 
     def row(name, values, target):
@@ -115,6 +170,9 @@ def main(argv: list[str] | None = None) -> int:
     known = [s for s in server if s is not None]
     if known:
         row("server: request -> final published", known, None)
+    if beam_previews:
+        row(f"beam: window end -> preview drawn ({args.beam_moves} moves)", beam_previews, 0.5)
+        row("beam: window end -> final posterior drawn (4 modes)", beam_finals, 5.0)
     print(f"stage seen at the first redraw: {', '.join(sorted(set(stages)))}; last stage: {state['stage']}")
     return 1 if errors else 0
 

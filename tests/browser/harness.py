@@ -145,3 +145,44 @@ def settle(page, *, after_request: int = 0, quiet_ms: int = 600, timeout_ms: flo
 def window_handle(page):
     """The handle of the calibration-window slider."""
     return page.locator(".beam-window-slider .noUi-handle").first
+
+
+#: Reads the ``data-*`` attributes of a status element (``cal-status`` or ``diag-status``) and the
+#: length and weighted sum of the beam view's prediction band.
+READ_STATUS_JS = """(css) => {
+  const doc = Bokeh.documents[0];
+  const out = {stage: null, requested: -1, shown: -1, band_n: 0, band_sum: null};
+  if (!doc) return out;
+  for (const m of doc.all_models) {
+    const text = typeof m.text === 'string' ? m.text.replace(/&quot;/g, '"') : null;
+    if (text !== null && text.includes('class="' + css + '"')) {
+      const re = /data-([a-z0-9-]+)="([^"]*)"/g;
+      let r;
+      while ((r = re.exec(text)) !== null) out[r[1].replace(/-/g, '_')] = r[1] === 'stage' ? r[2] : (isNaN(Number(r[2])) || r[2] === '' ? r[2] : Number(r[2]));
+    }
+  }
+  const band = doc.get_model_by_name('beam-prediction-band');
+  if (band) {
+    const y = band.data.upper;
+    out.band_n = y.length;
+    let s = 0; for (let i = 0; i < y.length; i++) s += y[i] * (1 + (i % 7));
+    out.band_sum = y.length ? s : null;
+  }
+  return out;
+}"""
+
+
+def read_status(page, css: str = "cal-status") -> dict:
+    """:data:`READ_STATUS_JS` of the status element with class ``css``."""
+    return page.evaluate(READ_STATUS_JS, css)
+
+
+def wait_for_status(page, condition: str, css: str = "cal-status", timeout_ms: float = 90000) -> dict:
+    """Wait until ``condition`` (a JS expression over ``s``, the status) holds; returns the status."""
+    page.wait_for_function(f"(css) => {{ const s = ({READ_STATUS_JS})(css); return {condition}; }}", arg=css,
+                           timeout=timeout_ms, polling="raf")
+    return read_status(page, css)
+
+
+#: The beam view shows the final posterior of its latest request.
+BEAM_FINAL = "s.stage === 'final' && s.shown > 0 && s.shown === s.requested && s.preview === 0 && s.band_n > 0"

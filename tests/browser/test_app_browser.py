@@ -17,8 +17,7 @@ def test_app_loads_with_its_three_views(page):
         expect(page.locator(".bk-tab", has_text=title).first).to_be_visible(timeout=60000)
     state = wait_for_result(page, stage="final", timeout_ms=90000)
     assert state["requested"] == 1 and state["band_n"] > 0
-    page.locator(".bk-tab", has_text="Diagnosis").first.click()
-    expect(page.get_by_text("Coming in the next step").first).to_be_visible(timeout=30000)
+    # the beam views are built, and start their jobs, when their tab is first opened (see test_beam_browser)
     assert page.errors == []
 
 
@@ -42,7 +41,9 @@ def test_invalid_inputs_show_an_error_and_keep_the_result(page):
     handle.focus()
     for _ in range(14):  # window 12 s
         page.keyboard.press("ArrowRight")
-    shown = settle(page, after_request=before["requested"])
+    # quiet_ms: the slider shows 12 s before the server has the last key press; on a loaded
+    # machine (other sessions' jobs) the server can lag the browser by more than 0.6 s
+    shown = settle(page, after_request=before["requested"], quiet_ms=2000)
     assert shown["window"] == pytest.approx(12.0)
     page.locator("select").nth(2).select_option(label="10.0")  # horizon 10 s < window 12 s
     alert = page.locator(".beam-error")

@@ -58,7 +58,7 @@ def test_error_keeps_the_previous_result_and_clears_on_success(session):
     toy.param.update(horizon_s=10.0, window_s=12.0)  # window beyond the horizon
     settle(session)
     assert toy.stage == "error"
-    assert toy.error == "window (12 s) must be shorter than the horizon (10 s)"
+    assert toy.error == "calibration window (12 s) must be shorter than the horizon (10 s)"
     assert toy.result is previous
     assert "previous result" in toy.status
     toy.window_s = 6.0

@@ -91,3 +91,48 @@ def test_error_alert_shows_and_hides(session):
     session.toy.window_s = 5.0
     assert session.wait(30)
     assert not alert.visible
+
+
+@pytest.fixture
+def beam_session(pool):
+    s = SessionState(pool=pool, debounce_s=0.0, beam_inputs={"target_ess": 200})
+    yield s
+    s.close()
+    s.wait(30)
+
+
+def test_beam_view_labels_carry_units_and_results_reach_the_plot(beam_session):
+    from dashboard.beam_view import BeamCalibrationView
+
+    session = beam_session
+    view = BeamCalibrationView(session=session)
+    assert not view._built  # built when its tab is opened
+    view.build()
+    root = view.__panel__().get_root(Document())
+    labels = [getattr(w, "label", "") for w in view._layout.select(pn.widgets.Widget)]
+    assert "Calibration window (s)" in labels and "Number of modes (1)" in labels
+    numbers = [n.label for n in view._layout.select(pn.indicators.Number)]
+    assert any("(µm)" in n for n in numbers) and any("(%)" in n for n in numbers)
+    band = _sources(root, "beam-prediction-band")
+    assert len(band) == 1 and len(band[0].data["upper"]) == 0
+    view.activate()
+    assert session.wait(60)
+    result = session.beam.result
+    assert not result.is_preview and len(band[0].data["upper"]) == result.bands.time_s.size
+    assert view._plot.window.right == pytest.approx(1.05)
+    view._tabs.active = 1  # the pair plot is built when its tab opens
+    assert view._corner is not None and len(view._corner.sources[("bending_stiffness_Nm2", "current")].data["top"]) == 30
+
+
+def test_diagnosis_view_shows_candidates_with_add_buttons(beam_session):
+    from dashboard.diagnosis_view import DiagnosisView
+
+    session = beam_session
+    view = DiagnosisView(session=session)
+    view.__panel__().get_root(Document())
+    view.activate()
+    assert session.wait(60)
+    names = [b.label for b in view._candidates.select(pn.widgets.Button)]
+    assert names[0] == "Add patch_stiffening" and len(names) == 4
+    assert len(view._plots.sources["residual"].data["r"]) == session.beam.measurement.time_s.size
+    assert len(view._plots.sources["ladder"].data["rung"]) == 1

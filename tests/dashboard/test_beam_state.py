@@ -1,0 +1,170 @@
+"""Beam calibration and diagnosis states against the real ``beam`` library (no browser, no server)."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import pytest
+
+from dashboard import beam_jobs
+from dashboard.beam_jobs import CalibrationKey, calibration_run, load_upload
+from dashboard.beam_summaries import (
+    bands_csv,
+    compare_table,
+    filename,
+    parameter_table,
+    posterior_netcdf,
+    summary_json,
+)
+from dashboard.state import SessionState
+
+FAST = 200.0  # target ESS for the tests (the app uses 1000)
+ASSETS = Path(__file__).resolve().parents[2] / "assets" / "measurements"
+
+
+@pytest.fixture
+def session(pool):
+    s = SessionState(pool=pool, debounce_s=0.05, beam_inputs={"target_ess": FAST})
+    yield s
+    s.close()
+    s.wait(30)
+
+
+def settle(session, timeout=60.0):
+    assert session.wait(timeout), "runs did not finish"
+
+
+def test_defaults_are_lab_run_1_with_its_window_and_default_effects(session):
+    beam = session.beam
+    assert beam.dataset == "lab_run_1" and beam.measurement.name == "lab_run_1"
+    assert beam.window_s == (0.0, 1.05) and beam.param.window_s.bounds == (0.0, pytest.approx(3.499))
+    assert beam.effects == ["air_damping", "kelvin_voigt"] and beam.modes == 4 and beam.likelihood == "iid"
+    assert "lab_run_2 — Aluminium strip" in beam.dataset_label("lab_run_2")
+    assert "(N s/m²)" in next(iter(beam.effect_options())) or any("kg" in k for k in beam.effect_options())
+
+
+def test_request_publishes_preview_then_final(session):
+    beam = session.beam
+    seen, seen_results = [], []
+    beam.param.watch(lambda e: (seen.append(e.new.is_preview), seen_results.append(e.new)), "result")
+    rid = beam.request(debounce=False)
+    settle(session)
+    times = beam.timings(rid)
+    assert times["preview"] < times["final"]
+    assert seen[0] is True and seen[-1] is False
+    assert beam.stage == "final" and beam.error == "" and beam.shown == rid and beam.progress == 1.0
+    assert beam.result is beam.final and beam.final.posterior is not None
+    assert beam.final_key == beam.key()
+    report = json.loads(summary_json(beam.result).getvalue())
+    assert report["measurement"] == "lab_run_1" and report["converged"] and report["preview"] is False
+    assert bands_csv(beam.result).getvalue().decode().count("\n") == beam.measurement.time_s.size + 1
+    assert posterior_netcdf(beam.result).getvalue()[:4] == b"\x89HDF"
+    assert posterior_netcdf(seen_results[0]) is None  # a preview has no posterior
+    assert filename(beam.result, "json") == "lab_run_1_w0-1.05_m4_air_damping+kelvin_voigt_iid.json"
+
+
+def test_newer_request_cancels_the_older_and_wins(session):
+    beam = session.beam
+    shown = []
+    beam.param.watch(lambda e: shown.append(e.new.setup.window), "result")
+    for end in (0.8, 0.9, 1.0, 1.1, 1.2):
+        beam.window_s = (0.0, end)
+        time.sleep(0.02)
+    settle(session)
+    assert beam.result.setup.window == (0.0, 1.2) and beam.shown == beam.requested and beam.stage == "final"
+    assert all(w == (0.0, 1.2) for w in shown[-2:])
+    assert len(shown) <= 4, "superseded runs must not keep publishing"
+
+
+def test_leaving_the_job_early_stops_the_sampler():
+    m = beam_jobs.load_bundled("lab_run_2")
+    key = CalibrationKey("lab_run_2", (0.0, 1.2), ("air_damping", "kelvin_voigt"), 2, "iid", 0, FAST)
+    job = calibration_run(key, m, use_cache=False)
+    first = next(job)
+    assert first.kind == "preview" and first.value.is_preview
+    assert next(job).kind == "progress"
+    job.close()  # what the scheduler does on cancellation
+    with pytest.raises(StopIteration):
+        next(job)
+
+
+def test_bad_window_shows_an_error_and_keeps_the_result(session):
+    beam = session.beam
+    beam.request(debounce=False)
+    settle(session)
+    previous = beam.result
+    beam.window_s = (1.0, 1.002)  # too few samples
+    settle(session)
+    assert beam.stage == "error" and "calibration window" in beam.error
+    assert beam.result is previous and "previous result" in beam.status
+    beam.window_s = (0.0, 1.0)
+    settle(session)
+    assert beam.error == "" and beam.stage == "final"
+
+
+def test_invalid_upload_keeps_the_dataset_and_result(session):
+    beam = session.beam
+    beam.request(debounce=False)
+    settle(session)
+    previous, requested = beam.result, beam.requested
+    assert not beam.upload("bad.csv", b"time_s,voltage_V\nnot,numbers\n", "bad.toml", b"title = 'x'\n")
+    assert beam.error.startswith("upload rejected:") and "bad" in beam.error and "/tmp" not in beam.error
+    assert beam.dataset == "lab_run_1" and beam.result is previous and beam.requested == requested
+    assert not beam.upload("only.csv", b"1,2,3", None, None)
+    assert "TOML sidecar is missing" in beam.error
+
+
+def test_too_large_upload_is_refused_before_parsing(monkeypatch):
+    monkeypatch.setattr(beam_jobs, "MAX_UPLOAD_BYTES", 10)
+    with pytest.raises(ValueError, match="more than the 0 MB"):
+        load_upload("big.csv", b"x" * 11, "big.toml", b"t")
+
+
+def test_valid_upload_becomes_the_dataset(session):
+    beam = session.beam
+    ok = beam.upload("mine.csv", (ASSETS / "lab_run_5.csv").read_bytes(), "mine.toml", (ASSETS / "lab_run_5.toml").read_bytes())
+    assert ok and beam.error == ""
+    assert beam.dataset.startswith("upload-1-mine") and beam.measurement.name == "mine"
+    assert beam.dataset_label(beam.dataset).startswith("upload: mine")
+    settle(session)
+    assert beam.stage == "final" and beam.result.setup.measurement.name == "mine"
+
+
+def test_pin_and_compare_table(session):
+    beam = session.beam
+    beam.request(debounce=False)
+    settle(session)
+    beam.pin()
+    beam.modes = 2
+    settle(session)
+    table = compare_table(beam.result, beam.pinned)
+    assert list(table.columns) == ["Pinned", "Current"]
+    assert "Held-out RMSE (µm)" in table.index and "EI — bending stiffness of the bare beam (N m²)" in table.index
+    assert "(N m²)" in parameter_table(beam.result).index[0]
+
+
+def test_add_appends_a_ladder_rung_and_the_error_falls(pool):
+    s = SessionState(pool=pool, debounce_s=0.0, beam_inputs={"target_ess": FAST, "dataset": "lab_run_2"})
+    try:
+        beam, diag = s.beam, s.diagnosis
+        beam.request(debounce=False)
+        settle(s)
+        diag.request()
+        settle(s)
+        assert diag.stage == "final" and diag.diagnosis.missing == "tip_mass"
+        assert diag.diagnosis.candidates[0].effect == "tip_mass" and diag.diagnosis.candidates[0].explanation
+        assert len(diag.ladder) == 1 and diag.ladder[0]["mcmc"]
+        diag.add("tip_mass")
+        assert diag.adding == "tip_mass" and "tip_mass" in beam.effects
+        settle(s)
+        assert diag.adding == "" and len(diag.ladder) == 2
+        rung = diag.ladder[1]
+        assert rung["added"] == "tip_mass" and rung["mcmc"]
+        assert diag.ladder[0]["rmse_prediction_um"] > 3 * rung["rmse_prediction_um"]
+        assert diag.reveal()["effects"] == ["air_damping", "kelvin_voigt", "tip_mass"]
+        assert not diag.is_current()
+    finally:
+        s.close()
+        s.wait(30)
