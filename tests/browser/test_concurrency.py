@@ -102,9 +102,12 @@ def test_eight_sessions_at_once_each_see_their_own_result_and_the_server_stays_r
     # Responsiveness. The target, every answer within 1 s, is NOT met on the 2-core
     # machine: creating a session builds its whole bokeh document on the event loop (~1-2 s
     # each), and up to 2.5 s was measured while eight sessions were opening (see the README).
-    # What is asserted: answers are fast as a rule and the server never freezes.
+    # What is asserted: at least 90 % of the answers within 1 s, and no freeze over 5 s.
     times = sorted(prober.times)
-    assert times[len(times) // 2] < 0.1, f"median answer {times[len(times) // 2]:.2f} s"
+    within = sum(t <= 1.0 for t in times) / len(times)
+    print(f"\n{len(times)} answers: median {times[len(times) // 2]:.3f} s, 90 % {times[int(0.9 * len(times))]:.3f} s, "
+          f"max {times[-1]:.2f} s, {within:.1%} within 1 s")
+    assert within >= 0.9, f"only {within:.0%} of the answers came within 1 s"
     assert times[-1] < 5.0, f"slowest answer {times[-1]:.2f} s over {len(times)} requests"
     for page in pages:
         assert page.errors == []
@@ -119,10 +122,11 @@ def test_a_slider_storm_shows_only_the_last_result_and_leaves_nothing_running(pa
     handle = window_handle(page)
     handle.focus()
     start = time.monotonic()
-    for i in range(20):  # 20 changes in 2 s: right 12 times, then left 8 times -> window 7 s
+    for i in range(20):  # 20 changes in about 2 s: right 12 times, then left 8 times -> window 7 s
         page.keyboard.press("ArrowRight" if i < 12 else "ArrowLeft")
-        page.wait_for_timeout(100)
-    assert time.monotonic() - start < 3.0
+        page.wait_for_timeout(40)  # plus the press's own round trip to the browser
+    sent = time.monotonic() - start
+    assert sent < 3.0, f"the storm took {sent:.1f} s to send"
     after = settle(page, after_request=before["requested"], timeout_ms=120000)
     assert after["window"] == pytest.approx(7.0)
     assert after["stage"] == "final" and after["shown"] == after["requested"]
