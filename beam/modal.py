@@ -102,8 +102,12 @@ def modal_response(
     reduced_output: np.ndarray,
     sample_interval_s: float,
     voltage: np.ndarray,
+    static_gain: np.ndarray | None = None,
 ) -> np.ndarray:
     """Displacement output y (B, n) of the retained modes under a ZOH voltage, from rest.
+
+    ``static_gain`` (B,), when given, adds static_gain x V[k] to every sample (the static
+    correction of the discarded modes), inside the compiled loop.
 
     The fast path of :func:`complex_modes` + :func:`zoh_response` for one input and one output:
     poles and residues come from the symmetric quadratic eigenproblem
@@ -119,7 +123,8 @@ def modal_response(
     reduced_output = np.ascontiguousarray(reduced_output, dtype=float)
     poles, residues, ok = _quadratic_modes(omega_squared, reduced_damping, reduced_force, reduced_output)
     voltage = np.ascontiguousarray(voltage, dtype=float)
-    out = _step_pairs(poles, residues, float(sample_interval_s), voltage)
+    static = np.zeros(poles.shape[0]) if static_gain is None else np.ascontiguousarray(static_gain, dtype=float)
+    out = _step_pairs(poles, residues, float(sample_interval_s), voltage, static)
     bad = ~ok
     if bad.any():
         fallback = complex_modes(
@@ -127,7 +132,7 @@ def modal_response(
         )
         out[bad] = zoh_response(
             fallback.poles, fallback.output_gains[:, 0] * fallback.input_gains[:, 0], sample_interval_s, voltage
-        )
+        ) + static[bad, None] * voltage
     return out
 
 
@@ -284,18 +289,19 @@ def _step_modes(poles, residues, dt, voltage):  # pragma: no cover - jitted
                 weights[b, count] = residues[b, j]
                 j += 1
             count += 1
-    return _step(upper, weights, dt, voltage)
+    return _step(upper, weights, dt, voltage, np.zeros(batch))
 
 
 @numba.njit(cache=True, nogil=True)
-def _step_pairs(poles, residues, dt, voltage):  # pragma: no cover - jitted
-    """ZOH stepping of upper poles only, each standing for a conjugate pair (weight doubled)."""
-    return _step(poles, 2.0 * residues, dt, voltage)
+def _step_pairs(poles, residues, dt, voltage, static):  # pragma: no cover - jitted
+    """ZOH stepping of upper poles only, each standing for a conjugate pair (weight doubled),
+    plus static[b] x V[k]."""
+    return _step(poles, 2.0 * residues, dt, voltage, static)
 
 
 @numba.njit(cache=True, nogil=True)
-def _step(poles, weights, dt, voltage):  # pragma: no cover - jitted
-    """y[b, k] = Re sum_j weights_j xi_j[k], xi_j[k+1] = z_j xi_j[k] + (z_j - 1)/lambda_j u[k].
+def _step(poles, weights, dt, voltage, static):  # pragma: no cover - jitted
+    """y[b, k] = Re sum_j weights_j xi_j[k] + static[b] u[k], xi_j[k+1] = z_j xi_j[k] + (z_j - 1)/lambda_j u[k].
 
     A zero weight skips its pole (unused slots).
     """
@@ -310,9 +316,10 @@ def _step(poles, weights, dt, voltage):  # pragma: no cover - jitted
             z[j] = np.exp(poles[b, j] * dt)
             w[j] = weights[b, j] * zoh_factor(poles[b, j], dt)
             xi[j] = 0j
+        gain = static[b]
         for k in range(n):
-            acc = 0.0
             uk = voltage[k]
+            acc = gain * uk
             for j in range(n_poles):
                 x = xi[j]
                 acc += w[j].real * x.real - w[j].imag * x.imag

@@ -339,9 +339,9 @@ class BeamModel:
             out = integrate_tip_cubic(_complex_modes_of(reduced), cubic, voltage, sample_interval_s, static_gains=static)
         else:
             out = modal.modal_response(
-                reduced["omega2"], reduced["damping"], reduced["force"], reduced["sensor"], sample_interval_s, voltage
+                reduced["omega2"], reduced["damping"], reduced["force"], reduced["sensor"], sample_interval_s, voltage,
+                static_gain=static[:, 0],
             )
-            out += static[:, :1] * voltage
         if not np.isfinite(out).all():
             raise BeamInputError(
                 "the response is not finite (parameters or voltage out of any physical range, or the tip spring "
