@@ -32,12 +32,12 @@ from typing import Any
 
 import numpy as np
 
-from beam.effects import BASE_PARAMETERS, EFFECTS, PARAMETER_SPECS, effects_switched_on
+from beam.effects import BASE_PARAMETERS, EFFECTS, effects_switched_on
 from beam.errors import BeamInputError
 from beam.excitation import ALL_EXCITATION_KEYS, EXCITATION_KEYS, Excitation
 from beam.fileio import TomlReader, as_finite_float, did_you_mean, load_toml, short_repr
 from beam.geometry import BeamGeometry
-from beam.measurement import GEOMETRY_TABLES, read_geometry, read_measurement_table, read_nominal, read_title
+from beam.measurement import GEOMETRY_TABLES, check_nominal, read_geometry, read_measurement_table, read_nominal, read_title
 
 #: Top-level tables a config may hold.
 CONFIG_TABLES: tuple[str, ...] = (*GEOMETRY_TABLES, "nominal", "parameters", "excitation", "sampling", "model")
@@ -183,19 +183,7 @@ def check_parameters(parameters: Mapping[str, Any], where: str) -> dict[str, flo
         Unknown name, a value that is not a positive finite number, a missing base parameter
         or an effect missing one of its required parameters.
     """
-    checked: dict[str, float] = {}
-    for name, value in parameters.items():
-        if name not in PARAMETER_SPECS:
-            raise BeamInputError(
-                f"{where} {name}: unknown parameter{did_you_mean(name, PARAMETER_SPECS)}; "
-                f"known parameters: {', '.join(PARAMETER_SPECS)}"
-            )
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-            raise BeamInputError(f"{where} {name}: must be a number, got {short_repr(value)}")
-        number = as_finite_float(value)
-        if number is None or number <= 0:
-            raise BeamInputError(f"{where} {name}: must be a positive finite number, got {short_repr(value)}")
-        checked[name] = number
+    checked = check_nominal(parameters, where)  # known names, positive finite numbers
     for spec in BASE_PARAMETERS:
         if spec.name not in checked:
             required = ", ".join(p.name for p in BASE_PARAMETERS)
