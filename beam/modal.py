@@ -11,6 +11,10 @@ Pure, batched functions (leading axis B = parameter sets, e.g. emcee walkers):
 3. :func:`zoh_response` — each complex mode is a scalar ODE xi' = lambda xi + u; with u held over
    each sample the exact update is xi[k+1] = z xi[k] + (z - 1)/lambda u[k], z = exp(lambda dt),
    stepped from rest in compiled code (numba); conjugate pairs are stepped once.
+4. :func:`scale_unit_modes` and :func:`cached_modes_response` — the warm path of
+   :meth:`beam.model.BeamModel.response`: cached unit-scale shapes rescaled to each parameter
+   set, poles and residues by a compiled Rayleigh-functional iteration, and ZOH stepping, in one
+   compiled call (validated against 2. and 3. and against the full state space in the tests).
 """
 
 from __future__ import annotations
@@ -95,45 +99,132 @@ def complex_modes(
     return ComplexModes(poles, input_gains, output_gains)
 
 
-def modal_response(
-    omega_squared: np.ndarray,
-    reduced_damping: np.ndarray,
-    reduced_force: np.ndarray,
-    reduced_output: np.ndarray,
+def cached_modes_response(
+    which: np.ndarray,
+    unit_modes: tuple[np.ndarray, ...],
+    scales: np.ndarray,
     sample_interval_s: float,
     voltage: np.ndarray,
-    static_gain: np.ndarray | None = None,
-) -> np.ndarray:
-    """Displacement output y (B, n) of the retained modes under a ZOH voltage, from rest.
+    static_correction: bool = True,
+) -> tuple[np.ndarray, bool]:
+    """Sensor output (B, n) of B parameter sets whose retained modes are rescaled cached shapes.
 
-    ``static_gain`` (B,), when given, adds static_gain x V[k] to every sample (the static
-    correction of the discarded modes), inside the compiled loop.
+    The whole warm path of :meth:`beam.model.BeamModel.response` in one compiled call:
+    :func:`scale_unit_modes`, then poles and residues, then exact ZOH stepping (the fast path of
+    :func:`complex_modes` + :func:`zoh_response` for one input and one output). Poles and
+    residues come from the symmetric quadratic eigenproblem
+    (lambda² I + lambda C_r + diag(omega²)) v = 0, solved per mode by two-sided
+    Rayleigh-functional iteration from the proportional-damping estimate (cubic convergence, to
+    round-off), with residues r = (c·v)(v·f) / (vᵀ (2 lambda I + C_r) v). Any parameter set
+    where the iteration does not settle on m distinct poles is redone with LAPACK
+    (:func:`complex_modes`).
 
-    The fast path of :func:`complex_modes` + :func:`zoh_response` for one input and one output:
-    poles and residues come from the symmetric quadratic eigenproblem
-    (lambda² I + lambda C_r + diag(omega²)) v = 0, solved per mode in compiled code by
-    two-sided Rayleigh-functional iteration from the proportional-damping estimate (cubic
-    convergence, to round-off), with residues r = (c·v)(v·f) / (vᵀ (2 lambda I + C_r) v). Any
-    parameter set where the iteration does not settle on m distinct poles is redone with
-    LAPACK (:func:`complex_modes`).
+    Parameters
+    ----------
+    which, unit_modes, scales
+        As for :func:`scale_unit_modes`.
+    sample_interval_s : float
+        Sample interval (s).
+    voltage : (n,) array
+        Voltage (V), held over each sample.
+    static_correction : bool
+        Add the quasi-static response of the discarded modes.
+
+    Returns
+    -------
+    output : (B, n) sensor displacement (m).
+    finite : bool
+        False if any output sample is NaN or infinite.
     """
-    omega_squared = np.ascontiguousarray(omega_squared, dtype=float)
-    reduced_damping = np.ascontiguousarray(reduced_damping, dtype=float)
-    reduced_force = np.ascontiguousarray(reduced_force, dtype=float)
-    reduced_output = np.ascontiguousarray(reduced_output, dtype=float)
-    poles, residues, ok = _quadratic_modes(omega_squared, reduced_damping, reduced_force, reduced_output)
-    voltage = np.ascontiguousarray(voltage, dtype=float)
-    static = np.zeros(poles.shape[0]) if static_gain is None else np.ascontiguousarray(static_gain, dtype=float)
-    out = _step_pairs(poles, residues, float(sample_interval_s), voltage, static)
-    bad = ~ok
-    if bad.any():
-        fallback = complex_modes(
-            omega_squared[bad], reduced_damping[bad], reduced_force[bad][:, None, :], reduced_output[bad][:, None, :]
-        )
+    out, ok, finite, reduced = _cached_modes_response(
+        which, *unit_modes, scales, float(sample_interval_s), voltage, 1.0 if static_correction else 0.0
+    )
+    if not ok.all():
+        omega2, damping, force, sensor, static = reduced
+        bad = ~ok
+        fallback = complex_modes(omega2[bad], damping[bad], force[bad][:, None, :], sensor[bad][:, None, :])
         out[bad] = zoh_response(
             fallback.poles, fallback.output_gains[:, 0] * fallback.input_gains[:, 0], sample_interval_s, voltage
-        ) + static[bad, None] * voltage
-    return out
+        ) + static[bad, 0, None] * voltage * (1.0 if static_correction else 0.0)
+        finite = bool(np.isfinite(out).all())
+    return out, finite
+
+
+def scale_unit_modes(which: np.ndarray, unit_modes: tuple[np.ndarray, ...], scales: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Retained modes of B parameter sets from U cached unit-scale solutions.
+
+    Mode shapes depend only on the ratios of the mass and of the stiffness coefficients; each
+    set b reuses solution ``which[b]`` (solved for rho = EI = 1) and rescales it:
+    omega² = (EI/rho) omega_unit², shapes / sqrt(rho), force x k_p.
+
+    Parameters
+    ----------
+    which : (B,) int64
+        Index of each set's unit solution.
+    unit_modes : tuple of arrays
+        omega2 (U, m) (rad²/s² at unit scale), projections (U, P, m, m) of the P damping parts,
+        force (U, m) per unit coupling, sensor (U, m), tip (U, m), static (U, 2) (m per unit
+        coupling at sensor and tip, per unit EI).
+    scales : (3 + P, B)
+        Per set: rho (mass scale, kg/m), EI (stiffness scale, N m²), the force coefficient
+        (N m/V) and the coefficient of each of the P damping parts.
+
+    Returns
+    -------
+    omega2 (B, m), damping (B, m, m) (1/s), force (B, m), sensor (B, m), tip (B, m), static (B, 2).
+    """
+    return _scale_unit_modes(which, *unit_modes, scales)
+
+
+@numba.njit(cache=True, nogil=True)
+def _scale_unit_modes(which, omega2_u, projections_u, force_u, sensor_u, tip_u, static_u, scales):  # pragma: no cover - jitted
+    batch = which.shape[0]
+    m = omega2_u.shape[1]
+    n_parts = projections_u.shape[1]
+    omega2 = np.empty((batch, m))
+    damping = np.zeros((batch, m, m))
+    force = np.empty((batch, m))
+    sensor = np.empty((batch, m))
+    tip = np.empty((batch, m))
+    static = np.empty((batch, 2))
+    for b in range(batch):
+        u = which[b]
+        mass_scale, stiff_scale, force_coef = scales[0, b], scales[1, b], scales[2, b]
+        inv_root_mass = 1.0 / np.sqrt(mass_scale)
+        for i in range(m):
+            omega2[b, i] = omega2_u[u, i] * (stiff_scale / mass_scale)
+            force[b, i] = force_u[u, i] * force_coef * inv_root_mass
+            sensor[b, i] = sensor_u[u, i] * inv_root_mass
+            tip[b, i] = tip_u[u, i] * inv_root_mass
+            for j in range(m):
+                acc = 0.0
+                for p in range(n_parts):
+                    acc += scales[3 + p, b] * projections_u[u, p, i, j]
+                damping[b, i, j] = acc / mass_scale
+        for k in range(2):
+            static[b, k] = static_u[u, k] * (force_coef / stiff_scale)
+    return omega2, damping, force, sensor, tip, static
+
+
+@numba.njit(cache=True, nogil=True)
+def _cached_modes_response(which, omega2_u, projections_u, force_u, sensor_u, tip_u, static_u, scales,
+                           dt, voltage, static_correction):  # pragma: no cover - jitted
+    omega2, damping, force, sensor, tip, static = _scale_unit_modes(
+        which, omega2_u, projections_u, force_u, sensor_u, tip_u, static_u, scales
+    )
+    poles, residues, ok = _quadratic_modes(omega2, damping, force, sensor)
+    gain = static[:, 0] * static_correction
+    out = _step(poles, 2.0 * residues, dt, voltage, gain)
+    finite = True
+    for b in range(out.shape[0]):
+        if ok[b]:
+            for k in range(out.shape[1]):
+                if not np.isfinite(out[b, k]):
+                    finite = False
+                    break
+        if not finite:
+            break
+    return out, ok, finite, (omega2, damping, force, sensor, static)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -293,36 +384,69 @@ def _step_modes(poles, residues, dt, voltage):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True, nogil=True)
-def _step_pairs(poles, residues, dt, voltage, static):  # pragma: no cover - jitted
-    """ZOH stepping of upper poles only, each standing for a conjugate pair (weight doubled),
-    plus static[b] x V[k]."""
-    return _step(poles, 2.0 * residues, dt, voltage, static)
-
-
-@numba.njit(cache=True, nogil=True)
 def _step(poles, weights, dt, voltage, static):  # pragma: no cover - jitted
     """y[b, k] = Re sum_j weights_j xi_j[k] + static[b] u[k], xi_j[k+1] = z_j xi_j[k] + (z_j - 1)/lambda_j u[k].
 
-    A zero weight skips its pole (unused slots).
+    Real arithmetic on split real and imaginary parts. One or a few sets are stepped one after
+    the other; larger batches step all their poles together, one time step at a time, so the
+    inner loop runs over B x m independent poles (SIMD). A zero weight adds nothing (unused slots).
     """
     batch, n_poles = poles.shape
-    n = voltage.shape[0]
-    out = np.zeros((batch, n))
-    z = np.empty(n_poles, np.complex128)
-    w = np.empty(n_poles, np.complex128)
-    xi = np.empty(n_poles, np.complex128)
+    size = batch * n_poles
+    z_re, z_im = np.empty(size), np.empty(size)
+    w_re, w_im = np.empty(size), np.empty(size)
     for b in range(batch):
         for j in range(n_poles):
-            z[j] = np.exp(poles[b, j] * dt)
-            w[j] = weights[b, j] * zoh_factor(poles[b, j], dt)
-            xi[j] = 0j
+            z = np.exp(poles[b, j] * dt)
+            w = weights[b, j] * zoh_factor(poles[b, j], dt)
+            p = b * n_poles + j
+            z_re[p], z_im[p], w_re[p], w_im[p] = z.real, z.imag, w.real, -w.imag
+    if batch < 4:
+        return _step_each(z_re, z_im, w_re, w_im, batch, voltage, static)
+    return _step_together(z_re, z_im, w_re, w_im, batch, voltage, static)
+
+
+@numba.njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
+def _step_each(z_re, z_im, w_re, w_im, batch, voltage, static):  # pragma: no cover - jitted
+    n_poles = z_re.size // batch
+    n = voltage.shape[0]
+    out = np.empty((batch, n))
+    x_re, x_im = np.zeros(n_poles), np.zeros(n_poles)
+    for b in range(batch):
+        zr, zi = z_re[b * n_poles:(b + 1) * n_poles], z_im[b * n_poles:(b + 1) * n_poles]
+        wr, wi = w_re[b * n_poles:(b + 1) * n_poles], w_im[b * n_poles:(b + 1) * n_poles]
+        x_re[:] = 0.0
+        x_im[:] = 0.0
         gain = static[b]
         for k in range(n):
             uk = voltage[k]
             acc = gain * uk
             for j in range(n_poles):
-                x = xi[j]
-                acc += w[j].real * x.real - w[j].imag * x.imag
-                xi[j] = z[j] * x + uk
+                a, c = x_re[j], x_im[j]
+                acc += wr[j] * a + wi[j] * c
+                x_re[j] = zr[j] * a - zi[j] * c + uk
+                x_im[j] = zr[j] * c + zi[j] * a
+            out[b, k] = acc
+    return out
+
+
+@numba.njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
+def _step_together(z_re, z_im, w_re, w_im, batch, voltage, static):  # pragma: no cover - jitted
+    size = z_re.size
+    n_poles = size // batch
+    n = voltage.shape[0]
+    out = np.empty((batch, n))
+    x_re, x_im, terms = np.zeros(size), np.zeros(size), np.empty(size)
+    for k in range(n):
+        uk = voltage[k]
+        for p in range(size):
+            a, c = x_re[p], x_im[p]
+            terms[p] = w_re[p] * a + w_im[p] * c
+            x_re[p] = z_re[p] * a - z_im[p] * c + uk
+            x_im[p] = z_re[p] * c + z_im[p] * a
+        for b in range(batch):
+            acc = static[b] * uk
+            for j in range(b * n_poles, (b + 1) * n_poles):
+                acc += terms[j]
             out[b, k] = acc
     return out

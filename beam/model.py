@@ -21,6 +21,7 @@ reuses them and rescales the frequencies.
 
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -50,6 +51,10 @@ class _Layout:
     damping: np.ndarray
     force: np.ndarray
     damping_map: np.ndarray  # (n_damping_terms, len(_DAMPING_PARTS)) 0/1
+    scale_matrix: np.ndarray  # (3 + len(_DAMPING_PARTS), rows): rho, EI, force coefficient, damping parts
+    key_matrix: np.ndarray  # (mass + stiffness terms, rows): the coefficients that set the mode shapes
+    key_denominators: np.ndarray  # row of key_matrix @ table dividing each (rho or EI): the ratios
+    cubic_row: int  # row of the tip cubic stiffness in the table, -1 if not given
 
 
 class BeamModel:
@@ -106,18 +111,23 @@ class BeamModel:
 
     def _table(self, parameters: Mapping[str, float | np.ndarray]) -> tuple[tuple[str, ...], np.ndarray, bool]:
         """Validate values; returns (names, table (len(names) + 1, B) with rho last, batched)."""
-        if not parameters.keys() <= self._accepted:
+        if tuple(parameters) in self._layouts:  # these names were checked before
+            pass
+        elif not parameters.keys() <= self._accepted:
             unknown = sorted(set(parameters) - self._accepted)[0]
             raise BeamInputError(
                 f"parameter {unknown!r} is not part of this model (effects: {', '.join(self.effects) or 'none'}); "
                 f"expected {', '.join(self.accepted_parameter_names)}"
             )
-        if not self._required <= parameters.keys():
+        elif not self._required <= parameters.keys():
             missing = [name for name in self.parameter_names if name not in parameters][0]
             raise BeamInputError(f"missing value for parameter {missing!r}")
         names = tuple(parameters)
         values = list(parameters.values())
         if all(isinstance(v, float) for v in values):  # one parameter set of plain floats: fast path
+            if all(0.0 <= v < math.inf for v in values) and parameters["bending_stiffness_Nm2"] > 0:
+                values.append(self.geometry.linear_density_kg_m)
+                return names, np.array(values)[:, None], False
             table = np.array(values)
         else:
             try:
@@ -154,10 +164,17 @@ class BeamModel:
             damping_map = np.zeros((damping.size, len(_DAMPING_PARTS)))
             for row, index in enumerate(damping):
                 damping_map[row, _DAMPING_PARTS.index(terms[index].part)] = 1.0
-            layout = _Layout(
-                terms, np.array([rows[t.parameter] for t in terms]), where("mass"), where("stiffness"),
-                damping, where("force"), damping_map,
-            )
+            columns = np.array([rows[t.parameter] for t in terms])
+            mass, stiffness, force = where("mass"), where("stiffness"), where("force")
+            select = np.zeros((len(terms), len(rows)))  # coefficient of each term from the table
+            select[np.arange(len(terms)), columns] = 1.0
+            scale_matrix = np.concatenate([select[mass[:1]], select[stiffness[:1]], select[force].sum(axis=0, keepdims=True),
+                                           damping_map.T @ select[damping]])
+            key_matrix = select[np.concatenate([mass, stiffness])]
+            key_denominators = np.repeat([0, mass.size], [mass.size, stiffness.size])
+            cubic_row = rows.get("tip_cubic_stiffness_N_m3", -1)
+            layout = _Layout(terms, columns, mass, stiffness, damping, force, damping_map, scale_matrix, key_matrix,
+                             key_denominators, cubic_row)
             self._layouts[names] = layout
         return layout
 
@@ -186,45 +203,54 @@ class BeamModel:
         return {target: self._combine(layout, coef, target) for target in ("mass", "damping", "stiffness", "force")}
 
     # ------------------------------------------------------------------ modes
-    def _reduced_modes(self, layout: _Layout, coef: np.ndarray, n_modes: int) -> dict[str, np.ndarray]:
-        """Retained undamped modes and the projections the response needs, batched over B.
+    def _unit_modes(self, layout: _Layout, table: np.ndarray, n_modes: int) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        """Cached unit-scale modes for each parameter set: ``(which (B,), unit_modes)``.
 
         Mode shapes depend only on the ratios of the mass coefficients and of the stiffness
-        coefficients, so they are solved once per distinct ratio (scaled to rho = EI = 1), cached
-        with their projections, and rescaled: omega² = (EI/rho) omega_unit², shapes / sqrt(rho).
-
-        Returns omega2 (B, m), damping (B, m, m), force (B, m), sensor (B, m), tip (B, m).
+        coefficients, so they are solved once per distinct ratio (scaled to rho = EI = 1) and
+        cached with their projections; :func:`beam.modal.scale_unit_modes` rescales them.
+        ``unit_modes`` stacks the U distinct solutions (see there); set b uses ``which[b]``.
+        ``table`` is the value table of :meth:`_table` (rows: given names, then rho).
         """
-        batch = coef.shape[1]
-        mass_coef, stiff_coef = coef[layout.mass].T, coef[layout.stiffness].T
-        mass_scale, stiff_scale = mass_coef[:, 0], stiff_coef[:, 0]  # rho and EI: always > 0
-        keys = np.concatenate([mass_coef / mass_scale[:, None], stiff_coef / stiff_scale[:, None]], axis=1)
-        key_bytes = [row.tobytes() + bytes([n_modes]) for row in keys]
-        missing = {k: row for k, row in zip(key_bytes, keys) if k not in self._shape_cache}
-        found = {k: self._shape_cache[k] for k in key_bytes if k not in missing}
-        if missing:  # solved now; a batch larger than the cache reads them from here, not the cache
-            found.update(self._solve_shapes(np.array(list(missing.values())), list(missing), layout, n_modes))
-        damping_coef = coef[layout.damping].T @ layout.damping_map  # (B, len(_DAMPING_PARTS))
-        force_coef = coef[layout.force].sum(axis=0)
-        if all(k == key_bytes[0] for k in key_bytes):  # one shape for every set: broadcast it
-            omega2, projections, force, sensor, tip, static = found[key_bytes[0]]
-            damping = (damping_coef @ projections.reshape(len(_DAMPING_PARTS), -1)).reshape(batch, n_modes, n_modes)
+        batch = table.shape[1]
+        if layout.key_denominators.size == 2:  # rho and EI alone: one shape for every set
+            key_bytes = [bytes([n_modes])]
+            keys = np.ones((1, 2))
         else:
-            entries = [found[k] for k in key_bytes]
-            omega2, projections, force, sensor, tip, static = (np.stack(parts) for parts in zip(*entries))
-            damping = np.einsum("bp,bpij->bij", damping_coef, projections)
-        inv_root_mass = 1.0 / np.sqrt(mass_scale)[:, None]
-        return {
-            "omega2": omega2 * (stiff_scale / mass_scale)[:, None],
-            "damping": damping / mass_scale[:, None, None],
-            "force": force * (force_coef[:, None] * inv_root_mass),
-            "sensor": sensor * inv_root_mass,
-            "tip": tip * inv_root_mass,
-            "static": static * (force_coef / stiff_scale)[:, None],  # (B, 2): m per volt at sensor, tip
-        }
+            coefficients = layout.key_matrix @ table
+            keys = (coefficients / coefficients[layout.key_denominators]).T
+            key_bytes = [keys.tobytes() + bytes([n_modes])] if batch == 1 else [row.tobytes() + bytes([n_modes]) for row in keys]
+        first = key_bytes[0]
+        if batch == 1 or all(k == first for k in key_bytes):  # one shape for every set
+            entry = self._shape_cache.get(first)
+            if entry is None:
+                entry = self._solve_shapes(keys[:1], [first], layout, n_modes)[first]
+            return np.zeros(batch, dtype=np.int64), entry
+        index: dict[bytes, int] = {}
+        which = np.array([index.setdefault(k, len(index)) for k in key_bytes], dtype=np.int64)
+        rows = keys[[key_bytes.index(k) for k in index]]
+        missing = [k for k in index if k not in self._shape_cache]
+        found = {k: self._shape_cache[k] for k in index if k not in missing}
+        if missing:  # solved now; a batch larger than the cache reads them from here, not the cache
+            found.update(self._solve_shapes(rows[[index[k] for k in missing]], missing, layout, n_modes))
+        entries = [found[k] for k in index]
+        return which, tuple(np.concatenate(parts) for parts in zip(*entries))
+
+    def _reduced_modes(self, layout: _Layout, table: np.ndarray, n_modes: int) -> dict[str, np.ndarray]:
+        """Retained undamped modes and the projections the response needs, batched over B.
+
+        Returns omega2 (B, m), damping (B, m, m), force (B, m), sensor (B, m), tip (B, m),
+        static (B, 2) (see :func:`beam.modal.scale_unit_modes`).
+        """
+        which, unit_modes = self._unit_modes(layout, table, n_modes)
+        scaled = modal.scale_unit_modes(which, unit_modes, layout.scale_matrix @ table)
+        return dict(zip(("omega2", "damping", "force", "sensor", "tip", "static"), scaled))
 
     def _solve_shapes(self, rows: np.ndarray, keys: list[bytes], layout: _Layout, n_modes: int) -> dict[bytes, tuple]:
-        """Solve the undamped eigenproblem for normalised coefficient rows; cache and return the entries."""
+        """Solve the undamped eigenproblem for normalised coefficient rows; cache and return the entries.
+
+        Each entry is a tuple of arrays with a leading axis of length 1 (see :func:`beam.modal.scale_unit_modes`).
+        """
         n_mass = layout.mass.size
         mass = sum(rows[:, j, None, None] * getattr(self.parts, layout.terms[i].part) for j, i in enumerate(layout.mass))
         stiff = sum(
@@ -251,7 +277,10 @@ class BeamModel:
         tip = self.parts.tip_values @ kept
         entries = {}
         for i, key in enumerate(keys):
-            entries[key] = (omega2[i, :n_modes], projections[i], force[i], sensor[i], tip[i], residual_static[i])
+            entries[key] = tuple(
+                np.ascontiguousarray(part[i : i + 1], dtype=float)
+                for part in (omega2[:, :n_modes], projections, force, sensor, tip, residual_static)
+            )
             self._shape_cache[key] = entries[key]
             if len(self._shape_cache) > _SHAPE_CACHE_SIZE:
                 self._shape_cache.popitem(last=False)
@@ -285,6 +314,15 @@ class BeamModel:
             raise BeamInputError(f"sample_interval_s must be positive, got {sample_interval_s}")
         return voltage
 
+    def _check_modes(self, modes: int | None) -> int:
+        n_modes = self.size if modes is None else modes
+        if isinstance(n_modes, bool) or int(n_modes) != n_modes or not 1 <= n_modes <= self.size:
+            raise BeamInputError(
+                f"modes must be between 1 and {self.size} (the mesh of {self.intervals} intervals holds "
+                f"{self.size} modes), got {modes}"
+            )
+        return int(n_modes)
+
     def reduced_system(self, parameters: Mapping[str, float | np.ndarray], modes: int | None = 4):
         """Retained modes in modal coordinates: ``(reduced, values, batched)``.
 
@@ -293,14 +331,9 @@ class BeamModel:
         quasi-static displacement per volt of the discarded modes at the sensor and the tip (m/V);
         ``values`` maps each given parameter name to its (B,) values.
         """
-        n_modes = self.size if modes is None else modes
-        if isinstance(n_modes, bool) or int(n_modes) != n_modes or not 1 <= n_modes <= self.size:
-            raise BeamInputError(
-                f"modes must be between 1 and {self.size} (the mesh of {self.intervals} intervals holds "
-                f"{self.size} modes), got {modes}"
-            )
-        layout, coef, values, batched = self._coefficients(parameters)
-        return self._reduced_modes(layout, coef, int(n_modes)), values, batched
+        n_modes = self._check_modes(modes)
+        names, table, batched = self._table(parameters)
+        return self._reduced_modes(self._layout(names), table, n_modes), dict(zip(names, table)), batched
 
     def modal_system(self, parameters: Mapping[str, float | np.ndarray], modes: int | None = 4) -> modal.ComplexModes:
         """Retained complex modes (:class:`beam.modal.ComplexModes`).
@@ -329,20 +362,27 @@ class BeamModel:
         (c.phi)(phi.f)/omega². It is exact for slow inputs, removes most of the truncation error
         below the first discarded mode, and is zero when every mode is kept.
         """
-        voltage = self._check_record(voltage_V, sample_interval_s)
-        reduced, values, batched = self.reduced_system(parameters, modes)
-        static = reduced["static"] if static_correction else np.zeros_like(reduced["static"])
-        cubic = values.get("tip_cubic_stiffness_N_m3")
-        if cubic is not None and np.any(cubic > 0):
+        voltage = np.asarray(voltage_V, dtype=float)
+        if voltage.ndim != 1 or voltage.size < 2 or not (math.isfinite(sample_interval_s) and sample_interval_s > 0):
+            self._check_record(voltage, sample_interval_s)  # raises the precise error
+        n_modes = self._check_modes(modes)
+        names, table, batched = self._table(parameters)
+        layout = self._layout(names)
+        if layout.cubic_row >= 0 and np.any(table[layout.cubic_row] > 0):
             from beam.nonlinear import integrate_tip_cubic
 
-            out = integrate_tip_cubic(_complex_modes_of(reduced), cubic, voltage, sample_interval_s, static_gains=static)
-        else:
-            out = modal.modal_response(
-                reduced["omega2"], reduced["damping"], reduced["force"], reduced["sensor"], sample_interval_s, voltage,
-                static_gain=static[:, 0],
-            )
-        if not np.isfinite(out).all():
+            reduced = self._reduced_modes(layout, table, n_modes)
+            static = reduced["static"] if static_correction else np.zeros_like(reduced["static"])
+            out = integrate_tip_cubic(_complex_modes_of(reduced), table[layout.cubic_row],
+                                      self._check_record(voltage, sample_interval_s), sample_interval_s,
+                                      static_gains=static)
+            finite = np.isfinite(out).all()
+        else:  # linear: rescaled cached shapes, poles, residues and ZOH stepping in one compiled call
+            which, unit_modes = self._unit_modes(layout, table, n_modes)
+            out, finite = modal.cached_modes_response(which, unit_modes, layout.scale_matrix @ table,
+                                                      sample_interval_s, voltage, static_correction)
+        if not finite:
+            self._check_record(voltage, sample_interval_s)  # a NaN or infinite voltage is named as such
             raise BeamInputError(
                 "the response is not finite (parameters or voltage out of any physical range, or the tip spring "
                 "too stiff for the amplitude); check the values"

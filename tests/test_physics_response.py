@@ -99,6 +99,34 @@ def test_batch_equals_one_call_per_parameter_set():
     np.testing.assert_allclose(together, one_by_one, rtol=0, atol=1e-12 * np.abs(one_by_one).max())
 
 
+def test_mixed_batch_shared_shapes_and_an_overdamped_set_equal_the_full_state_space():
+    """Sets sharing cached shapes, sets with their own, and one LAPACK fall-back, in one call."""
+    effects, extra = CASES["patch (non-proportional)"]
+    model = BeamModel(GEOMETRY, effects)
+    base = dict(BASE, **extra)
+    scale = np.array([1.0, 1.1, 1.0, 0.9, 1.0])  # sets 0, 2 and 4 share their mode shapes
+    batch = {k: v * scale if k == "patch_added_stiffness_Nm2" else np.full(5, v) for k, v in base.items()}
+    batch["air_damping_Ns_m2"] = np.array([0.013, 0.02, 40.0, 0.013, 0.05])  # set 2: mode 1 overdamped
+    batch["bending_stiffness_Nm2"] = np.array([0.491, 0.491, 0.491, 0.5, 0.45])
+    voltage = chirp(700)
+    together = model.response(batch, voltage, DT, modes=None)
+    for i in range(5):
+        one = {k: float(v[i]) for k, v in batch.items()}
+        assert relative_l2(together[i], model.response_full(one, voltage, DT)) <= 1e-8
+        assert relative_l2(together[i], model.response(one, voltage, DT, modes=None)) <= 1e-12
+
+
+def test_non_finite_voltage_is_named_after_a_warm_call():
+    model = BeamModel(GEOMETRY)
+    voltage = chirp(200)
+    model.response(BASE, voltage, DT)  # names and shapes cached: the fast path
+    voltage[50] = np.nan
+    with pytest.raises(BeamInputError, match="voltage_V holds NaN"):
+        model.response(BASE, voltage, DT)
+    with pytest.raises(BeamInputError, match="must be finite"):
+        model.response(dict(BASE, bending_stiffness_Nm2=float("inf")), chirp(200), DT)
+
+
 def test_rayleigh_iteration_poles_match_lapack():
     effects, extra = CASES["patch (non-proportional)"]
     model = BeamModel(GEOMETRY, effects)
