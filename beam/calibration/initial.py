@@ -10,7 +10,9 @@ local optimum (each cycle of phase error is a new basin). So:
    s x its centre; the two best separated maxima are both tried.
 2. **Linear coupling** — the response is linear in k_p: its least-squares value given the rest.
 3. **Growing window** — a MAP on the first third of the window (where a phase error has had
-   little time to accumulate) is the start of the MAP on the whole window.
+   little time to accumulate) is the start of the MAP on the whole window. It is found by the
+   lock-step Levenberg–Marquardt of :mod:`beam.calibration.fit` from both spectral starts at
+   once, to its coarse tolerance (a start needs no Newton polish).
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from beam.calibration.fit import internal_starts, levenberg_marquardt
 from beam.calibration.problem import BeamCalibrationSetup, build_problem, prior_centre
-from beam.inference import Problem, find_map
+from beam.inference import Problem
 
 #: Stiffness scale factors searched: a factor 5 either way of the prior centre.
 SCALE_GRID = np.exp(np.linspace(np.log(0.2), np.log(5.0), 1201))
@@ -77,19 +80,28 @@ def least_squares_coupling(setup: BeamCalibrationSetup, values: Mapping[str, flo
     return abs(float(response @ problem.data) / denominator)
 
 
-def initial_guesses(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[str, float]]:
-    """Starting points for :func:`beam.inference.find_map` on the whole window."""
+def spectral_guesses(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[str, float]]:
+    """Spectral starting points (see the module notes; natural units, physical parameters
+    only): the prior centres with EI scaled to match the periodogram and k_p by least squares."""
     centres = prior_centres(setup)
     spectral = []
     for scale in stiffness_scales(setup, centres):
         guess = dict(centres, bending_stiffness_Nm2=centres["bending_stiffness_Nm2"] * scale)
         guess["patch_coupling_NmV"] = least_squares_coupling(setup, guess, problem)
         spectral.append(_clip_to_prior(problem, guess))
+    return spectral
+
+
+def initial_guesses(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[str, float]]:
+    """Starting points for the MAP search on the whole window: the short-window MAP first,
+    then the spectral starts (natural units, physical parameters only)."""
+    spectral = spectral_guesses(problem, setup)
     short = _short_window_problem(setup)
     if short is None:
         return spectral
-    refined = find_map(short, spectral)
-    start = {name: float(v) for name, v in refined.values.items() if name not in short.noise_names}
+    refined = levenberg_marquardt(short, internal_starts(short, spectral))
+    values = short.from_internal(refined.z[refined.best])
+    start = {name: float(v[0]) for name, v in values.items() if name not in short.noise_names}
     return [start] + spectral
 
 

@@ -110,8 +110,9 @@ class BeamForwardModel:
         self._names = self.model.parameter_names
         self._index_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
-    def sample_indices(self, time_s: np.ndarray) -> np.ndarray:
-        """Record indices of the times ``time_s`` (cached per array object)."""
+    def sample_indices(self, time_s: np.ndarray) -> np.ndarray | slice:
+        """Record indices of the times ``time_s`` (cached per array object): a slice when they
+        are consecutive samples (a window, the whole record), else an index array."""
         cached = self._index_cache.get(id(time_s))
         if cached is not None and cached[0] is time_s:
             return cached[1]
@@ -119,17 +120,24 @@ class BeamForwardModel:
         index = np.rint((np.asarray(time_s, dtype=float) - t0) / dt).astype(int)
         if index.size and (index.min() < 0 or index.max() >= self.measurement.time_s.size):
             raise BeamInputError("prediction times must lie within the record")
+        if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+            index = slice(int(index[0]), int(index[0]) + index.size)
         self._index_cache[id(time_s)] = (time_s, index)
         return index
 
     def __call__(self, values: Mapping[str, np.ndarray], time_s: np.ndarray) -> np.ndarray:
         index = self.sample_indices(time_s)
-        needed = int(index.max()) + 1 if index.size else 1
+        if isinstance(index, slice):
+            needed = index.stop
+        else:
+            needed = int(index.max()) + 1 if index.size else 1
         parameters = {name: values[name] for name in self._names}
-        response = self.model.response(
+        response = np.atleast_2d(self.model.response(
             parameters, self.measurement.voltage_V[: max(needed, 2)], self.measurement.sample_interval_s, self.modes
-        )
-        return np.atleast_2d(response)[:, index]
+        ))
+        if isinstance(index, slice) and index.start == 0 and index.stop == response.shape[1]:
+            return response  # the whole computed response: no copy
+        return response[:, index]
 
 
 @dataclass

@@ -6,7 +6,14 @@ calibration and prediction windows, coverage of the 95 % prediction band on the 
 (every sample outside the window), convergence diagnostics, the posterior correlation matrix
 (Pearson, of the draws in the sampling coordinates: log for the positive physical parameters)
 and the predictive bands over the whole record. :func:`calibration_preview` stops after the
-Laplace step (what a ranking of candidate effects needs).
+Laplace step (what a ranking of candidate effects needs, and what the dashboard draws on every
+slider move).
+
+The preview is the fast path: the MAP by the lock-step search of :mod:`beam.calibration.fit`
+(the same MAP and finite-difference Hessian as :func:`beam.inference.find_map`, from a third of
+the model evaluations), the bands by the compiled kernel of :mod:`beam.calibration.bands` (the
+same bands as :func:`beam.inference.predictive_bands` from the same draws). A ``start`` (the
+previous window's MAP) warm-starts it.
 """
 
 from __future__ import annotations
@@ -14,18 +21,20 @@ from __future__ import annotations
 import io
 import math
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from beam.calibration.initial import initial_guesses
+from beam.calibration.bands import fast_predictive_bands
+from beam.calibration.fit import fast_map
+from beam.calibration.initial import initial_guesses, spectral_guesses
 from beam.calibration.problem import DEFAULT_EFFECTS, DEFAULT_MODES, BeamCalibrationSetup, build_problem, make_setup
 from beam.errors import BeamInputError
 from beam.fileio import atomic_write_texts
 from beam.limits import MAX_CALIBRATION_SAMPLES, decimate_measurement
-from beam.inference import NOISE_SD, EnsembleRun, LaplaceResult, PosteriorResult, PredictiveBands, Problem, Progress, preview
+from beam.inference import NOISE_SD, EnsembleRun, LaplaceResult, PosteriorResult, PredictiveBands, Problem, Progress, laplace
 from beam.inference.summaries import summarize_draws
 from beam.measurement import Measurement
 
@@ -183,8 +192,15 @@ def prepare(
     modes: int = DEFAULT_MODES,
     likelihood: str = "iid",
     extra_guesses: Iterable[dict[str, float]] = (),
+    start: Mapping[str, float] | None = None,
 ) -> tuple[BeamCalibrationSetup, Problem]:
-    """Validated setup and inference problem (spectral initial guesses, then ``extra_guesses``).
+    """Validated setup and inference problem with its starting points.
+
+    The problem's ``initial_guesses`` hook returns the screened starting points of the MAP
+    search: the short-window MAP and the spectral starts (:mod:`beam.calibration.initial`) and
+    ``extra_guesses``; with a warm ``start`` (see :func:`calibration_preview`) the warm start
+    first, then the spectral starts and ``extra_guesses`` (no short-window MAP: the warm start
+    plays its part).
 
     A record longer than :data:`beam.limits.MAX_CALIBRATION_SAMPLES` is decimated first (anti-
     aliased; see :mod:`beam.limits`): ``setup.measurement`` is then the decimated record.
@@ -192,8 +208,43 @@ def prepare(
     measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
     setup = make_setup(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)
     extra = [dict(g) for g in extra_guesses]
-    problem = build_problem(setup, initial_guesses=lambda p: best_guesses(p, initial_guesses(p, setup) + extra))
-    return setup, problem
+    warm = None if start is None else checked_start(start, setup.physical_names)
+
+    def starting_points(problem: Problem) -> list[dict[str, float]]:
+        if warm is None:
+            return best_guesses(problem, initial_guesses(problem, setup) + extra)
+        rivals = best_guesses(problem, spectral_guesses(problem, setup) + extra, KEPT_GUESSES - 1)
+        return [clip_to_prior(problem, warm)] + rivals
+
+    return setup, build_problem(setup, initial_guesses=starting_points)
+
+
+def checked_start(start: Mapping[str, float], names: Iterable[str]) -> dict[str, float]:
+    """The values of ``start`` for the physical parameters ``names`` it has, as floats (natural
+    units; names it lacks, e.g. of an effect just added, start at their prior centres).
+
+    Raises
+    ------
+    BeamInputError
+        When one of them is not a finite positive number.
+    """
+    out = {}
+    for name in names:
+        if name in start:
+            try:
+                value = float(start[name])
+            except (TypeError, ValueError):
+                value = math.nan
+            if not (math.isfinite(value) and value > 0.0):
+                raise BeamInputError(f"warm start {name} = {start[name]!r} is not a finite positive number")
+            out[name] = value
+    return out
+
+
+def clip_to_prior(problem: Problem, values: Mapping[str, float]) -> dict[str, float]:
+    """``values`` clipped into their priors' supports (natural units)."""
+    return {name: float(np.clip(v, problem.parameter(name).prior.lower, problem.parameter(name).prior.upper))
+            for name, v in values.items()}
 
 
 #: Starting points a MAP search keeps after screening (each costs a least-squares run).
@@ -224,13 +275,74 @@ def default_walkers(n_parameters: int) -> int:
     return max(16, 4 * int(n_parameters))
 
 
-def calibration_preview(measurement: Measurement, **choices) -> CalibrationResult:
-    """MAP + Laplace only: parameters, bands, RMSE and coverage in a fraction of a second."""
+def preview_fit(problem: Problem) -> LaplaceResult:
+    """MAP + Laplace of a prepared problem by the fast search of :mod:`beam.calibration.fit`
+    from the starts of the problem's ``initial_guesses`` hook (see :func:`prepare`).
+
+    Returns
+    -------
+    LaplaceResult
+        ``seconds`` is the wall time of the search and the approximation.
+    """
     t0 = time.perf_counter()
-    setup, problem = prepare(measurement, **choices)
-    laplace = preview(problem)
-    bands = laplace.predict(setup.measurement.time_s, n_draws=BAND_DRAWS, seed=0)
-    return CalibrationResult(setup, problem, laplace, None, bands, time.perf_counter() - t0)
+    result = laplace(problem, fast_map(problem, problem.initial_guesses(problem)))
+    result.seconds = time.perf_counter() - t0
+    return result
+
+
+def calibration_preview(
+    measurement: Measurement,
+    *,
+    window: tuple[float, float] | None = None,
+    effects: Iterable[str] | str = DEFAULT_EFFECTS,
+    modes: int = DEFAULT_MODES,
+    likelihood: str = "iid",
+    extra_guesses: Iterable[dict[str, float]] = (),
+    start: Mapping[str, float] | None = None,
+    seed: int = 0,
+) -> CalibrationResult:
+    """MAP + Laplace only: parameters, bands, RMSE and coverage in a fraction of a second.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        The record (displacement in m, voltage in V).
+    window : (start_s, end_s), optional
+        Calibration window (s); default the first 30 % of the record.
+    effects : str or iterable of str
+        Effects added to the base model (default air_damping, kelvin_voigt).
+    modes : int
+        Retained modes (default 4).
+    likelihood : {"iid", "ar1"}
+        Noise model.
+    extra_guesses : iterable of mapping
+        More starting points (natural units), screened with the spectral ones.
+    start : mapping of str to float, optional
+        Warm start: parameter values in natural units, e.g. ``previous.laplace.map.values`` of a
+        preview of the same record and model on a nearby window (extra names are ignored, a
+        missing one starts at its prior centre). It replaces the short-window MAP among the
+        starting points (the spectral starts stay), so a window moved by a few percent
+        converges in a few iterations. Far from the window it came from (a window several
+        times longer, another record) it may lead to a worse optimum than the cold search.
+    seed : int
+        Seed of the Laplace draws behind the predictive bands.
+    """
+    t0 = time.perf_counter()
+    setup, problem = prepare(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood,
+                             extra_guesses=extra_guesses, start=start)
+    laplace_result = preview_fit(problem)
+    bands = preview_bands(laplace_result, setup.measurement.time_s, seed)
+    return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0)
+
+
+def preview_bands(laplace_result: LaplaceResult, time_s: np.ndarray, seed: int) -> PredictiveBands:
+    """Predictive bands of :data:`BAND_DRAWS` Laplace draws over ``time_s`` (s), in m.
+
+    The same draws and bands as ``laplace_result.predict(time_s, n_draws=BAND_DRAWS, seed=seed)``
+    (to the tolerance of the prediction band's edges), by :func:`fast_predictive_bands`.
+    """
+    draws = laplace_result.draws(BAND_DRAWS, seed)
+    return fast_predictive_bands(laplace_result.problem, draws, time_s)
 
 
 def calibrate(measurement: Measurement, **options) -> CalibrationResult:
@@ -258,6 +370,7 @@ def calibration_stream(
     target_ess: float = 1000.0,
     max_steps: int = 20000,
     every: int = 50,
+    start: Mapping[str, float] | None = None,
 ) -> Iterator[CalibrationResult | Progress]:
     """The calibration as a generator: the preview result, then :class:`Progress` while sampling,
     then the final result. A caller (the dashboard) can stop at any point by leaving the loop.
@@ -286,25 +399,29 @@ def calibration_stream(
         Cap on ensemble steps.
     every : int
         Steps between :class:`Progress` events.
+    start : mapping of str to float, optional
+        Warm start of the MAP search (see :func:`calibration_preview`); the first event is then
+        the same as ``calibration_preview(..., start=start, seed=seed)``.
     """
     if walkers is not None and (isinstance(walkers, bool) or walkers < 2):
         raise BeamInputError(f"walkers must be an integer >= 2, got {walkers}")
     if steps is not None and (isinstance(steps, bool) or steps < 10):
         raise BeamInputError(f"steps must be an integer >= 10, got {steps}")
     t0 = time.perf_counter()
-    setup, problem = prepare(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)
-    laplace = preview(problem)
+    setup, problem = prepare(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood,
+                             start=start)
+    laplace_result = preview_fit(problem)
     time_s = setup.measurement.time_s
-    yield CalibrationResult(setup, problem, laplace, None, laplace.predict(time_s, n_draws=BAND_DRAWS, seed=seed),
+    yield CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, time_s, seed),
                             time.perf_counter() - t0)
     if walkers is not None and walkers < 2 * problem.ndim:
         raise BeamInputError(f"walkers must be at least 2 x {problem.ndim} parameters = {2 * problem.ndim}, got {walkers}")
-    run = EnsembleRun(problem, laplace, n_walkers=walkers or default_walkers(problem.ndim), seed=seed)
+    run = EnsembleRun(problem, laplace_result, n_walkers=walkers or default_walkers(problem.ndim), seed=seed)
     if steps is not None:
         yield from run.sample(steps, every=every)
         posterior = run.result(target_ess=target_ess)
     else:
         yield from run.sample_to_ess(target_ess, every=every, max_steps=max_steps)
         posterior = run.result(target_ess=target_ess)
-    bands = posterior.predict(time_s, n_draws=BAND_DRAWS, seed=seed)
-    yield CalibrationResult(setup, problem, laplace, posterior, bands, time.perf_counter() - t0)
+    bands = fast_predictive_bands(problem, posterior.thinned_draws(BAND_DRAWS, seed), time_s)  # = posterior.predict
+    yield CalibrationResult(setup, problem, laplace_result, posterior, bands, time.perf_counter() - t0)
