@@ -3,25 +3,36 @@
 Builds one :class:`~dashboard.state.SessionState` per browser session, wires its updates onto
 the session's event loop, and shows the views of :data:`dashboard.views.VIEWS` as tabs of a
 :class:`pn.template.BootstrapTemplate` (all its resources are bundled with Panel, so the app
-works offline). The first toy run starts at once (no debounce), so the
-preview is on screen moments after the page has loaded (``pn.state.onload``). Needs nothing but the repository.
+works offline). Needs nothing but the repository.
+
+What runs where (issue #6/#7: eight sessions at once, every request answered within a second):
+
+* this script runs on the server's event loop for each new browser session, so it builds only
+  a skeleton; the views build their pieces in steps once the page is connected
+  (:mod:`dashboard.staging`, one step at a time across all sessions);
+* inference runs in worker processes (:mod:`dashboard.workers`), started once per server
+  with the rest of the process set-up (:func:`dashboard.server.prepare`);
+* the first toy run starts when the page has loaded (``pn.state.onload``), at once (no
+  debounce), so the preview is on screen moments later.
+
+``BEAM_DASHBOARD_LAG_LOG=lag.jsonl`` records where the event loop stalls
+(:mod:`dashboard.monitor`).
 """
 
 from __future__ import annotations
 
 import sys
+import time
 from pathlib import Path
 
 _ROOT = str(Path(__file__).resolve().parents[1])
 if _ROOT not in sys.path:  # `panel serve dashboard/app.py` only puts dashboard/ on the path
     sys.path.insert(0, _ROOT)
 
-import holoviews as hv
 import panel as pn
 from panel.io.state import set_curdoc
 
-from dashboard import exports, summaries, toy_jobs, toy_plots  # noqa: F401  (imported while the path is set)
-from dashboard.scheduler import shared_pool
+from dashboard import monitor, server, toy_jobs
 from dashboard.state import SessionState
 from dashboard.views import VIEWS
 
@@ -49,7 +60,6 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
         Default: a new one whose updates are dispatched to the current document.
     """
     pn.extension(notifications=False)
-    hv.extension("bokeh", logo=False)
     doc = pn.state.curdoc
     if session is None:
         session = SessionState(dispatch=session_dispatch(doc) if doc is not None else None)
@@ -69,11 +79,11 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
 
     def start() -> None:
         session.toy.request(debounce=False)
-        toy_jobs.schedule_warm_up(shared_pool())
+        toy_jobs.schedule_warm_up(session.pool)
 
     if doc is not None and doc.session_context is not None:
-        # Not before the page is connected: plot updates that arrive earlier are re-scheduled
-        # by HoloViews on every tick until the websocket opens, which starves the event loop.
+        # Not before the page is connected: changes made to the document before the browser
+        # has pulled it can reach it as patches to models it does not know.
         pn.state.onload(start)
     else:
         start()
@@ -84,4 +94,8 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
 
 
 if __name__.startswith("bokeh"):
+    server.prepare()  # once per server process: worker processes, lag monitor, gc freeze
+    _t0 = time.perf_counter()
     create_app().servable(title=TITLE)
+    if monitor.current() is not None:
+        monitor.current().note("session script", seconds=round(time.perf_counter() - _t0, 3))

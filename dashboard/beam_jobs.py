@@ -13,8 +13,11 @@ Pure Python on top of the public ``beam`` API (no UI import).
     The diagnosis of :func:`beam.diagnosis.diagnose` in cancellable steps: base preview,
     residual report (``partial``), candidates two at a time, then ``final``.
 
-Final results are deterministic for their inputs, so they are kept in small process-wide
-LRU caches shared by all sessions (bundled datasets only: an upload is private to a session).
+The computations (:func:`calibration_stages`, :func:`diagnosis_stages`) run in a worker
+process of the pool (:func:`dashboard.scheduler.offload`); the jobs around them look up and fill
+the caches in the server process. Final results are deterministic for their inputs, so they are
+kept in small process-wide LRU caches shared by all sessions (bundled datasets only: an upload
+is private to a session). :func:`warm_worker` prepares a new worker process.
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ from beam.missing_physics import (
 )
 from beam.simulation import read_truth
 from dashboard import scheduler as sch
-from dashboard.toy_jobs import LRU
+from dashboard.toy_jobs import LRU, cached_stages, warm_up
 
 __all__ = [
     "ASSETS",
@@ -50,10 +53,13 @@ __all__ = [
     "Diagnosis",
     "bundled_datasets",
     "calibration_run",
+    "calibration_stages",
     "diagnosis_run",
+    "diagnosis_stages",
     "load_bundled",
     "load_upload",
     "read_answer",
+    "warm_worker",
 ]
 
 REPO = Path(__file__).resolve().parents[1]
@@ -167,6 +173,11 @@ def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int
     if cached is not None:
         yield sch.final(cached, "posterior (cached)")
         return
+    yield from cached_stages(CALIBRATIONS, key if cacheable else None, calibration_stages, key, measurement, every=every)
+
+
+def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: int = 25) -> sch.Iterator[sch.Stage]:
+    """The computation of :func:`calibration_run` (in a worker process; no cache)."""
     stream = calibration_stream(measurement, window=key.window, effects=key.effects, modes=key.modes,
                                 likelihood=key.likelihood, seed=key.seed, target_ess=key.target_ess, every=every)
     done = 0.0
@@ -177,9 +188,8 @@ def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int
                 yield sch.progress(done, f"sampling: {event.step} of {event.total} ensemble steps")
             elif event.is_preview:
                 yield sch.preview(event, _stage_message(event))
+                warm_up()  # the sampler's libraries, before the stream goes on to sample
             else:
-                if cacheable:
-                    CALIBRATIONS.put(key, event)
                 yield sch.final(event, _stage_message(event))
     finally:
         stream.close()  # leaving the loop stops emcee
@@ -250,7 +260,13 @@ def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: b
     if cached is not None:
         yield sch.final(cached, "diagnosis (cached)")
         return
+    yield from cached_stages(DIAGNOSES, dkey if cacheable else None, diagnosis_stages, key, measurement)
+
+
+def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> sch.Iterator[sch.Stage]:
+    """The computation of :func:`diagnosis_run` (in a worker process; no cache)."""
     yield sch.progress(0.02, "calibrating the current model (preview)")
+    warm_up()  # no half-imported ArviZ under the diagnostics (see dashboard.toy_jobs.warm_up)
     base = calibration_preview(measurement, window=key.window, effects=key.effects, modes=key.modes)
     yield sch.progress(0.1, "residual diagnostics: band, spectrum, whiteness, modes, backbone")
     residuals = residual_report(base)
@@ -267,8 +283,6 @@ def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: b
         done = min(i + 2, len(names))
         diagnosis = Diagnosis(key, base, residuals, ranked, names[done:])
         yield sch.partial(diagnosis, 0.25 + 0.75 * done / max(len(names), 1), f"ranked {done} of {len(names)} candidates")
-    if cacheable:
-        DIAGNOSES.put(dkey, diagnosis)
     yield sch.final(diagnosis, "diagnosis")
 
 
@@ -277,3 +291,15 @@ def effect_label(effect: str) -> str:
     e = EFFECTS[effect]
     units = ", ".join(f"{p.symbol} in {p.unit}" for p in e.parameters if p.required)
     return f"{e.title} ({units})"
+
+
+def warm_worker() -> None:
+    """Prepare a new worker process (seconds, once): what a preview needs first, then the sampler's libraries."""
+    from beam.inference.laplace import preview as laplace_preview
+    from beam.toy import ToyScenario, calibration_problem, simulate
+
+    scenario = ToyScenario()
+    laplace_preview(calibration_problem(scenario, simulate(scenario))[0])
+    m = load_bundled(next(iter(bundled_datasets())))
+    calibration_preview(m, window=(float(m.time_s[0]), float(m.time_s[min(400, m.time_s.size - 1)])), modes=2)
+    warm_up()  # ArviZ and emcee: the MCMC stage (ArviZ alone takes seconds to import)

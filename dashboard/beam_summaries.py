@@ -11,6 +11,7 @@ import json
 import math
 import os
 import tempfile
+import threading
 
 import numpy as np
 import pandas as pd
@@ -29,6 +30,7 @@ __all__ = [
     "posterior_netcdf",
     "readouts",
     "result_label",
+    "summary",
     "summary_json",
 ]
 
@@ -73,14 +75,42 @@ def convergence(result) -> dict:
             "warnings": list(d.warnings)}
 
 
+_memo: dict[tuple[int, str], tuple[object, object]] = {}
+_memo_lock = threading.Lock()
+
+
+def _memoised(result, what: str, compute):
+    """``compute()`` once per result object (a result feeds several read-outs and tables at each update)."""
+    key = (id(result), what)
+    with _memo_lock:
+        hit = _memo.get(key)
+        if hit is not None and hit[0] is result:
+            return hit[1]
+    value = compute()
+    with _memo_lock:
+        _memo[key] = (result, value)
+        while len(_memo) > 16:
+            _memo.pop(next(iter(_memo)))
+    return value
+
+
+def summary(result) -> dict[str, dict[str, float]]:
+    """``result.summary()``, computed once per result."""
+    return _memoised(result, "summary", result.summary)
+
+
 def readouts(result) -> dict[str, float]:
     """RMSE in the window and held out (µm), held-out 95 % coverage (%), noise sd (µm); NaN without a result."""
     keys = ("rmse_calibration_um", "rmse_prediction_um", "coverage_pct", "noise_sd_um")
     if result is None:
         return dict.fromkeys(keys, math.nan)
-    noise = result.summary().get("noise_sd", {}).get("mean", math.nan)
-    return {"rmse_calibration_um": 1e6 * result.rmse_calibration, "rmse_prediction_um": 1e6 * result.rmse_prediction,
-            "coverage_pct": 100.0 * result.coverage95_prediction, "noise_sd_um": 1e6 * noise}
+
+    def compute():
+        noise = summary(result).get("noise_sd", {}).get("mean", math.nan)
+        return {"rmse_calibration_um": 1e6 * result.rmse_calibration, "rmse_prediction_um": 1e6 * result.rmse_prediction,
+                "coverage_pct": 100.0 * result.coverage95_prediction, "noise_sd_um": 1e6 * noise}
+
+    return dict(_memoised(result, "readouts", compute))
 
 
 def _estimate(s: dict | None) -> str:
@@ -93,10 +123,10 @@ def parameter_table(result) -> pd.DataFrame:
     """Parameters (mean ± sd [95 % interval]) with units; empty without a result."""
     if result is None:
         return pd.DataFrame()
-    summary = result.summary()
-    rows = {parameter_label(n): {"posterior mean ± sd [95 % interval]": _estimate(summary[n]),
-                                 "relative sd (%)": f"{100 * summary[n]['sd'] / abs(summary[n]['mean']):.2g}"
-                                 if summary[n]["mean"] else "–"} for n in summary}
+    stats = summary(result)
+    rows = {parameter_label(n): {"posterior mean ± sd [95 % interval]": _estimate(stats[n]),
+                                 "relative sd (%)": f"{100 * stats[n]['sd'] / abs(stats[n]['mean']):.2g}"
+                                 if stats[n]["mean"] else "–"} for n in stats}
     return pd.DataFrame.from_dict(rows, orient="index")
 
 
@@ -117,13 +147,13 @@ def compare_table(current, pinned=None) -> pd.DataFrame:
     columns = ({"Pinned": pinned} if pinned is not None else {}) | {"Current": current}
     names: list[str] = []
     for res in columns.values():
-        names += [n for n in res.summary() if n not in names]
+        names += [n for n in summary(res) if n not in names]
     index = (["Set-up", "Stage"] + [parameter_label(n) for n in names] + [
         "RMSE in the window (µm)", "Held-out RMSE (µm)", "Held-out coverage, 95 % prediction band (%)",
         "Converged (min ESS, max R-hat)"])
     table = {}
     for label, res in columns.items():
-        r, c, s = readouts(res), convergence(res), res.summary()
+        r, c, s = readouts(res), convergence(res), summary(res)
         conv = (f"{'yes' if c['converged'] else 'NO'} ({c['ess_min']:.0f}, {c['rhat_max']:.3f})" if c["mcmc"]
                 else "preview (no MCMC)")
         table[label] = [result_label(res), "preview (MAP + Laplace)" if res.is_preview else "posterior (MCMC)"] + [

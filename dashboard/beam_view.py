@@ -17,6 +17,8 @@ from dashboard import beam_summaries as bs
 from dashboard.beam_jobs import MAX_UPLOAD_BYTES
 from dashboard.beam_plots import BeamTimeSeriesPlot
 from dashboard.corner import CornerPlot
+from dashboard.panes import Markdown
+from dashboard.staging import run_steps
 from dashboard.state import SessionState
 from dashboard.texts import BEAM_GUIDE
 
@@ -70,25 +72,50 @@ class BeamCalibrationView(pn.viewable.Viewer):
         self._built = False
         # built when the tab is first opened (~0.3 s of the event loop per session saved
         # for the sessions that never open it)
-        self._layout = pn.Column(pn.pane.Markdown("Open this tab to load the beam calibration view."),
+        self._layout = pn.Column(Markdown("Open this tab to load the beam calibration view."),
                                  sizing_mode="stretch_width")
 
     def __panel__(self):
         return self._layout
 
     def build(self) -> None:
-        """Build the widgets, plots and tables (once)."""
+        """Build the widgets, plots and tables (once), in steps (see :mod:`dashboard.staging`)."""
         if self._built:
             return
         self._built = True
+        self._left = pn.Column(width=320)
+        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600)
+        self._right = pn.Column(width=320)
+        self._layout[:] = [pn.Row(self._left, self._centre, self._right, sizing_mode="stretch_width")]
+        run_steps([self._build_status, self._build_figure, self._build_plot, self._build_inputs, self._build_side,
+                   self._build_tabs])
+
+    # -- the steps of the build ------------------------------------------------------------------
+    def _build_status(self) -> None:
+        self._centre.extend([self._status(), self._readouts(), self._convergence()])
+
+    def _build_figure(self) -> None:  # the bokeh figure alone (not in the document yet)
         beam = self._beam
         self._plot = BeamTimeSeriesPlot()
         self._plot.show_measurement(beam.measurement)
         self._plot.update(beam.result, beam.pinned)
         beam.param.watch(lambda e: self._plot.update(beam.result, beam.pinned), ["result", "pinned"])
         beam.param.watch(lambda e: self._plot.show_measurement(e.new), "measurement")
+
+    def _build_plot(self) -> None:
+        self._centre.append(pn.pane.Bokeh(self._plot.figure, sizing_mode="stretch_width", height=390))
+
+    def _build_inputs(self) -> None:
+        self._left.extend([self._dataset_card(), self._controls()])
+
+    def _build_side(self) -> None:
+        self._left.extend([self._compare_buttons(), self._downloads()])
+        self._right.append(Markdown(BEAM_GUIDE, sizing_mode="stretch_width"))
+
+    def _build_tabs(self) -> None:
+        beam = self._beam
         self._corner: CornerPlot | None = None
-        self._posterior_tab = pn.Column(pn.pane.Markdown(
+        self._posterior_tab = pn.Column(Markdown(
             "Posterior draws: marginals on the diagonal, pairs below (blue; pinned result purple).", margin=(0, 10)),
             sizing_mode="stretch_width")
         self._tabs = pn.Tabs(
@@ -101,13 +128,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
             dynamic=True, sizing_mode="stretch_width")
         self._tabs.param.watch(self._tab_opened, "active")
         beam.param.watch(self._update_corner, ["result", "pinned"])
-        self._layout[:] = [pn.Row(
-            pn.Column(self._dataset_card(), self._controls(), self._compare_buttons(), self._downloads(), width=320),
-            pn.Column(self._status(), self._readouts(), self._convergence(),
-                      pn.pane.Bokeh(self._plot.figure, sizing_mode="stretch_width", height=390), self._tabs,
-                      sizing_mode="stretch_width"),
-            pn.Column(pn.pane.Markdown(BEAM_GUIDE, sizing_mode="stretch_width"), width=320),
-            sizing_mode="stretch_width")]
+        self._centre.append(self._tabs)
 
     def activate(self) -> None:
         """Build the view and start the first calibration (called when the tab is first opened)."""
@@ -136,10 +157,10 @@ class BeamCalibrationView(pn.viewable.Viewer):
         load.on_click(lambda e: beam.upload(csv.filename, csv.value, toml.filename, toml.value))
         return pn.Card(
             select,
-            pn.pane.Markdown(f"**Upload** a record: `NAME.csv` (time_s, voltage_V, displacement_m) and its sidecar "
+            Markdown(f"**Upload** a record: `NAME.csv` (time_s, voltage_V, displacement_m) and its sidecar "
                              f"`NAME.toml` (geometry), at most {mb} MB each.", margin=(0, 10)),
-            pn.pane.Markdown("Data file (.csv)", margin=(0, 10)), csv,
-            pn.pane.Markdown("Sidecar (.toml)", margin=(0, 10)), toml, load,
+            Markdown("Data file (.csv)", margin=(0, 10)), csv,
+            Markdown("Sidecar (.toml)", margin=(0, 10)), toml, load,
             title="Measurement", collapsible=False, sizing_mode="stretch_width")
 
     def _controls(self) -> pn.Card:
@@ -162,7 +183,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
         beam.param.watch(lambda e: setattr(effects, "value", list(e.new)) if list(e.new) != effects.value else None,
                          "effects")
         likelihood = pn.widgets.Select.from_param(beam.param.likelihood, sizing_mode="stretch_width")
-        return pn.Card(window, modes, pn.pane.Markdown("**Effects in the model** (besides EI in N m² and k_p in N m/V)",
+        return pn.Card(window, modes, Markdown("**Effects in the model** (besides EI in N m² and k_p in N m/V)",
                                                        margin=(5, 10, 0, 10)),
                        effects, likelihood, title="Model and calibration", collapsible=False, sizing_mode="stretch_width")
 
@@ -227,14 +248,14 @@ class BeamCalibrationView(pn.viewable.Viewer):
         beam = self._beam
         if beam.result is None:
             return
-        names = tuple(beam.result.summary())
+        names = tuple(bs.summary(beam.result))
         if self._corner is None or self._corner.names != names:
             self._corner = CornerPlot(names, size=150, labels={n: bs.short_label(n) for n in names})
             cells = [pn.pane.Bokeh(fig, sizing_mode="fixed", margin=0) if fig is not None else pn.Spacer(width=150, height=150)
                      for row in self._corner.grid for fig in row]
             grid = pn.GridBox(*cells, ncols=len(names), sizing_mode="fixed")
             self._posterior_tab[:] = [self._posterior_tab[0], grid]
-        pinned = beam.pinned if beam.pinned is not None and tuple(beam.pinned.summary()) == names else None
+        pinned = beam.pinned if beam.pinned is not None and tuple(bs.summary(beam.pinned)) == names else None
         self._corner.update(_Draws(beam.result), _Draws(pinned) if pinned is not None else None)
 
     def _compare_buttons(self) -> pn.Card:
@@ -245,7 +266,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
                                   disabled=pn.bind(lambda r: r is None, beam.param.pinned))
         pin.on_click(lambda e: beam.pin())
         unpin.on_click(lambda e: beam.unpin())
-        note = pn.pane.Markdown(pn.bind(lambda r: "Pinned result drawn in purple; see *Compare table*." if r is not None
+        note = Markdown(pn.bind(lambda r: "Pinned result drawn in purple; see *Compare table*." if r is not None
                                         else "Pin a result, then change an input to compare.", beam.param.pinned))
         return pn.Card(pin, unpin, note, title="Compare", collapsible=False, sizing_mode="stretch_width")
 

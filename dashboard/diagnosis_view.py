@@ -18,6 +18,8 @@ import param
 from dashboard.beam_summaries import parameter_label
 from dashboard.beam_view import status_html
 from dashboard.diagnosis_plots import DiagnosisPlots
+from dashboard.panes import Markdown
+from dashboard.staging import run_steps
 from dashboard.state import SessionState
 from dashboard.texts import DIAGNOSIS_GUIDE
 
@@ -75,49 +77,69 @@ class DiagnosisView(pn.viewable.Viewer):
         super().__init__(**params)
         self._diag = self.session.diagnosis
         self._built = False  # built when the tab is first opened (as the beam view)
-        self._layout = pn.Column(pn.pane.Markdown("Open this tab to diagnose the beam view's model."),
+        self._layout = pn.Column(Markdown("Open this tab to diagnose the beam view's model."),
                                  sizing_mode="stretch_width")
 
     def __panel__(self):
         return self._layout
 
     def build(self) -> None:
-        """Build the widgets, plots and tables (once)."""
+        """Build the widgets, plots and tables (once), in steps (see :mod:`dashboard.staging`)."""
         if self._built:
             return
         self._built = True
+        self._main = pn.Column(sizing_mode="stretch_width", min_height=600)
+        self._side = pn.Column(width=340)
+        self._layout[:] = [pn.Row(self._main, self._side, sizing_mode="stretch_width")]
+        run_steps([self._build_figures, self._build_head, self._build_ladder, self._build_residuals, self._build_modes,
+                   self._build_side])
+
+    # -- the steps of the build ------------------------------------------------------------------
+    def _build_figures(self) -> None:  # the bokeh figures alone (shown by the following steps)
         d = self._diag
-        beam = self.session.beam
         self._plots = DiagnosisPlots()
         self._plots.update(d.diagnosis)
         self._plots.update_ladder(d.ladder)
         d.param.watch(lambda e: self._plots.update(e.new), "diagnosis")
         d.param.watch(lambda e: self._plots.update_ladder(e.new), "ladder")
+
+    def _build_head(self) -> None:
+        d, beam = self._diag, self.session.beam
         self._candidates = pn.Column(sizing_mode="stretch_width", css_classes=["diag-candidates"])
         d.param.watch(self._show_candidates, ["diagnosis", "adding"])
         beam.param.watch(self._show_candidates, "effects")
         run = pn.widgets.Button(label="Diagnose the current model", color="primary", css_classes=["diag-run"])
         run.on_click(lambda e: d.request())
-        stale = pn.pane.Markdown(pn.bind(self._stale, d.param.diagnosis, beam.param.result), margin=(0, 10))
-        verdict = pn.pane.Markdown(pn.bind(lambda x: f"**Verdict:** {x.verdict}" if x is not None else "",
+        stale = Markdown(pn.bind(self._stale, d.param.diagnosis, beam.param.result), margin=(0, 10))
+        verdict = Markdown(pn.bind(lambda x: f"**Verdict:** {x.verdict}" if x is not None else "",
                                            d.param.diagnosis), css_classes=["diag-verdict"], sizing_mode="stretch_width")
-        plot = lambda fig: pn.pane.Bokeh(fig, sizing_mode="stretch_width", height=270)
-        p = self._plots
         self._show_candidates()
-        self._layout[:] = [pn.Row(
-            pn.Column(
-                self._status(), pn.Row(run, stale), verdict,
-                pn.pane.Markdown("### Candidate effects (best first)", margin=(0, 10)), self._candidates,
-                pn.pane.Markdown("### Error ladder", margin=(0, 10)),
-                pn.Row(pn.pane.DataFrame(pn.bind(ladder_table, d.param.ladder), escape=True, width=560,
-                                         css_classes=["diag-ladder-table"]), plot(p.ladder)),
-                plot(p.residual), pn.Row(plot(p.spectrum), plot(p.acf), sizing_mode="stretch_width"),
-                pn.Row(pn.Column(pn.pane.Markdown("**Modes: data (identified from the free decay) vs model**"),
-                                 pn.pane.DataFrame(pn.bind(modes_table, d.param.diagnosis), escape=True)),
-                       plot(p.backbone), sizing_mode="stretch_width"),
-                sizing_mode="stretch_width"),
-            pn.Column(pn.pane.Markdown(DIAGNOSIS_GUIDE, sizing_mode="stretch_width"), self._reveal(), width=340),
-            sizing_mode="stretch_width")]
+        self._main.extend([self._status(), pn.Row(run, stale), verdict,
+                           Markdown("### Candidate effects (best first)", margin=(0, 10)), self._candidates])
+
+    @staticmethod
+    def _plot(fig) -> pn.pane.Bokeh:
+        return pn.pane.Bokeh(fig, sizing_mode="stretch_width", height=270)
+
+    def _build_ladder(self) -> None:
+        self._main.extend([
+            Markdown("### Error ladder", margin=(0, 10)),
+            pn.Row(pn.pane.DataFrame(pn.bind(ladder_table, self._diag.param.ladder), escape=True, width=560,
+                                     css_classes=["diag-ladder-table"]), self._plot(self._plots.ladder))])
+
+    def _build_residuals(self) -> None:
+        p = self._plots
+        self._main.extend([self._plot(p.residual),
+                           pn.Row(self._plot(p.spectrum), self._plot(p.acf), sizing_mode="stretch_width")])
+
+    def _build_modes(self) -> None:
+        self._main.append(pn.Row(
+            pn.Column(Markdown("**Modes: data (identified from the free decay) vs model**"),
+                      pn.pane.DataFrame(pn.bind(modes_table, self._diag.param.diagnosis), escape=True)),
+            self._plot(self._plots.backbone), sizing_mode="stretch_width"))
+
+    def _build_side(self) -> None:
+        self._side.extend([Markdown(DIAGNOSIS_GUIDE, sizing_mode="stretch_width"), self._reveal()])
 
     def activate(self) -> None:
         """Build the view and diagnose the beam view's model (called when the tab is first opened)."""
@@ -165,10 +187,10 @@ class DiagnosisView(pn.viewable.Viewer):
             text = (f"**{c.effect}**{' — materially better' if c.material else ''}: Δ log evidence {evidence} nats, "
                     f"held-out RMSE {1e6 * c.rmse_prediction:.3g} µm, coverage {100 * c.coverage95_prediction:.0f} %"
                     f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
-            cards.append(pn.Row(button, pn.pane.Markdown(text, sizing_mode="stretch_width", margin=(0, 10)),
+            cards.append(pn.Row(button, Markdown(text, sizing_mode="stretch_width", margin=(0, 10)),
                                 sizing_mode="stretch_width"))
         if diagnosis.pending:
-            cards.append(pn.pane.Markdown(f"*Still ranking: {', '.join(diagnosis.pending)}…*"))
+            cards.append(Markdown(f"*Still ranking: {', '.join(diagnosis.pending)}…*"))
         self._candidates[:] = cards
 
     def _reveal(self) -> pn.Card:
@@ -184,6 +206,6 @@ class DiagnosisView(pn.viewable.Viewer):
             params = "<br>".join(f"{parameter_label(k)}: {v:.4g}" for k, v in answer["parameters"].items())
             return f"**Simulated with:** {', '.join(answer['effects'])}<br>{params}"
 
-        return pn.Card(button, pn.pane.Markdown(pn.bind(text, d.param.answer, self.session.beam.param.dataset),
+        return pn.Card(button, Markdown(pn.bind(text, d.param.answer, self.session.beam.param.dataset),
                                                 css_classes=["diag-answer"]),
                        title="Answer (for the teacher)", collapsible=True, collapsed=False)

@@ -29,8 +29,17 @@ pool
     :class:`RunPool`: one per server process (:func:`shared_pool`), at most ``max_workers``
     threads (default 2, the machine's cores; environment variable ``BEAM_DASHBOARD_WORKERS``),
     shared by all sessions. Delayed (debounced) work waits in a heap, not on a thread; worker
-    threads are started on demand and exit after ``idle_timeout_s`` without work, so an idle
-    server runs no scheduler thread at all.
+    threads are started on demand and exit after ``idle_timeout_s`` without work
+    (``BEAM_DASHBOARD_IDLE_S``, default 30 s), so an idle server runs no scheduler thread at all.
+worker processes
+    A pool made with ``processes=True`` (the shared pool, unless ``BEAM_DASHBOARD_PROCESSES=0``)
+    also owns one worker *process* per thread (:class:`dashboard.workers.WorkerProcesses`).
+    A job hands its CPU-bound part to one with :func:`offload` — ``yield from
+    offload(fn, *args)`` yields what the generator function ``fn`` yields over there — so the
+    job's thread in the server only waits on a pipe and the server's event loop never shares
+    its GIL with inference. Cancellation reaches the worker at once and takes effect at its
+    next stage, as for a job on the thread. Without worker processes (the unit tests' pools)
+    :func:`offload` runs ``fn`` on the thread itself.
 """
 
 from __future__ import annotations
@@ -52,6 +61,7 @@ __all__ = [
     "Stage",
     "Update",
     "final",
+    "offload",
     "partial",
     "preview",
     "progress",
@@ -60,6 +70,9 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+
+#: What the running job's thread knows: its pool and its request's cancellation event.
+_current = threading.local()
 
 #: Kinds of updates, in the order a successful job publishes them (``error`` ends a failed one).
 KINDS = ("preview", "progress", "partial", "final", "error")
@@ -181,12 +194,26 @@ class RunPool:
         A worker exits after this long without work.
     name : str
         Prefix of the thread names.
+    processes : bool
+        Also keep ``max_workers`` worker processes for :func:`offload` (started by
+        :meth:`start_processes` or on first use; they stay until :meth:`shutdown`).
+    nice : int
+        Niceness added to the worker processes.
+    warm : callable, optional
+        Run once in each new worker process (imports, compiled kernels).
     """
 
-    def __init__(self, max_workers: int = 2, *, idle_timeout_s: float = 30.0, name: str = "beam-run") -> None:
+    def __init__(self, max_workers: int = 2, *, idle_timeout_s: float = 30.0, name: str = "beam-run",
+                 processes: bool = False, nice: int = 0, warm: Callable[[], None] | None = None) -> None:
         if max_workers < 1:
             raise ValueError(f"max_workers must be at least 1, got {max_workers}")
         self.max_workers = int(max_workers)
+        #: The worker processes of :func:`offload` (None: offloaded work runs on the threads).
+        self.workers = None
+        if processes:
+            from dashboard.workers import WorkerProcesses
+
+            self.workers = WorkerProcesses(self.max_workers, nice=nice, warm=warm)
         self.idle_timeout_s = float(idle_timeout_s)
         self.name = name
         self._cv = threading.Condition()
@@ -201,6 +228,16 @@ class RunPool:
         """Worker threads currently alive."""
         with self._cv:
             return len(self._threads)
+
+    @property
+    def process_ids(self) -> list[int]:
+        """Process ids of the worker processes running now (empty without processes)."""
+        return [] if self.workers is None else self.workers.pids
+
+    def start_processes(self) -> None:
+        """Start the worker processes now (they warm up in the background); no-op without processes."""
+        if self.workers is not None:
+            self.workers.start()
 
     def cancel(self, entry: _Entry) -> bool:
         """Cancel a scheduled call; True if that prevented it from running."""
@@ -283,7 +320,13 @@ class RunPool:
             deadline = None if timeout is None else time.monotonic() + timeout
             for thread in threads:
                 thread.join(None if deadline is None else max(deadline - time.monotonic(), 0.0))
+        if self.workers is not None:
+            self.workers.shutdown()
 
+
+#: Niceness of the shared pool's worker processes (``BEAM_DASHBOARD_NICE``): the server's
+#: event loop, which answers every browser, gets the CPU first.
+DEFAULT_NICE = 10
 
 _shared: RunPool | None = None
 _shared_lock = threading.Lock()
@@ -295,8 +338,34 @@ def shared_pool() -> RunPool:
     with _shared_lock:
         if _shared is None or _shared._closed:
             workers = int(os.environ.get("BEAM_DASHBOARD_WORKERS", "2"))
-            _shared = RunPool(max_workers=max(workers, 1))
+            idle_s = float(os.environ.get("BEAM_DASHBOARD_IDLE_S", "30"))
+            processes = os.environ.get("BEAM_DASHBOARD_PROCESSES", "1") not in ("0", "", "no", "false")
+            nice = int(os.environ.get("BEAM_DASHBOARD_NICE", str(DEFAULT_NICE)))
+            warm = None
+            if processes:
+                from dashboard.beam_jobs import warm_worker
+
+                warm = warm_worker
+            _shared = RunPool(max_workers=max(workers, 1), idle_timeout_s=idle_s, processes=processes, nice=nice,
+                              warm=warm)
         return _shared
+
+
+def offload(fn: Callable[..., Iterator[Stage]], *args: Any, **kwargs: Any) -> Iterator[Stage]:
+    """Yield the stages of ``fn(*args, **kwargs)``, computed in a worker process of the job's pool.
+
+    Use it inside a job (``yield from offload(...)``): the stages come back as they are
+    yielded over there, and closing the job (cancellation) stops ``fn`` at its next stage.
+    ``fn`` and the arguments must pickle (a module-level generator function); objects passed
+    as arguments come back as themselves inside the results (see :mod:`dashboard.workers`).
+    Outside a job of a pool with worker processes, ``fn`` runs here, on the calling thread.
+    """
+    pool = getattr(_current, "pool", None)
+    workers = None if pool is None else pool.workers
+    if workers is None:
+        yield from fn(*args, **kwargs)
+        return
+    yield from workers.run(fn, args, kwargs, cancelled=getattr(_current, "cancelled", None))
 
 
 # -- the per-session slot -----------------------------------------------------------------------
@@ -429,6 +498,7 @@ class RunSlot:
     # -- worker side ----------------------------------------------------------------------------
     def _run(self, ticket: _Ticket) -> None:
         gen = None
+        _current.pool, _current.cancelled = self.pool, ticket.cancelled
         try:
             if ticket.cancelled.is_set():
                 return
@@ -449,6 +519,7 @@ class RunSlot:
                     close()
                 except Exception:  # pragma: no cover - a job's finally block failing
                     log.exception("closing run %s #%d failed", self.name, ticket.request)
+            _current.pool = _current.cancelled = None
             ticket.finished.set()
 
     def _publish(self, ticket: _Ticket, stage: Stage) -> None:

@@ -11,9 +11,12 @@ import). Each job is a generator of :class:`~dashboard.scheduler.Stage` items:
 :func:`toy_sweep`
     The window sweep of :func:`beam.toy.sweep_windows`, one window per ``partial``.
 
-Results are deterministic for a scenario, so finished ones are kept in small process-wide
-LRU caches shared by all sessions (a class of students opening the app computes the default
-scenario once). ``ToyResult.extra["stage"]`` says which stage a result comes from.
+The computations (:func:`toy_stages`, :func:`sweep_stages`) run in a worker process of the
+pool (:func:`dashboard.scheduler.offload`); the jobs around them look up and fill the caches in
+the server process. Results are deterministic for a scenario, so finished ones are kept in
+small process-wide LRU caches shared by all sessions (a class of students opening the app
+computes the default scenario once). ``ToyResult.extra["stage"]`` says which stage a result
+comes from.
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ from beam.toy import (
 )
 from dashboard import scheduler as sch
 
-__all__ = ["LRU", "RESULTS", "SWEEPS", "schedule_warm_up", "sweep_key", "toy_run", "toy_sweep", "warm_up"]
+__all__ = ["LRU", "RESULTS", "SWEEPS", "cached_stages", "schedule_warm_up", "sweep_key", "sweep_stages", "toy_run",
+           "toy_stages", "toy_sweep", "warm_up"]
 
 #: Posterior draws behind the bands of a final result (as :func:`beam.toy.run_toy`).
 N_BAND_DRAWS = 500
@@ -93,29 +97,61 @@ RESULTS = LRU(32)
 SWEEPS = LRU(64)
 
 _warm_lock = threading.Lock()
+_schedule_lock = threading.Lock()  # not _warm_lock: that one is held for seconds by the import
 _warmed = False
 _warm_scheduled = False
 
 
 def warm_up() -> None:
-    """Import the sampler's libraries (ArviZ takes seconds the first time); idempotent."""
+    """Import the sampler's libraries (ArviZ takes seconds the first time); idempotent.
+
+    Blocks while another thread imports them. Jobs call it before they sample: ``beam``
+    looks ArviZ up in ``sys.modules`` first, and a module another thread is still importing
+    is there half-initialised (measured: ``partially initialized module 'arviz' has no
+    attribute 'ess'`` when a worker's warm-up thread and its first calibration met).
+    """
     global _warmed
     with _warm_lock:
         if not _warmed:
-            import arviz  # noqa: F401
             import emcee  # noqa: F401
 
+            from beam.inference._arviz import import_arviz  # as beam imports it (without a UI toolkit)
+
+            import_arviz()
             _warmed = True
 
 
 def schedule_warm_up(pool) -> None:
-    """Run :func:`warm_up` once on ``pool`` (at app start, so the first MCMC need not wait)."""
+    """Warm up once at app start, so the first MCMC need not wait (never blocks).
+
+    Starts ``pool``'s worker processes (each warms itself up), or, for a pool without
+    processes, runs :func:`warm_up` on one of its threads.
+    """
     global _warm_scheduled
-    with _warm_lock:
+    if getattr(pool, "workers", None) is not None:
+        pool.start_processes()
+        return
+    with _schedule_lock:
         if _warmed or _warm_scheduled:
             return
         _warm_scheduled = True
     pool.schedule(warm_up)
+
+
+def cached_stages(cache: LRU, key: Hashable, fn, *args, **kwargs) -> Iterator[sch.Stage]:
+    """The stages of ``fn(*args, **kwargs)`` run by :func:`dashboard.scheduler.offload`; the final value is cached.
+
+    The cache lives in the server process (shared by all sessions), whichever worker computed
+    the value. Closing this generator closes the offloaded run (cancellation).
+    """
+    stages = sch.offload(fn, *args, **kwargs)
+    try:
+        for stage in stages:
+            if stage.kind == "final" and key is not None:
+                cache.put(key, stage.value)
+            yield stage
+    finally:
+        stages.close()
 
 
 def sweep_key(scenario: ToyScenario) -> ToyScenario:
@@ -142,16 +178,16 @@ def toy_run(
 ) -> Iterator[sch.Stage]:
     """Preview, streamed MCMC and final result of a toy scenario (a scheduler job).
 
+    Publishes a cached final result at once when there is one; otherwise the stages of
+    :func:`toy_stages`, computed in a worker process, and caches the final result.
+
     Parameters
     ----------
     scenario : ToyScenario
         Validated here: an invalid one raises :class:`~beam.errors.BeamInputError`, which the
         scheduler publishes as an ``error`` update.
-    every : int
-        Ensemble steps between two progress reports (cancellation points).
-    partial_every_s : float
-        Seconds between two intermediate results during sampling (each one redraws the plots
-        on the server's event loop, so not too often; a toy run usually ends before the first).
+    every, partial_every_s
+        See :func:`toy_stages`.
     use_cache : bool
         Publish a cached final result at once when there is one.
 
@@ -165,6 +201,28 @@ def toy_run(
     if cached is not None:
         yield sch.final(cached, "posterior (cached)")
         return
+    yield from cached_stages(RESULTS, scenario, toy_stages, scenario, every=every, partial_every_s=partial_every_s)
+
+
+def toy_stages(scenario: ToyScenario, *, every: int = 25, partial_every_s: float = 1.0) -> Iterator[sch.Stage]:
+    """The computation of :func:`toy_run` (in a worker process; no cache).
+
+    Parameters
+    ----------
+    scenario : ToyScenario
+        The scenario (validated).
+    every : int
+        Ensemble steps between two progress reports (cancellation points).
+    partial_every_s : float
+        Seconds between two intermediate results during sampling (each one redraws the plots
+        on the server's event loop, so not too often; a toy run usually ends before the first).
+
+    Yields
+    ------
+    Stage
+        ``preview``, ``progress`` / ``partial`` items, ``final``.
+    """
+    scenario.validate()
     t0 = time.perf_counter()
     data = simulate(scenario)
     problem, centre = calibration_problem(scenario, data)
@@ -180,7 +238,7 @@ def toy_run(
 
     if not _warmed:
         yield sch.progress(0.0, "loading the sampler (first run only)")
-        warm_up()
+    warm_up()  # at once when warm; waits for a warm-up under way
     run = EnsembleRun(problem, lap, seed=scenario.seed)
     done, last_partial = 0.0, time.perf_counter()
     for prog in run.sample_to_ess(scenario.target_ess, every=every, max_steps=MAX_STEPS):
@@ -209,7 +267,6 @@ def toy_run(
         summary=posterior.summary(),
         seconds=time.perf_counter() - t0,
     )
-    RESULTS.put(scenario, result)
     yield sch.final(result, "posterior (MCMC)")
 
 
@@ -228,10 +285,14 @@ def toy_sweep(scenario: ToyScenario, *, use_cache: bool = True) -> Iterator[sch.
     if cached is not None:
         yield sch.final(cached, "window sweep (cached)")
         return
+    yield from cached_stages(SWEEPS, key, sweep_stages, scenario)
+
+
+def sweep_stages(scenario: ToyScenario) -> Iterator[sch.Stage]:
+    """The computation of :func:`toy_sweep` (in a worker process; no cache)."""
     windows = default_sweep_windows(scenario)
     rows: list[dict] = []
     for i, w in enumerate(windows, 1):
         rows.extend(sweep_windows(scenario, [w]))
         yield sch.partial(list(rows), i / len(windows), f"window sweep: {i} of {len(windows)} windows")
-    SWEEPS.put(key, rows)
     yield sch.final(rows, "window sweep")

@@ -1,67 +1,67 @@
-"""HoloViews (bokeh backend) plots of the window sweep, as DynamicMaps driven by the session state.
+"""Window-sweep plots of the toy view: held-out coverage and RMSE against the calibration window.
 
-The plot functions return overlays of *always the same layers* (empty when there is nothing to
-show), so that the DynamicMaps update their bokeh data sources in place. The sweep changes
-rarely (once per scenario, not per streamed result); the plots that receive every streamed
-result are plain bokeh (:mod:`dashboard.timeseries`, :mod:`dashboard.corner`) for speed.
+Plain bokeh updated in place, like :mod:`dashboard.timeseries`. They were HoloViews
+DynamicMaps; measured with the lag monitor (:mod:`dashboard.monitor`) while eight sessions
+ran inference, building the two HoloViews panes when the first sweep arrived held the server's
+event loop for 0.5–3.4 s, and each re-render when a final result moved the window marker for
+0.5–0.8 s. The bokeh figures cost a few tens of milliseconds to build and about a millisecond
+to update; without them the app does not need HoloViews at all.
+
+Data sources are named ``sweep-coverage`` and ``sweep-rmse`` (columns ``window_s``, ``value``).
 """
 
 from __future__ import annotations
 
-import holoviews as hv
-import numpy as np
+from bokeh.models import ColumnDataSource, Span
+from bokeh.plotting import figure
 
 from dashboard.timeseries import COLORS
 
-__all__ = ["sweep_curves", "sweep_plot"]
+__all__ = ["QUANTITIES", "SweepPlot"]
+
+#: quantity -> (row key, axis label with unit, title, scale to the plotted unit)
+QUANTITIES = {
+    "coverage": ("coverage95_prediction", "Held-out coverage (%)", "Coverage of the 95 % prediction band (%) vs window",
+                 100.0),
+    "rmse": ("rmse_prediction", "Held-out RMSE (du)", "Held-out RMSE (du) vs window", 1.0),
+}
 
 
-def sweep_curves(quantity: str, rows=None, window_s: float = 0.0) -> hv.Overlay:
+class SweepPlot:
     """Coverage (%) or RMSE (du) of the Laplace preview against the calibration window.
 
     Parameters
     ----------
     quantity : {"coverage", "rmse"}
         What to plot.
-    rows : list of dict, optional
-        :func:`beam.toy.sweep_windows` rows.
-    window_s : float
-        Current window, marked by a vertical line.
+    height : int
+        Figure height in pixels (the width follows the container).
     """
-    key, label, title, unit, scale = {
-        "coverage": ("coverage95_prediction", "Held-out coverage", "Coverage of the 95 % prediction band", "%", 100.0),
-        "rmse": ("rmse_prediction", "Held-out RMSE", "Held-out RMSE", "du", 1.0),
-    }[quantity]
-    window = hv.Dimension("window_s", label="Calibration window", unit="s")
-    value = hv.Dimension(quantity, label=label, unit=unit)
-    xy = ([r["window_s"] for r in rows or []], [scale * r[key] for r in rows or []])
-    layers = [
-        hv.Curve(xy, window, value).opts(color=COLORS["mean"], line_width=2),
-        hv.Scatter(xy, window, value).opts(color=COLORS["mean"], size=6),
-        hv.VLine(window_s).opts(color=COLORS["calibration"], line_dash="dashed"),
-    ]
-    if quantity == "coverage":
-        layers.append(hv.HLine(95.0).opts(color=COLORS["truth"], line_dash="dotted"))
-    else:
-        layers.append(hv.HLine(np.nan).opts(alpha=0))
-    return hv.Overlay([layer.opts(framewise=True) for layer in layers]).opts(responsive=True, height=280, show_grid=True,
-                                   title=f"{title} ({unit}) vs window", toolbar=None)
 
+    def __init__(self, quantity: str, height: int = 280) -> None:
+        if quantity not in QUANTITIES:
+            raise ValueError(f"unknown sweep quantity {quantity!r}; expected one of {', '.join(QUANTITIES)}")
+        self.quantity = quantity
+        self._key, label, title, self._scale = QUANTITIES[quantity]
+        fig = figure(height=height, sizing_mode="stretch_width", title=title, toolbar_location=None, tools="")
+        fig.xaxis.axis_label = "Calibration window (s)"
+        fig.yaxis.axis_label = label
+        self.source = ColumnDataSource({"window_s": [], "value": []}, name=f"sweep-{quantity}")
+        fig.line("window_s", "value", source=self.source, color=COLORS["mean"], line_width=2)
+        fig.scatter("window_s", "value", source=self.source, color=COLORS["mean"], size=6)
+        #: The window of the latest final result (dashed).
+        self.marker = Span(dimension="height", location=0.0, line_color=COLORS["calibration"], line_dash="dashed",
+                           visible=False)
+        fig.add_layout(self.marker)
+        if quantity == "coverage":  # the nominal level
+            fig.add_layout(Span(dimension="width", location=95.0, line_color=COLORS["truth"], line_dash="dotted"))
+        self.figure = fig
 
-def _stream(toy, *names):
-    return [hv.streams.Params(parameterized=toy, parameters=list(names))]
-
-
-def sweep_plot(toy, quantity: str) -> hv.DynamicMap:
-    """:func:`sweep_curves` of ``toy.sweep`` with the window of the latest final result marked.
-
-    The marker follows ``toy.final``, not the slider: redrawing the two sweep plots at every
-    slider step (~30 ms each on the event loop) delayed the preview of the new scenario.
-    One DynamicMap per quantity, to be shown in separate panes: an ``hv.Layout`` renders as a
-    bokeh ``GridPlot``, which beside another plot keeps the document from ever becoming idle
-    (Panel 1.9 / Bokeh 3.9; see :mod:`dashboard.corner`).
-    """
-    def plot(sweep, final):
-        return sweep_curves(quantity, sweep, 0.0 if final is None else final.scenario.window_s)
-
-    return hv.DynamicMap(plot, streams=_stream(toy, "sweep", "final"))
+    def update(self, rows=None, window_s: float | None = None) -> None:
+        """Show sweep ``rows`` (:func:`beam.toy.sweep_windows`; None: empty) and mark ``window_s``."""
+        rows = rows or []
+        self.source.data = {"window_s": [r["window_s"] for r in rows],
+                            "value": [self._scale * r[self._key] for r in rows]}
+        self.marker.visible = window_s is not None
+        if window_s is not None:
+            self.marker.location = float(window_s)

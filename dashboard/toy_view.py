@@ -2,9 +2,9 @@
 
 A :class:`pn.viewable.Viewer` over a :class:`~dashboard.state.SessionState`: the widgets are
 made from the parameters of ``session.toy`` (units in every label), the plots follow its
-results (bokeh figures updated in place for the streamed results, :mod:`dashboard.timeseries`
-and :mod:`dashboard.corner`; HoloViews DynamicMaps for the window sweep,
-:mod:`dashboard.toy_plots`), and nothing here calls ``beam`` directly.
+results (bokeh figures updated in place: :mod:`dashboard.timeseries`, :mod:`dashboard.corner`
+and, for the window sweep, :mod:`dashboard.toy_plots`), and nothing here calls ``beam``
+directly.
 """
 
 from __future__ import annotations
@@ -16,11 +16,13 @@ import param
 
 from dashboard import exports
 from dashboard.corner import CornerPlot
+from dashboard.panes import Markdown
+from dashboard.staging import run_steps
 from dashboard.state import SessionState
 from dashboard.summaries import compare_table, readouts
 from dashboard.texts import TOY_GUIDE
 from dashboard.timeseries import TimeSeriesPlot
-from dashboard.toy_plots import sweep_plot
+from dashboard.toy_plots import SweepPlot
 
 __all__ = ["ToyView"]
 
@@ -55,18 +57,54 @@ class ToyView(pn.viewable.Viewer):
         super().__init__(**params)
         toy = self.session.toy
         self._toy = toy
+        self._timeseries: TimeSeriesPlot | None = None
+        self._corner: CornerPlot | None = None  # built when its tab is first opened (10 figures, ~0.7 s)
+        self._tabs: pn.Tabs | None = None
+        self._sweep_plots: list[SweepPlot] = []
+        self._sweep_built = False
+        toy.param.watch(self._sweep_arrived, "sweep")
+        # A skeleton now; the pieces are built in steps (dashboard.staging: one at a time on the
+        # server's event loop, so that no session holds it for long), in page order.
+        self._left = pn.Column(width=300)
+        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600)
+        self._right = pn.Column(width=320)
+        self._layout = pn.Row(self._left, self._centre, self._right, sizing_mode="stretch_width")
+        run_steps([self._build_status, self._build_figure, self._build_plot, self._build_controls, self._build_side,
+                   self._build_guide, self._build_tabs])
+
+    def __panel__(self):
+        return self._layout
+
+    # -- the steps of the build ------------------------------------------------------------------
+    def _build_status(self) -> None:
+        self._centre.extend([self._status(), self._readouts()])
+
+    def _build_figure(self) -> None:  # the bokeh figure alone (not in the document yet)
+        toy = self._toy
         self._timeseries = TimeSeriesPlot()
         self._timeseries.update(toy.result, toy.pinned)
         toy.param.watch(lambda e: self._timeseries.update(toy.result, toy.pinned), ["result", "pinned"])
-        self._corner: CornerPlot | None = None  # built when its tab is first opened (10 figures, ~0.7 s)
+
+    def _build_plot(self) -> None:
+        self._centre.append(pn.pane.Bokeh(self._timeseries.figure, sizing_mode="stretch_width", height=390))
+
+    def _build_controls(self) -> None:
+        self._left.append(self._controls())
+
+    def _build_side(self) -> None:
+        self._left.extend([self._compare_buttons(), self._downloads()])
+
+    def _build_guide(self) -> None:
+        self._right.append(Markdown(TOY_GUIDE, sizing_mode="stretch_width"))
+
+    def _build_tabs(self) -> None:
+        toy = self._toy
         self._posterior_tab = pn.Column(
-            pn.pane.Markdown("Posterior draws (blue; pinned result purple), truth in green.", margin=(0, 10)),
+            Markdown("Posterior draws (blue; pinned result purple), truth in green.", margin=(0, 10)),
             sizing_mode="stretch_width")
-        # the sweep plots are built when the first sweep arrives, not with the page (~0.5 s)
-        self._sweep_tab = pn.Column(pn.pane.Markdown(pn.bind(self._sweep_text, toy.param.sweep_status), margin=(0, 10)),
+        # the sweep plots are built when the first sweep arrives
+        self._sweep_tab = pn.Column(Markdown(pn.bind(self._sweep_text, toy.param.sweep_status), margin=(0, 10)),
                                     sizing_mode="stretch_width")
-        self._sweep_built = False
-        toy.param.watch(self._sweep_arrived, "sweep")
         self._tabs = pn.Tabs(
             ("Window sweep", self._sweep_tab),
             ("Posterior: marginals and pairs", self._posterior_tab),
@@ -76,32 +114,35 @@ class ToyView(pn.viewable.Viewer):
             sizing_mode="stretch_width",
         )
         self._tabs.param.watch(self._tab_opened, "active")
-        self._layout = pn.Row(
-            pn.Column(self._controls(), self._compare_buttons(), self._downloads(), width=300),
-            pn.Column(
-                self._status(),
-                self._readouts(),
-                pn.pane.Bokeh(self._timeseries.figure, sizing_mode="stretch_width", height=390),
-                self._tabs,
-                sizing_mode="stretch_width",
-            ),
-            pn.Column(pn.pane.Markdown(TOY_GUIDE, sizing_mode="stretch_width"), width=320),
-            sizing_mode="stretch_width",
-        )
+        self._centre.append(self._tabs)
+        if toy.sweep is not None:
+            self._sweep_arrived()
 
-    def __panel__(self):
-        return self._layout
+    def _sweep_arrived(self, *_) -> None:
+        if self._toy.sweep is None or self._sweep_built or self._tabs is None:
+            return
+        self._sweep_built = True
+        run_steps([self._build_sweep_figures, lambda: self._show_sweep(0), lambda: self._show_sweep(1)])
+
+    def _build_sweep_figures(self) -> None:
+        toy = self._toy
+        self._sweep_plots = [SweepPlot("coverage"), SweepPlot("rmse")]
+        self._update_sweep()
+        # the marker follows the latest final result, not the slider (fewer redraws)
+        toy.param.watch(self._update_sweep, ["sweep", "final"])
+        self._sweep_row = pn.Row(sizing_mode="stretch_width")
+        self._sweep_tab.append(self._sweep_row)
+
+    def _show_sweep(self, index: int) -> None:
+        self._sweep_row.append(pn.pane.Bokeh(self._sweep_plots[index].figure, sizing_mode="stretch_width", height=290))
+
+    def _update_sweep(self, *_) -> None:
+        toy = self._toy
+        window = None if toy.final is None else toy.final.scenario.window_s
+        for plot in self._sweep_plots:
+            plot.update(toy.sweep, window)
 
     # -- pieces ---------------------------------------------------------------------------------
-    def _sweep_arrived(self, event) -> None:
-        if event.new is not None and not self._sweep_built:
-            self._sweep_built = True
-            toy = self._toy
-            self._sweep_tab.append(pn.Row(
-                pn.pane.HoloViews(sweep_plot(toy, "coverage"), sizing_mode="stretch_width", height=300),
-                pn.pane.HoloViews(sweep_plot(toy, "rmse"), sizing_mode="stretch_width", height=300),
-                sizing_mode="stretch_width"))
-
     def _tab_opened(self, event) -> None:
         if event.new == 1 and self._corner is None:
             toy = self._toy
@@ -175,7 +216,7 @@ class ToyView(pn.viewable.Viewer):
                                   disabled=pn.bind(lambda r: r is None, toy.param.pinned))
         pin.on_click(lambda event: toy.pin())
         unpin.on_click(lambda event: toy.unpin())
-        note = pn.pane.Markdown(pn.bind(lambda r: "Pinned result drawn in purple; see *Compare table*." if r is not None
+        note = Markdown(pn.bind(lambda r: "Pinned result drawn in purple; see *Compare table*." if r is not None
                                         else "Pin a result, then change an input to compare.", toy.param.pinned))
         return pn.Card(pin, unpin, note, title="Compare", collapsible=False, sizing_mode="stretch_width")
 

@@ -13,6 +13,7 @@ import param
 
 from dashboard.beam_view import BeamCalibrationView
 from dashboard.diagnosis_view import DiagnosisView
+from dashboard.panes import Markdown
 from dashboard.state import SessionState
 from dashboard.texts import PLACEHOLDER
 from dashboard.toy_view import ToyView
@@ -28,7 +29,7 @@ class PlaceholderView(pn.viewable.Viewer):
     what = ""
 
     def __panel__(self):
-        return pn.pane.Markdown(PLACEHOLDER.format(title=self.title, what=self.what), sizing_mode="stretch_width")
+        return Markdown(PLACEHOLDER.format(title=self.title, what=self.what), sizing_mode="stretch_width")
 
 
 #: (tab title, Viewer class) in tab order.

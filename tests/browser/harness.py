@@ -79,8 +79,10 @@ def serve_app(timeout_s: float = 120.0, log_path: Path | None = None):
     log_path = log_path or Path(tempfile.mkdtemp(prefix="beam-serve-")) / "panel.log"
     cmd = [sys.executable, "-m", "panel", "serve", "dashboard/app.py", "--port", str(port), "--address", "127.0.0.1",
            f"--allow-websocket-origin=127.0.0.1:{port}"]
+    # idle scheduler threads exit after 2 s (not 30), so a test can see the thread count return to idle
+    env = {**os.environ, "BEAM_DASHBOARD_IDLE_S": os.environ.get("BEAM_DASHBOARD_IDLE_S", "2")}
     with open(log_path, "wb") as log:
-        proc = subprocess.Popen(cmd, cwd=REPO, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        proc = subprocess.Popen(cmd, cwd=REPO, stdout=log, stderr=subprocess.STDOUT, start_new_session=True, env=env)
     url = f"http://127.0.0.1:{port}/app"
     try:
         deadline = time.monotonic() + timeout_s

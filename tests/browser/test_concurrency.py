@@ -27,17 +27,61 @@ def _server_pid(app_url: str) -> int:
     raise RuntimeError("panel serve process not found")
 
 
+def _children(pid: int) -> set[int]:
+    """Process ids of the server's child processes (its inference workers)."""
+    out: set[int] = set()
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            out.update(int(c) for c in (task / "children").read_text().split())
+        except OSError:
+            continue
+    return out
+
+
+def _workers(pid: int) -> set[int]:
+    """The server's inference worker processes (multiprocessing ``spawn`` children)."""
+    out = set()
+    for child in _children(pid):
+        try:
+            if b"spawn_main" in Path(f"/proc/{child}/cmdline").read_bytes():
+                out.add(child)
+        except OSError:
+            continue
+    return out
+
+
 def _cpu_seconds(pid: int) -> float:
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / 100.0  # utime + stime, clock ticks of 10 ms
+    """CPU time of the server and its worker processes (s)."""
+    total = 0.0
+    for p in {pid} | _children(pid):
+        try:
+            fields = Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:  # a process that has just exited
+            continue
+        total += (int(fields[11]) + int(fields[12])) / 100.0  # utime + stime, clock ticks of 10 ms
+    return total
 
 
 def _threads(pid: int) -> int:
     return len(list(Path(f"/proc/{pid}/task").iterdir()))
 
 
+def _settled_threads(pid: int, *, quiet_s: float = 3.0, timeout_s: float = 30.0) -> int:
+    """The server's thread count once it has not changed for ``quiet_s`` (idle scheduler threads exit after 2 s)."""
+    start = last_change = time.monotonic()
+    count = _threads(pid)
+    while time.monotonic() - last_change < quiet_s:
+        if time.monotonic() - start > timeout_s:
+            raise AssertionError(f"the thread count did not settle in {timeout_s:g} s")
+        time.sleep(0.2)
+        now = _threads(pid)
+        if now != count:
+            count, last_change = now, time.monotonic()
+    return count
+
+
 def _wait_idle(pid: int, *, timeout_s: float = 60.0, window_s: float = 2.0, busy: float = 0.1) -> float:
-    """Wait until the server uses less than ``busy`` of a core over ``window_s``; returns the time taken."""
+    """Wait until the server and its workers use less than ``busy`` of a core over ``window_s``; returns the time taken."""
     start = time.monotonic()
     while time.monotonic() - start < timeout_s:
         before = _cpu_seconds(pid)
@@ -120,7 +164,8 @@ def test_a_slider_storm_shows_only_the_last_result_and_leaves_nothing_running(pa
     pid = _server_pid(app_url)
     before = wait_for_result(page, timeout_ms=120000)
     _wait_idle(pid)
-    threads_idle = _threads(pid)
+    threads_idle, workers_idle = _settled_threads(pid), _workers(pid)
+    assert len(workers_idle) == 2, f"expected the two inference worker processes, found {workers_idle}"
     handle = window_handle(page)
     handle.focus()
     start = time.monotonic()
@@ -133,7 +178,8 @@ def test_a_slider_storm_shows_only_the_last_result_and_leaves_nothing_running(pa
     assert after["window"] == pytest.approx(7.0)
     assert after["stage"] == "final" and after["shown"] == after["requested"]
     assert after["requested"] - before["requested"] <= 20  # debounced: fewer runs than changes
-    _wait_idle(pid)  # CPU back to idle
-    assert _threads(pid) <= threads_idle  # no leaked threads
+    _wait_idle(pid)  # CPU of the server and of its workers back to idle
+    assert _settled_threads(pid) == threads_idle  # no leaked threads: back to the idle count
+    assert _workers(pid) == workers_idle  # the same worker processes: none leaked, none restarted
     assert read_state(page)["shown"] == after["shown"]  # nothing stale arrives later
     assert page.errors == []

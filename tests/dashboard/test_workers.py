@@ -1,0 +1,154 @@
+"""Worker processes behind the run scheduler: stages, identity of arguments, cancellation, errors, crashes."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from worker_jobs import counting, dying, failing, offloaded
+
+from beam.toy import ToyScenario
+from dashboard import scheduler as sch
+from dashboard.toy_jobs import toy_run, toy_stages
+from dashboard.workers import WorkerError
+
+
+class Recorder:
+    """on_update recording the updates and the request ids current at delivery."""
+
+    def __init__(self) -> None:
+        self.updates: list[sch.Update] = []
+        self.stale: list[sch.Update] = []
+        self.slot: sch.RunSlot | None = None
+        self.lock = threading.Lock()
+
+    def __call__(self, update: sch.Update) -> None:
+        with self.lock:
+            self.updates.append(update)
+            if update.request != self.slot.latest:
+                self.stale.append(update)
+
+    def of(self, request: int) -> list[sch.Update]:
+        return [u for u in self.updates if u.request == request]
+
+
+def make_slot(pool, **kw):
+    rec = Recorder()
+    slot = sch.RunSlot(rec, pool=pool, debounce_s=0.0, progress_interval_s=0.0, **kw)
+    rec.slot = slot
+    return slot, rec
+
+
+@pytest.fixture(scope="module")
+def proc_pool():
+    """Two threads, each with a worker process (spawned once for the module)."""
+    pool = sch.RunPool(max_workers=2, idle_timeout_s=0.5, processes=True, name="test-proc")
+    pool.start_processes()
+    yield pool
+    pool.shutdown(wait=True)
+
+
+def test_offloaded_stages_arrive_in_order_from_another_process(proc_pool):
+    slot, rec = make_slot(proc_pool)
+    rid = slot.request(offloaded(counting, 5, "a"))
+    assert slot.wait(60)
+    kinds = [u.kind for u in rec.of(rid)]
+    assert kinds == ["preview"] + ["progress"] * 5 + ["final"]
+    worker_pid = rec.of(rid)[0].value["pid"]
+    assert worker_pid != os.getpid() and worker_pid in proc_pool.process_ids
+    assert [u.fraction for u in rec.of(rid) if u.kind == "progress"] == [0.2, 0.4, 0.6, 0.8, 1.0]
+
+
+def test_arguments_come_back_as_the_same_objects(proc_pool):
+    tag = {"dataset": "lab_run_1", "window": (0.0, 1.4)}
+    slot, rec = make_slot(proc_pool)
+    slot.request(offloaded(counting, 1, tag))
+    assert slot.wait(60)
+    final = rec.updates[-1].value
+    assert final["tag"] is tag  # an argument is sent back as a reference to the caller's object
+    assert rec.updates[0].value["tag"] is tag
+
+
+def test_newer_request_stops_the_worker_generator_and_the_worker_is_reused(proc_pool, tmp_path):
+    slot, rec = make_slot(proc_pool)
+    marker = str(tmp_path / "old")
+    first = slot.request(offloaded(counting, 400, "old", pause_s=0.01, marker=marker))
+    deadline = time.monotonic() + 60
+    while not any(u.kind == "progress" for u in rec.of(first)) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    t0 = time.monotonic()
+    second = slot.request(offloaded(counting, 2, "new"))
+    assert slot.wait(60)
+    while not os.path.exists(marker + ".closed") and time.monotonic() - t0 < 5:
+        time.sleep(0.01)
+    assert os.path.exists(marker + ".closed"), "the old generator must be closed in the worker"
+    assert time.monotonic() - t0 < 2.0
+    assert "final" not in [u.kind for u in rec.of(first)]
+    assert rec.of(second)[-1].kind == "final" and rec.stale == []
+    assert int(Path(marker + ".closed").read_text()) in proc_pool.process_ids  # the worker lives on
+
+
+@pytest.mark.parametrize(("kind", "expected"), [
+    ("user", "window (--window 12 s) must be shorter than the horizon"),
+    ("bug", "internal error (ZeroDivisionError: division by zero)"),
+    ("local", "internal error (WorkerError: Local: a local exception type)"),
+])
+def test_errors_in_the_worker_become_readable_messages(proc_pool, kind, expected):
+    slot, rec = make_slot(proc_pool)
+    rid = slot.request(offloaded(failing, kind))
+    assert slot.wait(60)
+    updates = rec.of(rid)
+    assert [u.kind for u in updates] == ["preview", "error"]
+    assert updates[-1].message.startswith(expected)
+
+
+def test_a_worker_that_dies_is_reported_and_replaced(proc_pool):
+    slot, rec = make_slot(proc_pool)
+    rid = slot.request(offloaded(dying))
+    assert slot.wait(60)
+    dead = rec.of(rid)[0].value
+    assert rec.of(rid)[-1].kind == "error" and "worker process stopped" in rec.of(rid)[-1].message
+    again = slot.request(offloaded(counting, 1, "after"))
+    assert slot.wait(120)
+    assert rec.of(again)[-1].kind == "final"
+    assert dead not in proc_pool.process_ids and len(proc_pool.process_ids) == 2
+
+
+def test_the_toy_job_gives_the_same_result_in_a_worker(proc_pool):
+    scenario = ToyScenario(window_s=4.0, target_ess=200.0, seed=3)
+    slot, rec = make_slot(proc_pool)
+    slot.request(lambda: toy_run(scenario, use_cache=False))
+    assert slot.wait(120)
+    remote = rec.updates[-1].value
+    local = next(s for s in toy_stages(scenario) if s.kind == "final").value
+    assert remote.scenario is scenario
+    np.testing.assert_array_equal(remote.bands.prediction_upper, local.bands.prediction_upper)
+    assert remote.summary == local.summary
+    assert np.allclose(remote.problem.predict({k: np.atleast_1d(v) for k, v in remote.laplace.map.values.items()},
+                                              remote.data.time_s), local.problem.predict(
+        {k: np.atleast_1d(v) for k, v in local.laplace.map.values.items()}, local.data.time_s))
+    with pytest.raises(WorkerError):  # the MAP starting points (a closure) stayed in the worker
+        remote.problem.initial_guesses(remote.problem)
+
+
+def test_offload_without_worker_processes_runs_on_the_thread(pool):
+    slot, rec = make_slot(pool)
+    slot.request(offloaded(counting, 2, "inline"))
+    assert slot.wait(30)
+    assert rec.updates[0].value["pid"] == os.getpid() and rec.updates[-1].kind == "final"
+
+
+def test_shutdown_stops_the_worker_processes():
+    pool = sch.RunPool(max_workers=1, idle_timeout_s=0.2, processes=True)
+    slot, _ = make_slot(pool)
+    slot.request(offloaded(counting, 1, "x"))
+    assert slot.wait(60)
+    (pid,) = pool.process_ids
+    pool.shutdown(wait=True)
+    assert pool.process_ids == []
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)
