@@ -8,6 +8,7 @@ when its tab is first opened and rebuilt when the set of parameters changes.
 
 from __future__ import annotations
 
+import html
 import math
 
 import panel as pn
@@ -17,7 +18,7 @@ from dashboard import beam_summaries as bs
 from dashboard.beam_jobs import MAX_UPLOAD_BYTES
 from dashboard.beam_plots import BeamTimeSeriesPlot
 from dashboard.corner import CornerPlot
-from dashboard.panes import Markdown
+from dashboard.panes import Markdown, alert_html
 from dashboard.staging import run_steps
 from dashboard.state import SessionState
 from dashboard.texts import BEAM_GUIDE
@@ -219,24 +220,23 @@ class BeamCalibrationView(pn.viewable.Viewer):
                                               css_classes=[f"beam-cal-{key.replace('_', '-')}"]))
         return pn.Row(*items, sizing_mode="stretch_width")
 
-    def _convergence(self) -> pn.pane.Alert:
-        def text(result):
+    def _convergence(self) -> pn.pane.HTML:
+        """Convergence notice: grey for a preview, green converged, yellow not (one HTML pane
+        whose text changes: see :func:`dashboard.panes.alert_html`)."""
+        def notice(result):
             c = bs.convergence(result)
             if result is None:
-                return "No result yet."
+                return alert_html("secondary", "No result yet.")
             if not c["mcmc"]:
-                return "Preview (MAP + Laplace): the MCMC posterior follows; convergence is checked then."
-            head = "Converged" if c["converged"] else "**Not converged** — read the posterior with care"
-            warn = ("; " + "; ".join(c["warnings"])) if c["warnings"] else ""
-            return f"{head}: min bulk ESS {c['ess_min']:.0f} (target ≥ 1000), max R-hat {c['rhat_max']:.4f} (≤ 1.01){warn}."
+                return alert_html("secondary", "Preview (MAP + Laplace): the MCMC posterior follows; convergence is "
+                                               "checked then.")
+            head = "Converged" if c["converged"] else "<b>Not converged</b> — read the posterior with care"
+            warn = html.escape("; " + "; ".join(c["warnings"])) if c["warnings"] else ""
+            body = f"{head}: min bulk ESS {c['ess_min']:.0f} (target ≥ 1000), max R-hat {c['rhat_max']:.4f} (≤ 1.01){warn}."
+            return alert_html("success" if c["converged"] else "warning", body)
 
-        def kind(result):
-            c = bs.convergence(result)
-            return "secondary" if not c["mcmc"] else "success" if c["converged"] else "warning"
-
-        r = self._beam.param.result
-        return pn.pane.Alert(pn.bind(text, r), alert_type=pn.bind(kind, r), sizing_mode="stretch_width",
-                             margin=(0, 10), css_classes=["beam-convergence"])
+        return pn.pane.HTML(pn.bind(notice, self._beam.param.result), sizing_mode="stretch_width",
+                            margin=(0, 10), css_classes=["beam-convergence"])
 
     def _tab_opened(self, event) -> None:
         if event.new == 1 and self._corner is None:
