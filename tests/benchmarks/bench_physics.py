@@ -94,7 +94,8 @@ def main() -> None:
         ("fast modal response, shapes solved afresh", t_cold, f"{t_lsim / t_cold:7.0f}x", "vs lsim"),
         ("64 parameter sets in one call (64 eigen-solves)", t_batch, f"{t_batch / t_cold:7.1f}x", "< 20x one call"),
         ("calibration default model (air+KV), one call", t_base, f"{t_lsim / t_base:7.0f}x", "vs lsim"),
-        ("calibration default model, 64 sets in one call", t_base_batch, f"{t_base_batch / t_base:7.1f}x", "< 20x one call"),
+        ("calibration default model, 64 sets in one call", t_base_batch, f"{t_base_batch / t_base:7.1f}x",
+         f"vs one call (info: {t_base_batch / 64 * 1e6:.1f} us per set, shared shapes)"),
     ]
     for name, seconds, ratio, target in rows:
         print(f"{name:58s} {seconds * 1e3:8.3f}ms {ratio:>9s}  {target}")
