@@ -143,18 +143,16 @@ def test_eight_sessions_at_once_each_see_their_own_result_and_the_server_stays_r
         assert state["stage"] == "final" and state["shown"] == state["requested"]
     assert len({round(s["band_sum"], 9) for s in shown}) == 8  # eight different results
     assert not prober.failures, prober.failures[:3]
-    # Responsiveness. The target, every answer within 1 s, is NOT met on the 2-core
-    # machine: creating a session builds its whole bokeh document on the event loop (~1-2 s
-    # each), and up to 2.5 s was measured while eight sessions were opening (see the README).
-    # Measured in CI conditions: median 0.11-0.17 s, 90 % within 0.73 s, max 1.5 s, 95 % within
-    # 1 s. What is asserted, as a guard against regressions and freezes: at least 75 % of the
-    # answers within 1 s, and none slower than 5 s.
+    # Responsiveness, the target: every answer within 1 s while eight sessions open and
+    # calibrate. Inference runs in worker processes and pages are built in small steps, so the
+    # event loop is held at most by one session's skeleton (0.3-0.6 s); measured here: median
+    # 0.02-0.03 s, 90 % within 0.2 s, slowest 0.37-0.73 s.
     times = sorted(prober.times)
     within = sum(t <= 1.0 for t in times) / len(times)
     print(f"\n{len(times)} answers: median {times[len(times) // 2]:.3f} s, 90 % {times[int(0.9 * len(times))]:.3f} s, "
           f"max {times[-1]:.2f} s, {within:.1%} within 1 s")
-    assert within >= 0.75, f"only {within:.0%} of the answers came within 1 s"
-    assert times[-1] < 5.0, f"slowest answer {times[-1]:.2f} s over {len(times)} requests"
+    assert len(times) >= 50, f"only {len(times)} answers: the probe did not run throughout"
+    assert times[-1] <= 1.0, f"slowest answer {times[-1]:.2f} s ({within:.0%} of {len(times)} within 1 s)"
     for page in pages:
         assert page.errors == []
         page.close()
