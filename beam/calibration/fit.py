@@ -51,9 +51,9 @@ from scipy import optimize
 
 from beam.inference import AR1_COEFFICIENT, NOISE_SD, MapResult, Problem
 from beam.inference.likelihood import log_likelihood, whiten
-from beam.inference.optimize import FD_LIMITED_DECREMENT, fd_derivatives
+from beam.inference.optimize import newton_iterations, steps_from_hessian
 
-__all__ = ["LmResult", "fast_map", "internal_starts", "levenberg_marquardt", "newton_polish", "steps_from_hessian"]
+__all__ = ["LmResult", "fast_map", "internal_starts", "levenberg_marquardt", "newton_polish"]
 
 _SQRT_EPS = float(np.sqrt(np.finfo(float).eps))
 #: Predicted decrease of the negative log posterior (nats) below which a start has converged
@@ -512,35 +512,13 @@ def internal_starts(problem: Problem, guesses: Sequence[Mapping[str, float]]) ->
     return np.array(rows, dtype=float).reshape(len(rows), problem.ndim)
 
 
-def steps_from_hessian(hessian_diagonal: np.ndarray, fallback: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """Finite-difference steps of a tenth of the conditional posterior sd, ``0.1 / sqrt(-H_ii)``
-    (the rule of :func:`beam.inference.find_map`), clipped to [1e-10, 0.05] x the prior scale."""
-    curvature = -np.asarray(hessian_diagonal, dtype=float)
-    positive = np.isfinite(curvature) & (curvature > 0.0)
-    h = np.where(positive, 0.1 / np.sqrt(np.where(positive, curvature, 1.0)), fallback)
-    return np.clip(h, 1e-10 * scale, 0.05 * scale)
-
-
-def _newton_step(grad: np.ndarray, hess: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """Modified Newton step along the free coordinates (curvatures replaced by their magnitude,
-    floored at 1e-8 of the largest)."""
-    step = np.zeros_like(grad)
-    if np.any(free):
-        w, v = np.linalg.eigh(-hess[np.ix_(free, free)])
-        w = np.maximum(np.abs(w), 1e-8 * max(abs(w).max(), 1e-300))
-        step[free] = v @ ((v.T @ grad[free]) / w)
-    return step
-
-
 def newton_polish(
     problem: Problem, z: np.ndarray, h: np.ndarray, *, max_iterations: int = 30, tolerance: float = 1e-7
 ) -> MapResult:
     """Newton iteration on the log posterior from ``z`` with finite-difference derivatives.
 
-    The iteration of :func:`beam.inference.find_map` (central-difference gradient and Hessian in
-    one batched call, active set on bounds, modified Newton step, batched backtracking line
-    search, one Hessian refresh with steps matched to the posterior width at convergence), with
-    one more stopping rule: a step from a point whose decrement is below
+    The iteration of :func:`beam.inference.find_map` (:func:`beam.inference.optimize.newton_iterations`)
+    with its stall rule on: a step from a point whose decrement is below
     :data:`POLISH_STALL_DECREMENT` nats (within ~0.1 posterior sd of the mode) that gains less
     than :data:`POLISH_STALL_GAIN` nats ends the search. Either the iteration converges
     quadratically and the new point is at the mode to ~1e-3 sd, or it crawls along a nearly
@@ -566,52 +544,10 @@ def newton_polish(
     MapResult
         With ``n_starts = 1``; ``hessian`` is the one the Laplace approximation uses.
     """
-    lo, hi = problem.internal_bounds
-    scale = np.array([p.prior.internal_scale for p in problem.parameters])
-    z = np.asarray(z, dtype=float).copy()
-    converged, message, iteration = False, "Newton iteration limit reached", 0
-    grad = hess = zc = None
-    for iteration in range(1, max_iterations + 1):
-        converged = False
-        f0, grad, hess, zc = fd_derivatives(problem, z, h)
-        if not (np.isfinite(f0) and np.all(np.isfinite(grad)) and np.all(np.isfinite(hess))):
-            message = "non-finite log posterior near the optimum"
-            break
-        free = ~(((z <= lo + 2.0 * h) & (grad < 0.0)) | ((z >= hi - 2.0 * h) & (grad > 0.0)))
-        if np.all(free) and np.array_equal(zc, z):
-            z_eval, g_free, h_free, f_ref = z, grad, hess, f0
-        else:  # derivatives along the free coordinates with the pinned ones exactly on their bound
-            f_ref, g_free, h_free, z_eval = fd_derivatives(problem, np.where(free, zc, z), h, free)
-        step = _newton_step(g_free, h_free, free)
-        decrement = float(g_free @ step)
-        new_h = steps_from_hessian(np.diag(hess), h, scale)
-        if decrement < tolerance:
-            converged, message, z = True, "converged", z_eval
-            if np.allclose(new_h, h, rtol=0.5):
-                break
-            h = new_h  # refresh the Hessian once with steps matched to the posterior width
-            continue
-        ts = 0.5 ** np.arange(0, 12)
-        candidates = np.clip(z_eval + ts[:, None] * step, lo, hi)
-        f = problem.log_posterior(candidates)
-        ok = f >= f_ref + 1e-4 * ts * decrement
-        if not np.any(ok):
-            if np.max(f) > f_ref:
-                z = candidates[int(np.argmax(f))]
-            elif decrement < FD_LIMITED_DECREMENT:
-                converged, message, z = True, "converged to the accuracy of the finite differences", z_eval
-                break
-            else:
-                message = "line search failed to improve the log posterior"
-                break
-        else:
-            best = int(np.argmax(ok))
-            z = candidates[best]
-            if decrement < POLISH_STALL_DECREMENT and f[best] - f_ref < POLISH_STALL_GAIN:
-                converged, message = True, "converged to the accuracy of the finite differences"
-                break
-        h = new_h
-    return _map_result(problem, z, grad, hess, zc, converged, message, iteration, h)
+    out = newton_iterations(problem, z, h, max_iterations=max_iterations, tolerance=tolerance,
+                            stall_decrement=POLISH_STALL_DECREMENT, stall_gain=POLISH_STALL_GAIN)
+    return _map_result(problem, out.z, out.gradient, out.hessian, out.hessian_point, out.converged, out.message,
+                       out.iterations, out.steps)
 
 
 def _map_result(problem: Problem, z, grad, hess, zc, converged: bool, message: str, iterations: int,

@@ -33,7 +33,8 @@ from scipy import optimize
 
 from beam.inference.problem import Problem
 
-__all__ = ["MapResult", "default_initial_guesses", "fd_derivatives", "find_map"]
+__all__ = ["MapResult", "NewtonOutcome", "default_initial_guesses", "fd_derivatives", "find_map", "newton_iterations",
+           "newton_step", "steps_from_hessian"]
 
 _SQRT_EPS = float(np.sqrt(np.finfo(float).eps))
 #: A Newton decrement (expected gain, nats) this small is within finite-difference error:
@@ -289,65 +290,116 @@ def _initial_steps(problem: Problem, z: np.ndarray) -> np.ndarray:
         if name in problem.names:
             i = problem.index(name)
             fisher[i, i] += 2.0 * problem.data.size
-    return _steps_from_hessian(-fisher, h, scale)
+    return steps_from_hessian(-np.diag(fisher), h, scale)
 
 
-def _steps_from_hessian(hess: np.ndarray, fallback: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """Finite-difference steps of a tenth of the *conditional* posterior sd, ``1/sqrt(-H_ii)``.
+def steps_from_hessian(hessian_diagonal: np.ndarray, fallback: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """Finite-difference steps of a tenth of the *conditional* posterior sd, ``0.1 / sqrt(-H_ii)``,
+    clipped to [1e-10, 0.05] x the prior scale (``fallback`` where -H_ii is not positive).
 
     The conditional (not marginal) width is the scale on which the log posterior changes
     along one axis, which is what the accuracy of a difference quotient depends on.
     """
-    diag = -np.diag(hess)
-    h = np.where(np.isfinite(diag) & (diag > 0.0), 0.1 / np.sqrt(np.where(diag > 0.0, diag, 1.0)), fallback)
+    curvature = -np.asarray(hessian_diagonal, dtype=float)
+    positive = np.isfinite(curvature) & (curvature > 0.0)
+    h = np.where(positive, 0.1 / np.sqrt(np.where(positive, curvature, 1.0)), fallback)
     return np.clip(h, 1e-10 * scale, 0.05 * scale)
 
 
-def _newton_polish(problem: Problem, z0: np.ndarray, max_iter: int, tol: float):
+def newton_step(grad: np.ndarray, hess: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """Modified Newton step along the free coordinates (curvatures replaced by their magnitude,
+    floored at 1e-8 of the largest: an ascent direction also where the log posterior is not
+    concave)."""
+    step = np.zeros_like(grad)
+    if np.any(free):
+        w, v = np.linalg.eigh(-hess[np.ix_(free, free)])
+        w = np.maximum(np.abs(w), 1e-8 * max(abs(w).max(), 1e-300))
+        step[free] = v @ ((v.T @ grad[free]) / w)
+    return step
+
+
+@dataclass
+class NewtonOutcome:
+    """Where :func:`newton_iterations` stopped (internal coordinates)."""
+
+    z: np.ndarray
+    gradient: np.ndarray | None
+    hessian: np.ndarray | None
+    hessian_point: np.ndarray | None
+    converged: bool
+    message: str
+    iterations: int
+    steps: np.ndarray
+
+
+def newton_iterations(
+    problem: Problem,
+    z: np.ndarray,
+    h: np.ndarray,
+    *,
+    max_iterations: int,
+    tolerance: float,
+    stall_decrement: float = 0.0,
+    stall_gain: float = 0.0,
+) -> NewtonOutcome:
+    """Newton iteration on the log posterior with finite-difference derivatives.
+
+    Each iteration: central-difference gradient and Hessian in one batched call
+    (:func:`fd_derivatives`), an active set on the bounds (a coordinate within two steps of a
+    bound with the gradient pushing out is pinned there), the modified Newton step
+    (:func:`newton_step`) and a backtracking line search whose 12 trial points are evaluated in
+    one call. At convergence (Newton decrement below ``tolerance`` nats) the Hessian is refreshed
+    once with steps matched to the posterior width (:func:`steps_from_hessian`).
+
+    ``stall_decrement`` / ``stall_gain`` (default off): stop once a step from a point whose
+    decrement is below ``stall_decrement`` nats gains less than ``stall_gain`` nats — the
+    finite-difference Hessian cannot resolve a nearly flat, non-quadratic direction better.
+
+    Parameters
+    ----------
+    problem : Problem
+        The problem.
+    z : ndarray, shape (ndim,)
+        Starting point, internal coordinates.
+    h : ndarray, shape (ndim,)
+        First finite-difference steps, internal coordinates.
+    max_iterations : int
+        Iteration cap.
+    tolerance : float
+        Newton decrement (expected log-posterior gain, nats) at which to stop.
+    """
     lo, hi = problem.internal_bounds
     scale = _scales(problem)
-    z = z0.copy()
-    h = _initial_steps(problem, z)
-    converged, message, it = False, "Newton iteration limit reached", 0
-    f0 = grad = hess = zc = None
-    for it in range(1, max_iter + 1):
+    z = np.asarray(z, dtype=float).copy()
+    converged, message, iteration = False, "Newton iteration limit reached", 0
+    grad = hess = zc = None
+    for iteration in range(1, max_iterations + 1):
         converged = False
         f0, grad, hess, zc = fd_derivatives(problem, z, h)
         if not (np.isfinite(f0) and np.all(np.isfinite(grad)) and np.all(np.isfinite(hess))):
             message = "non-finite log posterior near the optimum"
             break
-        near_lo = z <= lo + 2.0 * h
-        near_hi = z >= hi - 2.0 * h
-        free = ~((near_lo & (grad < 0.0)) | (near_hi & (grad > 0.0)))  # active set: pinned on a bound
+        free = ~(((z <= lo + 2.0 * h) & (grad < 0.0)) | ((z >= hi - 2.0 * h) & (grad > 0.0)))
         if np.all(free) and np.array_equal(zc, z):
-            z_eval, g_free, h_free = z, grad, hess
+            z_eval, g_free, h_free, f_ref = z, grad, hess, f0
         else:  # derivatives along the free coordinates with the pinned ones exactly on their bound
-            z_eval = np.where(free, zc, z)
-            _, g_free, h_free, z_eval = fd_derivatives(problem, z_eval, h, free)
-        step = np.zeros_like(z)
-        if np.any(free):
-            neg = -h_free[np.ix_(free, free)]
-            w, v = np.linalg.eigh(neg)
-            floor = 1e-8 * max(abs(w).max(), 1e-300)
-            w_mod = np.maximum(np.abs(w), floor)  # modified Newton when not concave
-            step[free] = v @ ((v.T @ g_free[free]) / w_mod)
+            f_ref, g_free, h_free, z_eval = fd_derivatives(problem, np.where(free, zc, z), h, free)
+        step = newton_step(g_free, h_free, free)
         decrement = float(g_free @ step)
-        new_h = _steps_from_hessian(hess, h, scale)
-        if decrement < tol:
-            converged, message = True, "converged"
-            z = z_eval
+        new_h = steps_from_hessian(np.diag(hess), h, scale)
+        if decrement < tolerance:
+            converged, message, z = True, "converged", z_eval
             if np.allclose(new_h, h, rtol=0.5):
                 break
             h = new_h  # refresh the Hessian once with steps matched to the posterior width
             continue
         ts = 0.5 ** np.arange(0, 12)
-        cands = np.clip(z_eval + ts[:, None] * step, lo, hi)
-        f = problem.log_posterior(cands)
-        f_ref = problem.log_posterior(z_eval)[0]
+        candidates = np.clip(z_eval + ts[:, None] * step, lo, hi)
+        f = problem.log_posterior(candidates)
         ok = f >= f_ref + 1e-4 * ts * decrement
         if not np.any(ok):
             if np.max(f) > f_ref:
-                z = cands[int(np.argmax(f))]
+                z = candidates[int(np.argmax(f))]
             elif decrement < FD_LIMITED_DECREMENT:
                 converged, message, z = True, "converged to the accuracy of the finite differences", z_eval
                 break
@@ -355,9 +407,13 @@ def _newton_polish(problem: Problem, z0: np.ndarray, max_iter: int, tol: float):
                 message = "line search failed to improve the log posterior"
                 break
         else:
-            z = cands[int(np.argmax(ok))]
+            best = int(np.argmax(ok))
+            z = candidates[best]
+            if decrement < stall_decrement and f[best] - f_ref < stall_gain:
+                converged, message = True, "converged to the accuracy of the finite differences"
+                break
         h = new_h
-    return z, f0, grad, hess, zc, converged, message, it
+    return NewtonOutcome(z, grad, hess, zc, converged, message, iteration, h)
 
 
 def find_map(
@@ -407,9 +463,12 @@ def find_map(
     best = int(np.argmax(start_lp))
     if not np.isfinite(start_lp[best]):
         raise ValueError("no starting point has a finite log posterior")
-    z, _, grad, hess, zc, converged, message, n_it = _newton_polish(problem, starts[best], max_newton, tol)
+    newton = newton_iterations(problem, starts[best], _initial_steps(problem, starts[best]), max_iterations=max_newton,
+                               tolerance=tol)
+    z, grad, hess, zc = newton.z, newton.gradient, newton.hessian, newton.hessian_point
+    converged, message, n_it = newton.converged, newton.message, newton.iterations
     lo, hi = problem.internal_bounds
-    h = _steps_from_hessian(hess, _initial_steps(problem, z), _scales(problem))
+    h = steps_from_hessian(np.diag(hess), _initial_steps(problem, z), _scales(problem))
     at_bound = tuple(n for i, n in enumerate(problem.names) if z[i] <= lo[i] + 2 * h[i] or z[i] >= hi[i] - 2 * h[i])
     lp = float(problem.log_posterior(z)[0])
     values = {n: float(v[0]) for n, v in problem.from_internal(z).items()}
