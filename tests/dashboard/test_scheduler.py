@@ -8,34 +8,10 @@ import time
 
 import pytest
 
+from recorder import make_slot
+
 from beam.errors import BeamInputError
 from dashboard import scheduler as sch
-
-
-class Recorder:
-    """on_update that records (update, latest request id at delivery time)."""
-
-    def __init__(self):
-        self.updates: list[sch.Update] = []
-        self.stale: list[sch.Update] = []
-        self.slot: sch.RunSlot | None = None
-        self.lock = threading.Lock()
-
-    def __call__(self, update: sch.Update) -> None:
-        with self.lock:
-            self.updates.append(update)
-            if update.request != self.slot.latest:
-                self.stale.append(update)
-
-    def kinds(self, request=None):
-        return [u.kind for u in self.updates if request is None or u.request == request]
-
-
-def make_slot(pool, **kw):
-    rec = Recorder()
-    slot = sch.RunSlot(rec, pool=pool, **kw)
-    rec.slot = slot
-    return slot, rec
 
 
 def sleepy_job(log: dict, tag, *, chunks=5, chunk_s=0.02, fail_at=None):

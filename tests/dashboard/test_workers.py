@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import os
-import threading
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+import recorder
 from worker_jobs import counting, dying, failing, offloaded
 
 from beam.toy import ToyScenario
@@ -17,30 +17,8 @@ from dashboard.toy_jobs import toy_run, toy_stages
 from dashboard.workers import WorkerError
 
 
-class Recorder:
-    """on_update recording the updates and the request ids current at delivery."""
-
-    def __init__(self) -> None:
-        self.updates: list[sch.Update] = []
-        self.stale: list[sch.Update] = []
-        self.slot: sch.RunSlot | None = None
-        self.lock = threading.Lock()
-
-    def __call__(self, update: sch.Update) -> None:
-        with self.lock:
-            self.updates.append(update)
-            if update.request != self.slot.latest:
-                self.stale.append(update)
-
-    def of(self, request: int) -> list[sch.Update]:
-        return [u for u in self.updates if u.request == request]
-
-
 def make_slot(pool, **kw):
-    rec = Recorder()
-    slot = sch.RunSlot(rec, pool=pool, debounce_s=0.0, progress_interval_s=0.0, **kw)
-    rec.slot = slot
-    return slot, rec
+    return recorder.make_slot(pool, debounce_s=0.0, progress_interval_s=0.0, **kw)
 
 
 @pytest.fixture(scope="module")
