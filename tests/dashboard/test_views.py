@@ -26,6 +26,10 @@ def _sources(root, name):
     return [m for m in root.select({"type": ColumnDataSource}) if m.name == name]
 
 
+def _css_classes(root) -> dict[str, list[str]]:
+    return {m.id: list(m.css_classes) for m in root.references() if hasattr(m, "css_classes")}
+
+
 def test_app_has_three_views_over_one_session(session):
     doc = Document()
     with set_curdoc(doc):
@@ -60,10 +64,13 @@ def test_results_flow_into_the_plot_sources(session):
     assert list(band[0].data["upper"]) == list(result.bands.prediction_upper)
     assert len(band[0].data["time_s"]) == result.data.time_s.size
     before = list(band[0].data["upper"])
+    classes = _css_classes(root)
     session.toy.window_s = 9.0
     assert session.wait(30)
     assert list(band[0].data["upper"]) != before
     assert view._timeseries.window.right == 9.0
+    # a new result changes data and texts, not CSS classes (each costs the browser a re-layout)
+    assert {k: v for k, v in _css_classes(root).items() if k in classes} == classes
 
 
 def test_corner_plot_is_built_when_its_tab_opens(session):
@@ -123,9 +130,6 @@ def test_beam_view_labels_carry_units_and_results_reach_the_plot(beam_session):
     view._tabs.active = 1  # the pair plot is built when its tab opens
     assert view._corner is not None and len(view._corner.sources[("bending_stiffness_Nm2", "current")].data["top"]) == 30
 
-
-def _css_classes(root) -> dict[str, list[str]]:
-    return {m.id: list(m.css_classes) for m in root.references() if hasattr(m, "css_classes")}
 
 
 def test_beam_results_change_no_css_classes(pool):
