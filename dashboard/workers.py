@@ -120,14 +120,17 @@ def _portable(exc: BaseException) -> BaseException:
         return ValueError(str(exc)) if isinstance(exc, ValueError) else WorkerError(text)
 
 
-def _cancel_requested(conn, task: int) -> bool:
-    """Read pending messages; True if one cancels ``task`` (or stops the worker)."""
-    cancelled = False
+def _pending_orders(conn, task: int) -> tuple[bool, bool]:
+    """Read the pending messages: (whether one cancels ``task`` or stops the worker, whether one
+    stops the worker). A ``stop`` read here must not be lost: the worker exits after the run."""
+    cancelled = stop = False
     while conn.poll():
         message = conn.recv()
-        if message[0] == "stop" or (message[0] == "cancel" and message[1] == task):
+        if message[0] == "stop":
+            cancelled = stop = True
+        elif message[0] == "cancel" and message[1] == task:
             cancelled = True
-    return cancelled
+    return cancelled, stop
 
 
 def _warm(warm: Callable[[], None]) -> None:
@@ -158,11 +161,13 @@ def _worker_main(conn, nice: int, warm: Callable[[], None] | None) -> None:
         _, task, fn, args, kwargs = message
         anchors = {id(a): i for i, a in enumerate(args)}
         gen = None
+        stop = False
         outcome: tuple = ("done", task, None)
         try:
             gen = iter(fn(*args, **kwargs))
             for stage in gen:
-                if _cancel_requested(conn, task):
+                cancelled, stop = _pending_orders(conn, task)
+                if cancelled:
                     break
                 _send(conn, ("stage", task, stage), anchors)
         except Exception as exc:  # noqa: BLE001 - sent to the parent, which publishes it
@@ -179,6 +184,8 @@ def _worker_main(conn, nice: int, warm: Callable[[], None] | None) -> None:
         try:
             _send(conn, outcome, anchors)
         except (BrokenPipeError, EOFError, OSError):
+            return
+        if stop:
             return
 
 

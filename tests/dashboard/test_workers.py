@@ -130,3 +130,23 @@ def test_shutdown_stops_the_worker_processes():
     assert pool.process_ids == []
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)
+
+
+def test_a_stop_that_arrives_during_a_run_ends_the_worker_after_it():
+    """The worker reads its pipe for cancellations between stages; a ``stop`` read there cancels
+    the run and then ends the process (it used to be taken for a cancel only, and the worker
+    then waited on its pipe until shutdown terminated it)."""
+    from dashboard.workers import WorkerProcess
+
+    worker = WorkerProcess("beam-worker-test")
+    try:
+        stages = worker.run(counting, (200, "long"), {"pause_s": 0.02})
+        first = next(stages)
+        assert first.kind == "preview"
+        worker._conn.send(("stop",))  # what stop() sends, here while the run goes on
+        rest = list(stages)  # the run ends early: the worker stopped its generator
+        assert len(rest) < 199 and all(s.kind == "progress" for s in rest)
+        worker._process.join(10)
+        assert not worker._process.is_alive() and worker._process.exitcode == 0  # left on its own
+    finally:
+        worker.stop(timeout=2)
