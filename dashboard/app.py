@@ -1,7 +1,7 @@
 """Beam discrepancy explorer: ``panel serve dashboard/app.py``.
 
-Builds one :class:`~dashboard.state.SessionState` per browser session, wires its updates onto
-the session's event loop, and shows the views of :data:`dashboard.views.VIEWS` as tabs of a
+Builds one :class:`~dashboard.state.session.SessionState` per browser session, wires its updates onto
+the session's event loop, and shows the views of :data:`dashboard.views.tabs.VIEWS` as tabs of a
 :class:`pn.template.BootstrapTemplate` (all its resources are bundled with Panel, so the app
 works offline). Needs nothing but the repository.
 
@@ -9,14 +9,14 @@ What runs where (issue #6/#7: eight sessions at once, every request answered wit
 
 * this script runs on the server's event loop for each new browser session, so it builds only
   a skeleton; the views build their pieces in steps once the page is connected
-  (:mod:`dashboard.staging`, one step at a time across all sessions);
-* inference runs in worker processes (:mod:`dashboard.workers`), started once per server
-  with the rest of the process set-up (:func:`dashboard.server.prepare`);
+  (:mod:`dashboard.runtime.staging`, one step at a time across all sessions);
+* inference runs in worker processes (:mod:`dashboard.runtime.workers`), started once per server
+  with the rest of the process set-up (:func:`dashboard.runtime.server.prepare`);
 * the first toy run starts when the page has loaded (``pn.state.onload``), at once (no
   debounce), so the preview is on screen moments later.
 
 ``BEAM_DASHBOARD_LAG_LOG=lag.jsonl`` records where the event loop stalls
-(:mod:`dashboard.monitor`).
+(:mod:`dashboard.runtime.monitor`).
 """
 
 from __future__ import annotations
@@ -32,9 +32,10 @@ if _ROOT not in sys.path:  # `panel serve dashboard/app.py` only puts dashboard/
 import panel as pn
 from panel.io.state import set_curdoc
 
-from dashboard import monitor, server, toy_jobs
-from dashboard.state import SessionState
-from dashboard.views import VIEWS
+from dashboard.jobs import toy as toy_jobs
+from dashboard.runtime import monitor, server
+from dashboard.state.session import SessionState
+from dashboard.views.tabs import VIEWS
 
 __all__ = ["create_app", "session_dispatch"]
 

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from beam.config import Sampling, SimulationConfig
-from beam.excitation import Excitation
-from beam.geometry import BeamGeometry
-from beam.measurement import Measurement
-from beam.simulation import simulate
+from beam.io.config import Sampling, SimulationConfig
+from beam.physics.excitation import Excitation
+from beam.physics.geometry import BeamGeometry
+from beam.io.measurement import Measurement
+from beam.io.simulation import simulate
 
 #: Smith's B1TAPIH beam geometry (sensor at 3L/5).
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)
@@ -61,7 +61,7 @@ def random_beam_case(rng, hidden: str | None) -> tuple[Measurement, dict[str, fl
     are the true base values with EI off by up to 10 %. Returns (measurement, true parameters,
     noise sd in m). The record is simulated with every mode of the Galerkin model.
     """
-    from beam.model import BeamModel
+    from beam.physics.model import BeamModel
 
     length = rng.uniform(0.25, 0.6)
     density = rng.uniform(0.08, 0.2)

@@ -9,8 +9,8 @@ import pytest
 
 from beam.calibration import calibrate, calibration_preview, make_setup
 from beam.errors import BeamInputError
-from beam.excitation import Excitation
-from beam.measurement import write_measurement
+from beam.physics.excitation import Excitation
+from beam.io.measurement import write_measurement
 from simulated_data import TRUE_BASE, simulated_measurement
 
 NOISE = 1e-5

@@ -14,7 +14,7 @@ from simulated_data import TRUE_BASE, simulated_measurement
 from beam.calibration import calibrate, calibration_preview, calibration_stream, prepare
 from beam.calibration.bands import fast_predictive_bands, mixture_bands
 from beam.calibration.fit import fast_map
-from beam.calibration.problem import BeamForwardModel
+from beam.calibration.setup import BeamForwardModel
 from beam.errors import BeamInputError
 from beam.inference import find_map, laplace, predictive_bands
 from beam.inference.predictive import BAND_RTOL

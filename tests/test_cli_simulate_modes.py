@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from beam.config import load_config
-from beam.measurement import read_measurement
-from beam.simulation import read_truth
+from beam.io.config import load_config
+from beam.io.measurement import read_measurement
+from beam.io.simulation import read_truth
 
 ASSET = Path(__file__).resolve().parents[1] / "assets" / "b1tapih.toml"
 
@@ -42,7 +42,7 @@ def run_beam(*arguments: str | Path, cwd: Path | None = None) -> subprocess.Comp
 
 def clean_response(config_path: Path, modes: int | None) -> tuple[np.ndarray, np.ndarray]:
     """Time-grid voltage and noise-free displacement computed in-process from the config."""
-    from beam.model import BeamModel
+    from beam.physics.model import BeamModel
 
     config = load_config(config_path)
     excitation, sampling = config.require_simulation()
@@ -122,7 +122,7 @@ def test_modes_json_matches_the_model(tmp_path):
     document = json.loads(result.stdout)
     assert set(document) == {"frequencies_Hz", "damping_ratios"}
     assert len(document["frequencies_Hz"]) == len(document["damping_ratios"]) == 4
-    from beam.model import BeamModel
+    from beam.physics.model import BeamModel
 
     config = load_config(ASSET)
     frequencies, ratios = BeamModel(config.geometry, config.effects, config.intervals).natural_modes(
@@ -141,7 +141,7 @@ def test_modes_table_of_a_uniform_beam(tmp_path):
     assert lines[0].startswith("uniform beam (effects: kelvin_voigt; 8 intervals)")
     assert lines[1].split() == ["mode", "frequency", "(Hz)", "damping", "ratio"]
     rows = [line.split() for line in lines[2:]]
-    from beam.model import BeamModel
+    from beam.physics.model import BeamModel
 
     config = load_config(config_path)
     frequencies, ratios = BeamModel(config.geometry, config.effects, 8).natural_modes(config.parameters)

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from beam.config import load_config
-from beam.diagnosis import diagnose
-from beam.measurement import read_measurement
-from beam.simulation import read_truth, simulate
+from beam.io.config import load_config
+from beam.discovery.report import diagnose
+from beam.io.measurement import read_measurement
+from beam.io.simulation import read_truth, simulate
 from simulated_data import HIDDEN_EFFECTS, random_beam_case
 
 ASSETS = Path(__file__).resolve().parents[1] / "assets"

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from beam.diagnostics import (
+from beam.residuals import (
     analyse_mode,
     backbone,
     decay_law,
@@ -15,8 +15,8 @@ from beam.diagnostics import (
     mode_envelope,
 )
 from beam.errors import BeamInputError
-from beam.geometry import BeamGeometry
-from beam.model import BeamModel
+from beam.physics.geometry import BeamGeometry
+from beam.physics.model import BeamModel
 
 RATE = 1000.0
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from beam.diagnostics import (
+from beam.residuals import (
     ModeMatch,
     analyse_mode,
     compare_modes,
@@ -21,9 +21,9 @@ from beam.diagnostics import (
     residual_spectrum,
     residual_whiteness,
 )
-from beam.effects import EFFECTS
-from beam.geometry import BeamGeometry
-from beam.model import BeamModel
+from beam.physics.effects import EFFECTS
+from beam.physics.geometry import BeamGeometry
+from beam.physics.model import BeamModel
 
 RATE = 1000.0
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)

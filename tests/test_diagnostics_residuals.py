@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.stats
 
-from beam.diagnostics import (
+from beam.residuals import (
     autocorrelation,
     band_residuals,
     default_max_lag,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from beam.diagnostics import default_nperseg, residual_spectrum
+from beam.residuals import default_nperseg, residual_spectrum
 from beam.errors import BeamInputError
 
 RATE = 1000.0

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from beam.errors import BeamInputError
-from beam.excitation import Excitation
+from beam.physics.excitation import Excitation
 
 RATE_HZ = 1000.0
 TIME_S = np.arange(2000) / RATE_HZ  # t_k = k / rate, the grid simulations use

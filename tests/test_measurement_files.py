@@ -11,10 +11,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import beam.fileio
+import beam.io.text
 from beam.errors import BeamInputError
-from beam.geometry import BeamGeometry
-from beam.measurement import Measurement, read_measurement, write_measurement
+from beam.physics.geometry import BeamGeometry
+from beam.io.measurement import Measurement, read_measurement, write_measurement
 
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)
 HEADER = "time_s,voltage_V,displacement_m"
@@ -148,7 +148,7 @@ def test_failed_write_leaves_previous_files_and_no_temporaries(tmp_path, monkeyp
         if len(calls) == 2:  # the CSV is written, the sidecar fails
             raise OSError("disk full")
 
-    monkeypatch.setattr(beam.fileio.os, "fsync", failing_fsync)
+    monkeypatch.setattr(beam.io.text.os, "fsync", failing_fsync)
     with pytest.raises(OSError, match="disk full"):
         write_measurement(tmp_path / "run", (np.arange(5) * 0.1, np.ones(5), np.ones(5)), geometry=GEOMETRY)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before

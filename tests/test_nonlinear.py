@@ -3,9 +3,9 @@
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from beam.geometry import BeamGeometry
-from beam.model import BeamModel
-from beam.nonlinear import choose_substeps, integrate_tip_cubic
+from beam.physics.geometry import BeamGeometry
+from beam.physics.model import BeamModel
+from beam.physics.nonlinear import choose_substeps, integrate_tip_cubic
 
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)
 PARAMETERS = {"bending_stiffness_Nm2": 0.491, "patch_coupling_NmV": 1.746e-2, "air_damping_Ns_m2": 0.013,

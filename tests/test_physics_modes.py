@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from beam.bspline import ModifiedCubicBasis, cardinal_cubic_bspline, gauss_points
-from beam.geometry import BeamGeometry
-from beam.model import BeamModel
+from beam.physics.basis import ModifiedCubicBasis, cardinal_cubic_bspline, gauss_points
+from beam.physics.geometry import BeamGeometry
+from beam.physics.model import BeamModel
 from reference_beams import (
     CANTILEVER_BETA_L,
     PINNED_FREE_BETA_L,

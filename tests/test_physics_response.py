@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from beam import modal
+from beam.physics import modal
 from beam.errors import BeamInputError
-from beam.geometry import BeamGeometry
-from beam.model import BeamModel
+from beam.physics.geometry import BeamGeometry
+from beam.physics.model import BeamModel
 
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)
 BASE = {"bending_stiffness_Nm2": 0.491, "patch_coupling_NmV": 1.746e-2}

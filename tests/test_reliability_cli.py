@@ -28,11 +28,11 @@ from test_reliability_files import (
 )
 
 from beam.calibration import make_setup
-from beam.calibration.problem import MIN_WINDOW_SAMPLES, prior_centre
+from beam.calibration.setup import MIN_WINDOW_SAMPLES, prior_centre
 from beam.cli.main import main
 from beam.errors import BeamInputError
-from beam.measurement import read_measurement, write_measurement
-from beam.model import BeamModel
+from beam.io.measurement import read_measurement, write_measurement
+from beam.physics.model import BeamModel
 
 CLI_FILE_EXAMPLES = 60
 CLI_WINDOW_EXAMPLES = 40
@@ -261,8 +261,8 @@ def test_cli_subprocess_representative_cases(tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------
-# records the calibration cannot learn from (fixed by calling beam.limits.check_calibration_record
-# in beam.calibration.problem.make_setup; see the report)
+# records the calibration cannot learn from (fixed by calling beam.calibration.records.check_calibration_record
+# in beam.calibration.setup.make_setup; see the report)
 # ---------------------------------------------------------------------------------------------
 
 

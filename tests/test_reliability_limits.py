@@ -1,4 +1,4 @@
-"""Caps on what is read and calibrated, and decimation of over-long records (:mod:`beam.limits`)."""
+"""Caps on what is read and calibrated, and decimation of over-long records (:mod:`beam.io.limits`)."""
 
 from __future__ import annotations
 
@@ -7,20 +7,18 @@ import pytest
 from simulated_data import GEOMETRY, TRUE_BASE
 
 from beam.errors import BeamInputError
-from beam.excitation import Excitation
-from beam.fileio import load_toml, read_text_file
-from beam.limits import (
-    MAX_CALIBRATION_SAMPLES,
-    MAX_MEASUREMENT_BYTES,
-    MAX_TOML_BYTES,
+from beam.physics.excitation import Excitation
+from beam.io.text import load_toml, read_text_file
+from beam.calibration.records import (
     check_calibration_record,
     decimate_displacement,
     decimate_measurement,
     decimate_voltage,
     decimation_factor,
 )
-from beam.measurement import Measurement, read_measurement, write_measurement
-from beam.model import BeamModel
+from beam.io.limits import MAX_CALIBRATION_SAMPLES, MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
+from beam.io.measurement import Measurement, read_measurement, write_measurement
+from beam.physics.model import BeamModel
 
 SIDECAR = "[beam]\nlength_m = 0.4573\nlinear_density_kg_m = 0.093\n[patch]\nstart_m = 0.15\nend_m = 0.25\n" \
           "[sensor]\nposition_m = 0.27438\n"
@@ -62,9 +60,9 @@ def test_a_toml_larger_than_its_cap_is_refused(tmp_path):
 
 def test_a_file_read_back_would_refuse_is_not_written(tmp_path, monkeypatch):
     """What write_measurement writes, read_measurement reads: a record over the cap is refused up front."""
-    import beam.measurement
+    import beam.io.measurement
 
-    monkeypatch.setattr(beam.measurement, "MAX_MEASUREMENT_BYTES", 2**20)
+    monkeypatch.setattr(beam.io.measurement, "MAX_MEASUREMENT_BYTES", 2**20)
     n = 30_000  # ~1.5 MiB at full precision
     time_s = np.arange(n) / 1000.0
     with pytest.raises(BeamInputError, match=r"30,000 samples make 1.3 MiB of CSV, more than the 1 MiB"):

@@ -14,13 +14,14 @@ import pytest
 from simulated_data import GEOMETRY, TRUE_BASE, simulated_measurement
 
 from beam.calibration import calibration_preview, make_setup
-from beam.effects import PARAMETER_SPECS
+from beam.physics.effects import PARAMETER_SPECS
 from beam.errors import BeamInputError
-from beam.excitation import Excitation
-from beam.geometry import BeamGeometry
-from beam.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M, decimate_measurement
-from beam.measurement import Measurement
-from beam.model import BeamModel
+from beam.physics.excitation import Excitation
+from beam.physics.geometry import BeamGeometry
+from beam.calibration.records import decimate_measurement
+from beam.io.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M
+from beam.io.measurement import Measurement
+from beam.physics.model import BeamModel
 
 LINEAR_EFFECTS = ("air_damping", "kelvin_voigt", "tip_mass", "clamp_compliance", "patch_stiffening")
 RATE = 1000.0
@@ -121,10 +122,10 @@ def test_more_modes_than_the_mesh_holds_in_calibration():
 
 
 # ---------------------------------------------------------------------------------------------
-# the model returning NaN/inf silently (lead's beam/model.py): the fix is one finiteness check
+# the model returning NaN/inf silently (lead's beam/physics/model.py): the fix is one finiteness check
 # ---------------------------------------------------------------------------------------------
 
-_MODEL_FIX = ("BeamModel.response returns non-finite values silently; fix in beam/model.py: after computing `out`, "
+_MODEL_FIX = ("BeamModel.response returns non-finite values silently; fix in beam/physics/model.py: after computing `out`, "
               "`if not np.isfinite(out).all(): raise BeamInputError('the response overflows ...')` (and in "
               "natural_modes/reduced_system for a LinAlgError or OverflowError of the eigensolver)")
 
@@ -166,7 +167,7 @@ def test_model_outside_the_geometry_range_gives_an_error_not_nan(length):
 
 
 # ---------------------------------------------------------------------------------------------
-# calibration on degenerate records (lead's beam/calibration/problem.py)
+# calibration on degenerate records (lead's beam/calibration/setup.py)
 # ---------------------------------------------------------------------------------------------
 
 
@@ -198,8 +199,8 @@ def test_constant_voltage_calibrates_to_finite_numbers(short_record):
     _preview_or_error(_with(short_record, voltage=np.full(short_record.sample_count, 5.0)))
 
 
-_CALIBRATION_FIX = ("fix in beam/calibration/problem.py make_setup: call "
-                    "beam.limits.check_calibration_record(measurement, window) after resolve_window")
+_CALIBRATION_FIX = ("fix in beam/calibration/setup.py make_setup: call "
+                    "beam.calibration.records.check_calibration_record(measurement, window) after resolve_window")
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")

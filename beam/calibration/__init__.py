@@ -3,7 +3,7 @@
 See :func:`calibrate`, :func:`calibration_preview` and :func:`calibration_stream`.
 """
 
-from beam.calibration.problem import (
+from beam.calibration.setup import (
     DEFAULT_EFFECTS,
     DEFAULT_MODES,
     DEFAULT_WINDOW_FRACTION,

@@ -29,14 +29,15 @@ import numpy as np
 
 from beam.calibration.bands import fast_predictive_bands
 from beam.calibration.fit import fast_map
-from beam.calibration.initial import initial_guesses, spectral_guesses
-from beam.calibration.problem import DEFAULT_EFFECTS, DEFAULT_MODES, BeamCalibrationSetup, build_problem, make_setup
+from beam.calibration.starts import initial_guesses, spectral_guesses
+from beam.calibration.setup import DEFAULT_EFFECTS, DEFAULT_MODES, BeamCalibrationSetup, build_problem, make_setup
 from beam.errors import BeamInputError
-from beam.fileio import atomic_write_texts
-from beam.limits import MAX_CALIBRATION_SAMPLES, decimate_measurement
+from beam.io.text import atomic_write_texts
+from beam.calibration.records import decimate_measurement
+from beam.io.limits import MAX_CALIBRATION_SAMPLES
 from beam.inference import NOISE_SD, EnsembleRun, LaplaceResult, PosteriorResult, PredictiveBands, Problem, Progress, laplace
 from beam.inference.summaries import summarize_draws
-from beam.measurement import Measurement
+from beam.io.measurement import Measurement
 
 #: Posterior draws pushed through the model for the predictive bands.
 BAND_DRAWS = 400
@@ -197,13 +198,13 @@ def prepare(
     """Validated setup and inference problem with its starting points.
 
     The problem's ``initial_guesses`` hook returns the screened starting points of the MAP
-    search: the short-window MAP and the spectral starts (:mod:`beam.calibration.initial`) and
+    search: the short-window MAP and the spectral starts (:mod:`beam.calibration.starts`) and
     ``extra_guesses``; with a warm ``start`` (see :func:`calibration_preview`) the warm start
     first, then the spectral starts and ``extra_guesses`` (no short-window MAP: the warm start
     plays its part).
 
-    A record longer than :data:`beam.limits.MAX_CALIBRATION_SAMPLES` is decimated first (anti-
-    aliased; see :mod:`beam.limits`): ``setup.measurement`` is then the decimated record.
+    A record longer than :data:`beam.io.limits.MAX_CALIBRATION_SAMPLES` is decimated first (anti-
+    aliased; see :mod:`beam.io.limits`): ``setup.measurement`` is then the decimated record.
     """
     measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
     setup = make_setup(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)

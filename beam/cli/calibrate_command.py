@@ -45,7 +45,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.measurement import read_measurement
+    from beam.io.measurement import read_measurement
 
     measurement = read_measurement(args.data)  # a bad file fails before the heavy imports
     from beam.calibration import calibrate

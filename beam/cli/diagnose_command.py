@@ -29,10 +29,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.measurement import read_measurement
+    from beam.io.measurement import read_measurement
 
     measurement = read_measurement(args.data)  # a bad file fails before the heavy imports
-    from beam.diagnosis import diagnose
+    from beam.discovery.report import diagnose
 
     report = diagnose(measurement, window=args.window, modes=args.modes, base=args.base, ladder_mcmc=args.mcmc,
                       seed=args.seed)

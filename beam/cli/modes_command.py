@@ -7,7 +7,7 @@ import json
 import sys
 
 from beam.cli.arguments import positive_int
-from beam.config import load_config
+from beam.io.config import load_config
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,7 +30,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the modes; returns the exit status."""
     config = load_config(args.config)
-    from beam.model import BeamModel  # scipy is slow to import: only once the config is valid
+    from beam.physics.model import BeamModel  # scipy is slow to import: only once the config is valid
 
     model = BeamModel(config.geometry, config.effects, config.intervals)
     count = None if args.count is None else min(args.count, model.size)

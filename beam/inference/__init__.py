@@ -11,13 +11,13 @@ Headless (numpy, scipy, emcee, ArviZ only). The pieces, in the order a calibrati
 * :mod:`~beam.inference.laplace` — Laplace preview (:func:`preview`, :class:`LaplaceResult`);
 * :mod:`~beam.inference.sampling` — emcee ensemble streamed as a generator
   (:class:`EnsembleRun`) or run to a target ESS (:func:`sample_posterior`);
-* :mod:`~beam.inference.diagnostics` — acceptance, autocorrelation time, ESS, R-hat;
+* :mod:`~beam.inference.convergence` — acceptance, autocorrelation time, ESS, R-hat;
 * :mod:`~beam.inference.results` — :class:`PosteriorResult` with ArviZ InferenceData and
   netCDF output;
 * :mod:`~beam.inference.predictive` — credible / prediction bands, RMSE and coverage.
 """
 
-from beam.inference.diagnostics import Diagnostics
+from beam.inference.convergence import Diagnostics
 from beam.inference.laplace import LaplaceResult, laplace, preview
 from beam.inference.likelihood import (
     AR1_COEFFICIENT,

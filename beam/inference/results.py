@@ -31,7 +31,7 @@ from beam.inference.summaries import summarize_draws
 if TYPE_CHECKING:  # pragma: no cover
     import arviz
 
-    from beam.inference.diagnostics import Diagnostics
+    from beam.inference.convergence import Diagnostics
     from beam.inference.laplace import LaplaceResult
 
 __all__ = ["PosteriorResult", "load_inference_data"]

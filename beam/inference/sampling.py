@@ -53,7 +53,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from beam.inference.diagnostics import (
+from beam.inference.convergence import (
     MIN_AUTOCORR_TIMES,
     RHAT_MAX,
     assess,
@@ -288,7 +288,7 @@ class EnsembleRun:
     def sample_to_ess(self, target_ess: float = 1000.0, *, every: int = 25, max_steps: int = 20000, initial_steps: int | None = None) -> Iterator[Progress]:
         """Sample in chunks until the run passes every convergence check, yielding progress.
 
-        Checks (see :mod:`beam.inference.diagnostics`): bulk ESS >= ``target_ess`` for every
+        Checks (see :mod:`beam.inference.convergence`): bulk ESS >= ``target_ess`` for every
         parameter, chain after burn-in >= 20 autocorrelation times, R-hat <= 1.01. After each
         chunk the burn-in, ESS and (once the ESS suffices) R-hat are re-estimated and the next
         chunk is sized from them: ESS grows about linearly with the chain length and, for

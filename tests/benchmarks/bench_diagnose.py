@@ -14,9 +14,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from beam.diagnosis import diagnose  # noqa: E402
-from beam.measurement import read_measurement  # noqa: E402
-from beam.simulation import read_truth  # noqa: E402
+from beam.discovery.report import diagnose  # noqa: E402
+from beam.io.measurement import read_measurement  # noqa: E402
+from beam.io.simulation import read_truth  # noqa: E402
 
 
 def main() -> None:

@@ -19,14 +19,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from beam.config import load_config
-from beam.diagnostics import (
+from beam.io.config import load_config
+from beam.residuals import (
     analyse_mode,
     identify_modes,
     residual_spectrum,
     residual_whiteness,
 )
-from beam.model import BeamModel
+from beam.physics.model import BeamModel
 
 RATE = 1000.0
 NOISE_M = 1.2e-5  # the bundled record's sensor noise

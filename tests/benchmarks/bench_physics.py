@@ -23,8 +23,8 @@ import scipy.signal
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from beam.config import load_config  # noqa: E402
-from beam.model import BeamModel, full_state_space  # noqa: E402
+from beam.io.config import load_config  # noqa: E402
+from beam.physics.model import BeamModel, full_state_space  # noqa: E402
 
 
 def best_seconds(function, number: int, repeat: int = 7) -> float:

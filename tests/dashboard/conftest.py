@@ -9,7 +9,7 @@ ROOT = str(Path(__file__).resolve().parents[2])
 if ROOT not in sys.path:  # `dashboard` is not an installed package (pyproject packages only beam*)
     sys.path.insert(0, ROOT)
 
-from dashboard.scheduler import RunPool
+from dashboard.runtime.scheduler import RunPool
 
 
 @pytest.fixture

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import threading
 
-from dashboard import scheduler as sch
+from dashboard.runtime import scheduler as sch
 
 
 class Recorder:

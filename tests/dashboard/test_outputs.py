@@ -10,8 +10,9 @@ import math
 import pytest
 
 from beam.toy import ToyScenario
-from dashboard import exports, toy_jobs
-from dashboard.summaries import PARAMETER_LABELS, compare_table, readouts, result_label, user_message
+from dashboard.jobs import toy as toy_jobs
+from dashboard.outputs import exports
+from dashboard.outputs.toy import PARAMETER_LABELS, compare_table, readouts, result_label, user_message
 
 
 @pytest.fixture(scope="module")

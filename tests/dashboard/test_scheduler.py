@@ -11,7 +11,7 @@ import pytest
 from recorder import make_slot
 
 from beam.errors import BeamInputError
-from dashboard import scheduler as sch
+from dashboard.runtime import scheduler as sch
 
 
 def sleepy_job(log: dict, tag, *, chunks=5, chunk_s=0.02, fail_at=None):

@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import pytest
 from tornado.ioloop import IOLoop
 
-from dashboard.staging import BuildQueue, run_steps
+from dashboard.runtime.staging import BuildQueue, run_steps
 
 
 class FakeDoc:

@@ -9,9 +9,9 @@ from dataclasses import replace
 import pytest
 
 from beam.toy import ToyScenario, run_toy
-from dashboard import toy_jobs
-from dashboard.state import SessionState
-from dashboard.summaries import compare_table
+from dashboard.jobs import toy as toy_jobs
+from dashboard.state.session import SessionState
+from dashboard.outputs.toy import compare_table
 
 FAST = 300.0  # target ESS for the tests (the app uses 1000)
 

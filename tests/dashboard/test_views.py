@@ -9,9 +9,9 @@ from bokeh.models import ColumnDataSource
 from panel.io.state import set_curdoc
 
 from dashboard.app import create_app
-from dashboard.state import SessionState
-from dashboard.toy_view import ToyView
-from dashboard.views import VIEWS
+from dashboard.state.session import SessionState
+from dashboard.views.toy import ToyView
+from dashboard.views.tabs import VIEWS
 
 
 @pytest.fixture
@@ -109,7 +109,7 @@ def beam_session(pool):
 
 
 def test_beam_view_labels_carry_units_and_results_reach_the_plot(beam_session):
-    from dashboard.beam_view import BeamCalibrationView
+    from dashboard.views.beam import BeamCalibrationView
 
     session = beam_session
     view = BeamCalibrationView(session=session)
@@ -135,7 +135,7 @@ def test_beam_view_labels_carry_units_and_results_reach_the_plot(beam_session):
 def test_beam_results_change_no_css_classes(pool):
     """A result (preview or final) changes texts and data, never a model's css_classes: each such
     change costs the browser 0.2-0.3 s of re-layout (the beam preview missed its 0.5 s target)."""
-    from dashboard.beam_view import BeamCalibrationView
+    from dashboard.views.beam import BeamCalibrationView
 
     # a seed of its own: not the final result another test left in the process-wide cache
     session = SessionState(pool=pool, debounce_s=0.0, beam_inputs={"target_ess": 200, "seed": 11})
@@ -160,7 +160,7 @@ def test_beam_results_change_no_css_classes(pool):
 
 
 def test_diagnosis_view_shows_candidates_with_add_buttons(beam_session):
-    from dashboard.diagnosis_view import DiagnosisView
+    from dashboard.views.diagnosis import DiagnosisView
 
     session = beam_session
     view = DiagnosisView(session=session)

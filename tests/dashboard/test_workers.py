@@ -12,9 +12,9 @@ import recorder
 from worker_jobs import counting, dying, failing, offloaded
 
 from beam.toy import ToyScenario
-from dashboard import scheduler as sch
-from dashboard.toy_jobs import toy_run, toy_stages
-from dashboard.workers import WorkerError
+from dashboard.runtime import scheduler as sch
+from dashboard.jobs.toy import toy_run, toy_stages
+from dashboard.runtime.workers import WorkerError
 
 
 def make_slot(pool, **kw):
@@ -136,7 +136,7 @@ def test_a_stop_that_arrives_during_a_run_ends_the_worker_after_it():
     """The worker reads its pipe for cancellations between stages; a ``stop`` read there cancels
     the run and then ends the process (it used to be taken for a cancel only, and the worker
     then waited on its pipe until shutdown terminated it)."""
-    from dashboard.workers import WorkerProcess
+    from dashboard.runtime.workers import WorkerProcess
 
     worker = WorkerProcess("beam-worker-test")
     try:

@@ -1,6 +1,6 @@
 """Generator functions for the worker-process tests (importable by the spawned workers).
 
-Each yields :class:`dashboard.scheduler.Stage` items, like the real jobs' computations.
+Each yields :class:`dashboard.runtime.scheduler.Stage` items, like the real jobs' computations.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 from beam.errors import BeamInputError
-from dashboard import scheduler as sch
+from dashboard.runtime import scheduler as sch
 
 
 def counting(n: int, tag, *, pause_s: float = 0.0, marker: str | None = None):

@@ -1,0 +1,269 @@
+"""Which physical effect is missing: rank candidate effects, then climb the error ladder.
+
+For each effect of the catalogue not in the current model, calibrate base + effect (MAP +
+Laplace) on the same window and compare with the current model by
+
+* the **Laplace log evidence** log p(data | model). It is the probability of the data averaged
+  over the prior, so it carries the Occam factor of the effect's parameters: an effect the data
+  cannot pin down pays for its prior volume. (BIC would ignore the prior; AIC/WAIC need
+  posterior samples; the Laplace evidence is available from the preview at no extra cost and is
+  accurate for the near-Gaussian posteriors of well-identified beam parameters.) Reported as
+  delta_log_evidence = log Z(model + effect) - log Z(model), in nats;
+* the **held-out prediction RMSE** of the MAP model (samples outside the calibration window), the
+  predictive check (the MAP's point prediction: a parameter pressed against its bound, as an
+  absent effect's is, spreads the Laplace draws and would blur the band's mean).
+
+A candidate *materially improves* the model when delta_log_evidence >= 5 nats (odds of about
+150:1, "very strong" on the Kass–Raftery scale) **and** it lowers the held-out RMSE by at least
+20 %. The best such candidate is reported as missing; when none qualifies, nothing in the catalogue
+is missing.
+
+The error ladder adds the materially improving candidates one at a time, best first, as long as
+each materially improves on the rung below (effects can explain the same misfit: once the best
+is in, the next may no longer help), re-calibrating at each step (the steps a user takes in the dashboard are re-calibrated with full
+MCMC; the command line uses the preview unless asked for MCMC).
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+from beam.calibration import DEFAULT_EFFECTS, DEFAULT_MODES, CalibrationResult, calibrate, calibration_preview
+from beam.physics.effects import EFFECTS, parse_effects
+from beam.errors import BeamInputError
+from beam.io.measurement import Measurement
+
+#: Evidence gain (nats) a candidate needs to count as a material improvement.
+MATERIAL_LOG_EVIDENCE = 5.0
+#: Relative fall of the held-out RMSE a candidate needs to count as a material improvement.
+MATERIAL_RMSE_FALL = 0.2
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One candidate effect, calibrated as the current model plus it.
+
+    Attributes
+    ----------
+    effect : str
+        Effect id.
+    delta_log_evidence : float
+        Laplace log evidence gain over the current model (nats); -inf when its fit failed.
+    rmse_prediction : float
+        Held-out RMSE of the MAP model with the effect (m).
+    rmse_calibration : float
+        RMSE in the calibration window (m).
+    coverage95_prediction : float
+        Held-out coverage of the 95 % prediction band.
+    material : bool
+        Whether it materially improves the model (see the module notes).
+    explanation : str
+        One sentence grounded in the fingerprints of the residuals.
+    parameters : dict
+        Posterior summaries of the effect's own parameters.
+    """
+
+    effect: str
+    delta_log_evidence: float
+    rmse_prediction: float
+    rmse_calibration: float
+    coverage95_prediction: float
+    material: bool
+    explanation: str
+    parameters: dict
+
+    def to_json(self) -> dict:
+        return {
+            "effect": self.effect,
+            "delta_log_evidence": _finite_or_none(self.delta_log_evidence),
+            "rmse_prediction": _finite_or_none(self.rmse_prediction),
+            "rmse_calibration": _finite_or_none(self.rmse_calibration),
+            "coverage95_prediction": _finite_or_none(self.coverage95_prediction),
+            "material": self.material,
+            "explanation": self.explanation,
+            "parameters": self.parameters,
+        }
+
+
+@dataclass(frozen=True)
+class LadderStep:
+    """One rung of the error ladder: a model and how well it predicts."""
+
+    effects: tuple[str, ...]
+    added: str | None
+    rmse_calibration: float
+    rmse_prediction: float
+    coverage95_prediction: float
+    log_evidence: float
+    mcmc: bool
+
+    def to_json(self) -> dict:
+        return {
+            "effects": list(self.effects),
+            "added": self.added,
+            "rmse_calibration": _finite_or_none(self.rmse_calibration),
+            "rmse_prediction": _finite_or_none(self.rmse_prediction),
+            "coverage95_prediction": _finite_or_none(self.coverage95_prediction),
+            "log_evidence": _finite_or_none(self.log_evidence),
+            "mcmc": self.mcmc,
+        }
+
+
+@dataclass
+class Ranking:
+    """Candidates ranked against the current model."""
+
+    base: CalibrationResult
+    candidates: list[Candidate]
+    results: dict[str, CalibrationResult] = field(repr=False, default_factory=dict)
+
+    @property
+    def missing(self) -> str | None:
+        """The best materially improving candidate, or None when nothing is missing."""
+        return next((c.effect for c in self.candidates if c.material), None)
+
+
+Explainer = Callable[[str, CalibrationResult, CalibrationResult], str]
+
+
+def candidate_effects(current: Iterable[str]) -> tuple[str, ...]:
+    """Catalogue effects not in the current model, in catalogue order."""
+    present = set(parse_effects(current))
+    return tuple(effect for effect in EFFECTS if effect not in present)
+
+
+def rank_candidates(
+    measurement: Measurement,
+    *,
+    base: Iterable[str] | str = DEFAULT_EFFECTS,
+    window: tuple[float, float] | None = None,
+    modes: int = DEFAULT_MODES,
+    candidates: Iterable[str] | None = None,
+    explain: Explainer | None = None,
+    base_result: CalibrationResult | None = None,
+    workers: int = 2,
+) -> Ranking:
+    """Calibrate the current model and each candidate (preview, ``workers`` threads), ranked best first."""
+    base = parse_effects(base)
+    if base_result is None:
+        base_result = calibration_preview(measurement, window=window, effects=base, modes=modes)
+    window = base_result.setup.window
+    names = candidate_effects(base) if candidates is None else parse_effects(candidates)
+    if set(names) & set(base):
+        raise BeamInputError(f"candidate {sorted(set(names) & set(base))[0]!r} is already in the model")
+    def fit(effect: str) -> CalibrationResult | Exception:
+        effects = tuple(e for e in EFFECTS if e in set(base) | {effect})
+        try:
+            return calibration_preview(measurement, window=window, effects=effects, modes=modes,
+                                       extra_guesses=candidate_starts(base_result, effect))
+        except (RuntimeError, FloatingPointError, ValueError, BeamInputError) as exc:  # a failed fit: ranked last
+            return exc
+
+    # the candidates are independent and the heavy kernels release the GIL: fit them in threads
+    with ThreadPoolExecutor(max_workers=max(1, int(workers))) as pool:
+        fits = dict(zip(names, pool.map(fit, names)))
+    ranked, results = [], {}
+    for effect in names:
+        result = fits[effect]
+        if isinstance(result, Exception):
+            ranked.append(Candidate(effect, -math.inf, math.nan, math.nan, math.nan, False,
+                                    f"the fit with {effect} failed ({_one_line(result)})", {}))
+            continue
+        results[effect] = result
+        delta = float(result.laplace.log_evidence - base_result.laplace.log_evidence)
+        rmse = result.rmse_prediction_map
+        material = improves(base_result, result)
+        summary = result.summary()
+        own = {name: summary[name] for name in EFFECTS[effect].required_parameter_names}
+        sentence = explain(effect, base_result, result) if explain else EFFECTS[effect].physics
+        ranked.append(Candidate(effect, delta, rmse, result.rmse_calibration,
+                                result.coverage95_prediction, material, sentence, own))
+    ranked.sort(key=lambda c: (not c.material, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf))
+    return Ranking(base_result, ranked, results)
+
+
+def error_ladder(
+    measurement: Measurement,
+    ranking: Ranking,
+    *,
+    mcmc: bool = False,
+    seed: int = 0,
+    max_steps: int = 3,
+) -> list[LadderStep]:
+    """base -> + best -> + next best ...: the materially improving candidates added one at a time."""
+    base = ranking.base
+    setup = base.setup
+    steps = [_step(base, None, mcmc=False)]
+    if mcmc:
+        steps[0] = _step(calibrate(measurement, window=setup.window, effects=setup.effects, modes=setup.modes, seed=seed), None, True)
+    effects = list(setup.effects)
+    previous = base
+    for candidate in [c for c in ranking.candidates if c.material][:max_steps]:
+        chosen = tuple(e for e in EFFECTS if e in set(effects) | {candidate.effect})
+        if mcmc:
+            result = calibrate(measurement, window=setup.window, effects=chosen, modes=setup.modes, seed=seed)
+        elif len(effects) == len(setup.effects):
+            result = ranking.results[candidate.effect]
+        else:
+            result = calibration_preview(measurement, window=setup.window, effects=chosen, modes=setup.modes,
+                                         extra_guesses=candidate_starts(previous, candidate.effect))
+        if len(effects) > len(setup.effects) and not improves(previous, result):
+            break  # on top of the rungs below, this effect no longer helps: the climb ends here
+        effects.append(candidate.effect)
+        steps.append(_step(result, candidate.effect, mcmc))
+        previous = result
+    return steps
+
+
+def improves(current: CalibrationResult, candidate: CalibrationResult) -> bool:
+    """Whether ``candidate`` materially improves on ``current`` (evidence and held-out error)."""
+    delta = float(candidate.laplace.log_evidence - current.laplace.log_evidence)
+    return bool(delta >= MATERIAL_LOG_EVIDENCE
+                and candidate.rmse_prediction_map <= (1 - MATERIAL_RMSE_FALL) * current.rmse_prediction_map)
+
+
+#: Where along their log prior range a candidate's own parameters start (besides the nested start).
+RANGE_STARTS = (0.2, 0.4, 0.6, 0.8)
+
+
+def candidate_starts(base_result: CalibrationResult, effect: str) -> list[dict[str, float]]:
+    """Starting points for base + ``effect``: the current model's MAP with the effect's parameters
+
+    * barely switched on (2 % of their log range from the end where the effect vanishes): the
+      candidate starts where it reproduces the current fit, so a nested model never scores far
+      below the current one for want of a good start;
+    * at fractions :data:`RANGE_STARTS` of their log range: a strong hidden effect (a hardening
+      spring) has a narrow basin that neither the nested start nor the prior centre reaches.
+    """
+    from beam.calibration.setup import parameter_prior
+
+    problem = base_result.problem
+    current = {name: float(v) for name, v in base_result.laplace.map.values.items() if name not in problem.noise_names}
+    specs = [spec for spec in EFFECTS[effect].parameters if spec.required]
+    priors = {spec.name: parameter_prior(spec.name, base_result.setup.measurement.nominal) for spec in specs}
+
+    def at(fraction_of: dict[str, float]) -> dict[str, float]:
+        start = dict(current)
+        for name, fraction in fraction_of.items():
+            prior = priors[name]
+            start[name] = float(prior.lower * (prior.upper / prior.lower) ** fraction)
+        return start
+
+    nested = at({spec.name: 0.02 if spec.absent_at == "low" else 0.98 for spec in specs})
+    return [nested] + [at({spec.name: fraction for spec in specs}) for fraction in RANGE_STARTS]
+
+
+def _step(result: CalibrationResult, added: str | None, mcmc: bool) -> LadderStep:
+    return LadderStep(result.setup.effects, added, result.rmse_calibration, result.rmse_prediction,
+                      result.coverage95_prediction, float(result.laplace.log_evidence), mcmc)
+
+
+def _finite_or_none(value: float) -> float | None:
+    return float(value) if value is not None and math.isfinite(value) else None
+
+
+def _one_line(exc: Exception) -> str:
+    return " ".join(str(exc).split())[:200]

@@ -1,0 +1,169 @@
+"""Where the model fails and which physical effect is missing: the whole diagnosis of a record.
+
+:func:`diagnose` calibrates the current model (preview), looks at its residuals over the whole
+record (exceedances of the 95 % prediction band, residual spectrum against the model's modes,
+whiteness), identifies the modes of the free decay and compares them with the model's, reads
+the envelope of mode 1 (backbone and decay law), turns all that into fingerprints and
+one-sentence explanations (:mod:`beam.residuals`), ranks the candidate effects
+(:mod:`beam.discovery.ranking`) and climbs the error ladder. Every part that cannot be computed on
+a record (no free decay, say) is reported as a note instead of failing the diagnosis.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from beam import residuals as dx
+from beam.calibration import DEFAULT_EFFECTS, DEFAULT_MODES, CalibrationResult, calibration_preview
+from beam.errors import BeamInputError
+from beam.io.measurement import Measurement
+from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, Explainer, LadderStep, Ranking, error_ladder, rank_candidates
+
+
+@dataclass
+class ResidualReport:
+    """Where a calibrated model fails, over the whole record."""
+
+    band: dx.BandResiduals
+    spectrum: dx.ResidualSpectrum
+    whiteness: dx.Whiteness
+    identified: dx.IdentifiedModes | None
+    comparison: list[dx.ModeMatch]
+    mode1: dx.ModeAnalysis | None
+    model_frequencies_Hz: np.ndarray
+    model_damping_ratios: np.ndarray
+    fingerprints: dict[str, float]
+    explanations: dict[str, str]
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class DiagnosisReport:
+    """The diagnosis of one record: residuals, ranked candidates, error ladder."""
+
+    measurement: Measurement
+    residuals: ResidualReport
+    ranking: Ranking
+    ladder: list[LadderStep]
+    seconds: float
+
+    @property
+    def base(self) -> CalibrationResult:
+        return self.ranking.base
+
+    @property
+    def missing(self) -> str | None:
+        return self.ranking.missing
+
+    @property
+    def verdict(self) -> str:
+        """One sentence: what is missing, or that nothing in the catalogue is."""
+        white = self.residuals.whiteness
+        if self.missing is not None:
+            best = self.ranking.candidates[0]
+            return (f"missing: {self.missing} (+{best.delta_log_evidence:.0f} nats; held-out RMSE "
+                    f"{self.base.rmse_prediction_map:.3g} -> {best.rmse_prediction:.3g} m)")
+        tail = ("the residuals are white (Ljung-Box p = %.2g)" % white.p_value if white.white
+                else "but the residuals are still not white (Ljung-Box p = %.2g): the discrepancy is outside the catalogue "
+                     "or in the noise model" % white.p_value)
+        return f"nothing in the catalogue is missing; {tail}"
+
+    def to_json(self) -> dict:
+        """The summary of ``beam diagnose --json`` (see the README)."""
+        base = self.base
+        return {
+            "measurement": self.measurement.name,
+            "window_s": list(base.setup.window),
+            "modes": base.setup.modes,
+            "base": list(base.setup.effects),
+            "rmse_calibration_base": base.rmse_calibration,
+            "rmse_prediction_base": base.rmse_prediction_map,
+            "coverage95_prediction_base": base.coverage95_prediction,
+            "candidates": [c.to_json() for c in self.ranking.candidates],
+            "missing": self.missing,
+            "verdict": self.verdict,
+            "ladder": [step.to_json() for step in self.ladder],
+            "modes_table": [dx.jsonable(asdict(row)) for row in self.residuals.comparison],
+            "exceedances": [dx.jsonable(asdict(interval)) for interval in self.residuals.band.intervals],
+            "whiteness": {"ljung_box_p": dx.jsonable(self.residuals.whiteness.p_value),
+                          "white": bool(self.residuals.whiteness.white)},
+            "residual_peaks_Hz": [dx.jsonable(p.frequency_Hz) for p in self.residuals.spectrum.peaks],
+            "fingerprints": dx.jsonable(self.residuals.fingerprints),
+            "notes": list(self.residuals.notes),
+            "seconds": self.seconds,
+        }
+
+
+def residual_report(result: CalibrationResult) -> ResidualReport:
+    """Residual diagnostics of a calibrated model over its whole record."""
+    measurement = result.setup.measurement
+    time_s, data, voltage = measurement.time_s, measurement.displacement_m, measurement.voltage_V
+    prediction = result.map_prediction()
+    bands = result.bands
+    notes: list[str] = []
+    band = dx.band_residuals(time_s, data, bands.mean, bands.prediction_lower, bands.prediction_upper)
+    map_values = {k: float(v) for k, v in result.laplace.map.values.items() if k in result.setup.physical_names}
+    frequencies, ratios = result.setup.model.natural_modes(map_values, result.setup.modes)
+    spectrum = dx.residual_spectrum(time_s, data, prediction, frequencies)
+    window = result.setup.window_mask
+    whiteness = dx.residual_whiteness((data - prediction)[window], sample_interval_s=measurement.sample_interval_s,
+                                      fitted_parameters=result.problem.ndim)
+    identified, comparison, mode1 = None, [], None
+    try:
+        identified = dx.identify_modes(time_s, data, voltage)
+        comparison = dx.compare_modes(identified, frequencies, ratios)
+    except BeamInputError as exc:
+        notes.append(f"no modal identification: {exc}")
+    if identified is not None and len(identified.frequency_Hz):
+        try:
+            mode1 = dx.analyse_mode(time_s, data, float(identified.frequency_Hz[0]), voltage)
+        except BeamInputError as exc:
+            notes.append(f"no envelope of mode 1: {exc}")
+    fingerprints = dx.fingerprints(
+        comparison, backbone=mode1.backbone if mode1 else None, decay=mode1.decay if mode1 else None,
+        spectrum=spectrum, whiteness=whiteness,
+    )
+    return ResidualReport(band, spectrum, whiteness, identified, comparison, mode1, frequencies, ratios,
+                          fingerprints, dx.explain(fingerprints), notes)
+
+
+def explainer(residuals: ResidualReport) -> Explainer:
+    """The sentence of each candidate: its fingerprint sentence, led by the evidence when the data
+    favour the effect but its fingerprint is weak (a tip mass and a soft clamp lower the modes
+    almost alike)."""
+    scores = dx.effect_scores(residuals.fingerprints)
+
+    def explain(effect: str, base_fit: CalibrationResult, fit: CalibrationResult) -> str:
+        sentence = residuals.explanations.get(effect, "")
+        gain = float(fit.laplace.log_evidence - base_fit.laplace.log_evidence)
+        ratio = base_fit.rmse_prediction_map / max(fit.rmse_prediction_map, 1e-300)
+        if gain >= MATERIAL_LOG_EVIDENCE and ratio > 1.25 and scores.get(effect, 0.0) < 1.0:
+            pattern = sentence.split(": no sign")[0]
+            return (f"the data favour it strongly (+{gain:.0f} nats, held-out error /{ratio:.1f}) although its "
+                    f"fingerprint is ambiguous: {pattern}")
+        return sentence
+
+    return explain
+
+
+def diagnose(
+    measurement: Measurement,
+    *,
+    window: tuple[float, float] | None = None,
+    modes: int = DEFAULT_MODES,
+    base: Iterable[str] | str = DEFAULT_EFFECTS,
+    ladder_mcmc: bool = False,
+    seed: int = 0,
+) -> DiagnosisReport:
+    """Diagnose a record from the ``base`` model: residuals, ranked candidates, error ladder."""
+    t0 = time.perf_counter()
+    base_result = calibration_preview(measurement, window=window, effects=base, modes=modes)
+    residuals = residual_report(base_result)
+    ranking = rank_candidates(measurement, base=base_result.setup.effects, modes=modes, base_result=base_result,
+                              explain=explainer(residuals))
+    ladder = error_ladder(measurement, ranking, mcmc=ladder_mcmc, seed=seed)
+    return DiagnosisReport(measurement, residuals, ranking, ladder, time.perf_counter() - t0)

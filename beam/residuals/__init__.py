@@ -1,0 +1,114 @@
+"""Where the model fails: diagnostics of a record against a model prediction.
+
+Pure functions on plain arrays (seconds, metres, volts, hertz) that return small frozen
+dataclasses — arrays for plots, summary numbers for tables — each with ``to_dict()`` giving
+JSON-ready values (NaN as None; :func:`jsonable` converts anything else, e.g. a fingerprint
+dict). Bad input raises :class:`beam.errors.BeamInputError` with a
+one-line message.
+
+==========================  ====================================================================
+module                      what
+==========================  ====================================================================
+:mod:`.residuals`           residuals against the prediction band, out-of-band intervals,
+                            coverage; RMSE and coverage in the calibration / prediction windows
+:mod:`.spectra`             Welch PSD of residual and data, residual peaks, residual/data power
+                            near each model mode
+:mod:`.whiteness`           residual autocorrelation with its ±1.96/sqrt(n) band, Ljung–Box test
+:mod:`.modal_id`            free-decay modal identification (matrix pencil): frequency, damping
+                            ratio, amplitude per mode; matching against model modes
+:mod:`.envelope`            band-pass + Hilbert envelope and instantaneous frequency of one mode:
+                            backbone (frequency against amplitude), decay law
+:mod:`.fingerprints`        dimensionless fingerprints of missing effects, a score and one
+                            sentence per effect id
+==========================  ====================================================================
+"""
+
+from beam.residuals.common import jsonable
+from beam.residuals.envelope import (
+    Backbone,
+    DecayLaw,
+    ModeAnalysis,
+    ModeEnvelope,
+    analyse_mode,
+    backbone,
+    decay_law,
+    extrapolate,
+    mode_envelope,
+)
+from beam.residuals.fingerprints import (
+    THRESHOLDS,
+    effect_scores,
+    explain,
+    fingerprints,
+)
+from beam.residuals.modal_id import (
+    IdentifiedModes,
+    ModeMatch,
+    ModeRow,
+    compare_modes,
+    free_decay_start,
+    identify_modes,
+    matrix_pencil_poles,
+)
+from beam.residuals.residuals import (
+    BandResiduals,
+    ExceedanceInterval,
+    WindowScore,
+    WindowScores,
+    band_residuals,
+    window_scores,
+)
+from beam.residuals.spectra import (
+    ModePower,
+    ResidualSpectrum,
+    SpectralPeak,
+    default_nperseg,
+    residual_spectrum,
+)
+from beam.residuals.whiteness import (
+    Whiteness,
+    autocorrelation,
+    default_max_lag,
+    ljung_box,
+    residual_whiteness,
+)
+
+__all__ = [
+    "THRESHOLDS",
+    "Backbone",
+    "BandResiduals",
+    "DecayLaw",
+    "ExceedanceInterval",
+    "IdentifiedModes",
+    "ModeAnalysis",
+    "ModeEnvelope",
+    "ModeMatch",
+    "ModePower",
+    "ModeRow",
+    "ResidualSpectrum",
+    "SpectralPeak",
+    "Whiteness",
+    "WindowScore",
+    "WindowScores",
+    "analyse_mode",
+    "autocorrelation",
+    "backbone",
+    "band_residuals",
+    "compare_modes",
+    "decay_law",
+    "default_max_lag",
+    "default_nperseg",
+    "effect_scores",
+    "explain",
+    "extrapolate",
+    "fingerprints",
+    "free_decay_start",
+    "identify_modes",
+    "jsonable",
+    "ljung_box",
+    "matrix_pencil_poles",
+    "mode_envelope",
+    "residual_spectrum",
+    "residual_whiteness",
+    "window_scores",
+]

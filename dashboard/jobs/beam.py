@@ -1,0 +1,305 @@
+"""Jobs of the beam views for the run scheduler: datasets, uploads, calibration, diagnosis.
+
+Pure Python on top of the public ``beam`` API (no UI import).
+
+:func:`bundled_datasets`, :func:`load_bundled`, :func:`load_upload`
+    The bundled lab runs (``assets/measurements``) and user uploads (CSV + TOML sidecar,
+    checked by writing them to a temporary directory and reading them with
+    :func:`beam.io.measurement.read_measurement`).
+:func:`calibration_run`
+    ``preview`` (MAP + Laplace), ``progress`` while emcee samples, ``final`` — the stages of
+    :func:`beam.calibration.calibration_stream`. Leaving the generator cancels the sampler.
+:func:`diagnosis_run`
+    The diagnosis of :func:`beam.discovery.report.diagnose` in cancellable steps: base preview,
+    residual report (``partial``), candidates two at a time, then ``final``.
+
+The computations (:func:`calibration_stages`, :func:`diagnosis_stages`) run in a worker
+process of the pool (:func:`dashboard.runtime.scheduler.offload`); the jobs around them look up and fill
+the caches in the server process. Final results are deterministic for their inputs, so they are
+kept in small process-wide LRU caches shared by all sessions (bundled datasets only: an upload
+is private to a session). :func:`warm_worker` prepares a new worker process.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+from beam.calibration import CalibrationResult, calibration_preview, calibration_stream
+from beam.discovery.report import explainer, residual_report
+from beam.physics.effects import EFFECTS
+from beam.errors import BeamInputError
+from beam.inference import Progress
+from beam.io.measurement import Measurement, read_measurement
+from beam.discovery.ranking import (
+    Candidate,
+    Ranking,
+    candidate_effects,
+    rank_candidates,
+)
+from beam.io.simulation import read_truth
+from dashboard.runtime import scheduler as sch
+from dashboard.jobs.toy import LRU, cached_stages, warm_up
+
+__all__ = [
+    "ASSETS",
+    "CALIBRATIONS",
+    "DIAGNOSES",
+    "MAX_UPLOAD_BYTES",
+    "CalibrationKey",
+    "Diagnosis",
+    "bundled_datasets",
+    "calibration_run",
+    "calibration_stages",
+    "diagnosis_run",
+    "diagnosis_stages",
+    "load_bundled",
+    "load_upload",
+    "read_answer",
+    "warm_worker",
+]
+
+REPO = Path(__file__).resolve().parents[1]
+ASSETS = REPO / "assets"
+#: Largest accepted upload, per file (bytes).
+MAX_UPLOAD_BYTES = 20 * 1024 * 1024
+#: Final calibrations by :class:`CalibrationKey` (bundled datasets only).
+CALIBRATIONS = LRU(24)
+#: Diagnoses by (dataset, window, effects, modes).
+DIAGNOSES = LRU(8)
+
+
+@dataclass(frozen=True)
+class CalibrationKey:
+    """Everything a calibration depends on; ``dataset`` is a bundled name or an upload id."""
+
+    dataset: str
+    window: tuple[float, float]
+    effects: tuple[str, ...]
+    modes: int
+    likelihood: str
+    seed: int = 0
+    target_ess: float = 1000.0
+
+
+# -- datasets ---------------------------------------------------------------------------------
+@lru_cache(maxsize=1)
+def bundled_datasets() -> dict[str, str]:
+    """``{name: "name — title"}`` of the bundled lab runs, in name order."""
+    out = {}
+    for csv in sorted((ASSETS / "measurements").glob("*.csv")):
+        try:
+            out[csv.stem] = f"{csv.stem} — {load_bundled(csv.stem).title}"
+        except BeamInputError:  # pragma: no cover - a broken bundled file
+            continue
+    return out
+
+
+@lru_cache(maxsize=8)
+def load_bundled(name: str) -> Measurement:
+    """The bundled measurement ``assets/measurements/NAME.csv`` (cached: measurements are read-only)."""
+    return read_measurement(ASSETS / "measurements" / f"{name}.csv")
+
+
+def read_answer(name: str) -> dict | None:
+    """The hidden truth of a bundled dataset: ``{"title", "effects", "parameters"}`` or None."""
+    path = ASSETS / "answers" / f"{name}.truth.toml"
+    if not path.exists():
+        return None
+    truth = read_truth(path)
+    return {"title": getattr(truth, "title", name), "effects": list(truth.effects), "parameters": dict(truth.parameters)}
+
+
+def load_upload(csv_name: str | None, csv_bytes: bytes | None, toml_name: str | None, toml_bytes: bytes | None) -> Measurement:
+    """Check an uploaded measurement (CSV + TOML sidecar) and read it.
+
+    Raises
+    ------
+    BeamInputError
+        A missing or too large file, or any problem :func:`read_measurement` finds (one line).
+    """
+    if not csv_bytes or not toml_bytes:
+        missing = "the CSV data file" if not csv_bytes else "the TOML sidecar"
+        raise BeamInputError(f"upload both files of a measurement: {missing} is missing")
+    for name, data in ((csv_name, csv_bytes), (toml_name, toml_bytes)):
+        if len(data) > MAX_UPLOAD_BYTES:
+            raise BeamInputError(f"{name}: {len(data) / 2**20:.1f} MB is more than the "
+                                 f"{MAX_UPLOAD_BYTES // 2**20} MB an upload may have")
+    stem = Path(csv_name or "upload").stem or "upload"
+    stem = "".join(c if c.isalnum() or c in "-_." else "_" for c in stem)[:80] or "upload"
+    with tempfile.TemporaryDirectory(prefix="beam-upload-") as tmp:
+        (Path(tmp) / f"{stem}.csv").write_bytes(csv_bytes)
+        (Path(tmp) / f"{stem}.toml").write_bytes(toml_bytes)
+        try:
+            measurement = read_measurement(Path(tmp) / f"{stem}.csv")
+        except BeamInputError as exc:  # name the uploaded files, not the temporary paths
+            raise BeamInputError(str(exc).replace(f"{tmp}/", "")) from None
+        except (UnicodeDecodeError, OSError) as exc:
+            raise BeamInputError(f"{csv_name}: cannot read the upload ({type(exc).__name__})") from None
+    return measurement
+
+
+# -- calibration ------------------------------------------------------------------------------
+def _stage_message(result: CalibrationResult) -> str:
+    return "preview (MAP + Laplace)" if result.is_preview else "posterior (MCMC)"
+
+
+def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int = 25,
+                    use_cache: bool = True) -> sch.Iterator[sch.Stage]:
+    """Preview, streamed MCMC and final calibration (a scheduler job).
+
+    Parameters
+    ----------
+    key : CalibrationKey
+        Inputs (window, effects, modes, likelihood, seed, target ESS).
+    measurement : Measurement
+        The record ``key.dataset`` names.
+    every : int
+        Ensemble steps between two progress reports (the cancellation points).
+    use_cache : bool
+        Publish a cached final result at once when there is one (bundled datasets).
+
+    Yields
+    ------
+    Stage
+        ``preview``, ``progress`` items, ``final``; a bad input raises
+        :class:`~beam.errors.BeamInputError` (published as ``error``).
+    """
+    cacheable = use_cache and key.dataset in bundled_datasets()
+    cached = CALIBRATIONS.get(key) if cacheable else None
+    if cached is not None:
+        yield sch.final(cached, "posterior (cached)")
+        return
+    yield from cached_stages(CALIBRATIONS, key if cacheable else None, calibration_stages, key, measurement, every=every)
+
+
+def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: int = 25) -> sch.Iterator[sch.Stage]:
+    """The computation of :func:`calibration_run` (in a worker process; no cache)."""
+    stream = calibration_stream(measurement, window=key.window, effects=key.effects, modes=key.modes,
+                                likelihood=key.likelihood, seed=key.seed, target_ess=key.target_ess, every=every)
+    done = 0.0
+    try:
+        for event in stream:
+            if isinstance(event, Progress):
+                done = max(done, min(event.step / max(event.total, 1), 0.99))
+                yield sch.progress(done, f"sampling: {event.step} of {event.total} ensemble steps")
+            elif event.is_preview:
+                yield sch.preview(event, _stage_message(event))
+                warm_up()  # the sampler's libraries, before the stream goes on to sample
+            else:
+                yield sch.final(event, _stage_message(event))
+    finally:
+        stream.close()  # leaving the loop stops emcee
+
+
+# -- diagnosis --------------------------------------------------------------------------------
+@dataclass
+class Diagnosis:
+    """What the diagnosis view shows: the base fit, its residual report and the ranking so far.
+
+    Attributes
+    ----------
+    key : CalibrationKey
+        Dataset, window, effects (the base model), modes.
+    base : CalibrationResult
+        Preview calibration of the base model.
+    residuals : ResidualReport
+        :func:`beam.discovery.report.residual_report` of ``base``.
+    candidates : list of Candidate
+        Ranked best first (empty until ranked).
+    pending : list of str
+        Candidates not ranked yet.
+    """
+
+    key: CalibrationKey
+    base: CalibrationResult
+    residuals: object
+    candidates: list[Candidate] = field(default_factory=list)
+    pending: list[str] = field(default_factory=list)
+
+    @property
+    def missing(self) -> str | None:
+        """The best materially improving candidate, or None."""
+        return Ranking(self.base, self.candidates).missing if not self.pending else None
+
+    @property
+    def verdict(self) -> str:
+        """One sentence, as :attr:`beam.discovery.report.DiagnosisReport.verdict`."""
+        if self.pending:
+            return f"ranking the candidates: {len(self.pending)} to go"
+        white = self.residuals.whiteness
+        if self.missing is not None:
+            best = self.candidates[0]
+            return (f"missing: {self.missing} (+{best.delta_log_evidence:.0f} nats; held-out RMSE "
+                    f"{self.base.rmse_prediction_map * 1e6:.3g} µm -> {best.rmse_prediction * 1e6:.3g} µm)")
+        if white.white:
+            return f"nothing in the catalogue is missing; the residuals are white (Ljung-Box p = {white.p_value:.2g})"
+        return ("nothing in the catalogue is missing, but the residuals are still not white (Ljung-Box p = "
+                f"{white.p_value:.2g}): the discrepancy is outside the catalogue or in the noise model")
+
+
+def _rank_key(c: Candidate):
+    return (not c.material, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
+
+
+def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: bool = True) -> sch.Iterator[sch.Stage]:
+    """The diagnosis of the beam view's model on its window (a scheduler job).
+
+    Yields
+    ------
+    Stage
+        ``progress`` (base calibration), ``partial`` :class:`Diagnosis` with the residual report,
+        ``partial`` after every two ranked candidates (cancellation points), ``final``.
+    """
+    cacheable = use_cache and key.dataset in bundled_datasets()
+    dkey = (key.dataset, key.window, key.effects, key.modes)
+    cached = DIAGNOSES.get(dkey) if cacheable else None
+    if cached is not None:
+        yield sch.final(cached, "diagnosis (cached)")
+        return
+    yield from cached_stages(DIAGNOSES, dkey if cacheable else None, diagnosis_stages, key, measurement)
+
+
+def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> sch.Iterator[sch.Stage]:
+    """The computation of :func:`diagnosis_run` (in a worker process; no cache)."""
+    yield sch.progress(0.02, "calibrating the current model (preview)")
+    warm_up()  # no half-imported ArviZ under the diagnostics (see dashboard.jobs.toy.warm_up)
+    base = calibration_preview(measurement, window=key.window, effects=key.effects, modes=key.modes)
+    yield sch.progress(0.1, "residual diagnostics: band, spectrum, whiteness, modes, backbone")
+    residuals = residual_report(base)
+    names = list(candidate_effects(base.setup.effects))
+    diagnosis = Diagnosis(key, base, residuals, [], list(names))
+    yield sch.partial(diagnosis, 0.25, f"ranking {len(names)} candidate effects")
+    explain = explainer(residuals)
+    ranked: list[Candidate] = []
+    for i in range(0, len(names), 2):
+        chunk = names[i:i + 2]
+        ranking = rank_candidates(measurement, base=base.setup.effects, modes=key.modes, base_result=base,
+                                  candidates=chunk, explain=explain, workers=2)
+        ranked = sorted(ranked + ranking.candidates, key=_rank_key)
+        done = min(i + 2, len(names))
+        diagnosis = Diagnosis(key, base, residuals, ranked, names[done:])
+        yield sch.partial(diagnosis, 0.25 + 0.75 * done / max(len(names), 1), f"ranked {done} of {len(names)} candidates")
+    yield sch.final(diagnosis, "diagnosis")
+
+
+def effect_label(effect: str) -> str:
+    """``"Tip mass (tip_mass_kg: kg)"``-style label of a catalogue effect, units included."""
+    e = EFFECTS[effect]
+    units = ", ".join(f"{p.symbol} in {p.unit}" for p in e.parameters if p.required)
+    return f"{e.title} ({units})"
+
+
+def warm_worker() -> None:
+    """Prepare a new worker process (seconds, once): what a preview needs first, then the sampler's libraries."""
+    from beam.inference.laplace import preview as laplace_preview
+    from beam.toy import ToyScenario, calibration_problem, simulate
+
+    scenario = ToyScenario()
+    laplace_preview(calibration_problem(scenario, simulate(scenario))[0])
+    m = load_bundled(next(iter(bundled_datasets())))
+    calibration_preview(m, window=(float(m.time_s[0]), float(m.time_s[min(400, m.time_s.size - 1)])), modes=2)
+    warm_up()  # ArviZ and emcee: the MCMC stage (ArviZ alone takes seconds to import)

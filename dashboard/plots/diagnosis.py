@@ -1,0 +1,140 @@
+"""Plots of the diagnosis view (plain bokeh, updated in place when a diagnosis or a ladder rung arrives).
+
+:class:`DiagnosisPlots` holds five figures — residual over time with the 95 % band and the
+exceedance intervals, residual and data spectra (Welch) with the model's modal lines, residual
+autocorrelation with its ±1.96/√n band, the backbone (instantaneous frequency against
+amplitude) of mode 1, and the error ladder — each to be shown in its own pane (no GridPlot:
+see :mod:`dashboard.plots.corner`). Displacements in µm, PSDs in m²/Hz.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from bokeh.models import ColumnDataSource, Range1d, Span
+from bokeh.plotting import figure
+
+from dashboard.plots.timeseries import COLORS
+
+__all__ = ["DiagnosisPlots"]
+
+UM = 1e6
+
+
+def _fig(title: str, x: str, y: str, **kw):
+    fig = figure(height=260, sizing_mode="stretch_width", title=title, tools="pan,wheel_zoom,box_zoom,reset,save",
+                 toolbar_location="above", **kw)
+    fig.xaxis.axis_label, fig.yaxis.axis_label = x, y
+    return fig
+
+
+def _empty(*cols) -> dict:
+    return {c: [] for c in cols}
+
+
+class DiagnosisPlots:
+    """The figures of the diagnosis view; :meth:`update` shows a diagnosis, :meth:`update_ladder` the ladder."""
+
+    def __init__(self) -> None:
+        s = self.sources = {
+            "residual": ColumnDataSource(_empty("t", "r"), name="diag-residual"),
+            "band": ColumnDataSource(_empty("t", "lo", "hi")),
+            "outside": ColumnDataSource(_empty("t", "r")),
+            "intervals": ColumnDataSource(_empty("left", "right", "bottom", "top")),
+            "psd": ColumnDataSource(_empty("f", "residual", "data")),
+            "modes": ColumnDataSource(_empty("f", "y0", "y1")),
+            "acf": ColumnDataSource(_empty("lag", "acf")),
+            "backbone": ColumnDataSource(_empty("a", "f", "lo", "hi")),
+            "ladder": ColumnDataSource(_empty("rung", "label", "rmse", "coverage", "bottom"), name="diag-ladder"),
+        }
+        self.residual = _fig("Residual (data − model mean) with the 95 % prediction band; exceedances red",
+                             "Time (s)", "Residual (µm)")
+        self.residual.quad(left="left", right="right", bottom="bottom", top="top", source=s["intervals"],
+                           color="#d62728", alpha=0.12, legend_label="exceedance intervals")
+        self.residual.varea("t", "lo", "hi", source=s["band"], color=COLORS["prediction"], alpha=0.45,
+                            legend_label="95 % prediction band")
+        self.residual.line("t", "r", source=s["residual"], color=COLORS["calibration"], legend_label="residual")
+        self.residual.scatter("t", "r", source=s["outside"], color="#d62728", size=3, legend_label="outside the band")
+        self.spectrum = _fig("Spectra (Welch): residual vs data, model modes dashed", "Frequency (Hz)",
+                             "PSD (m²/Hz)", y_axis_type="log")
+        self.spectrum.line("f", "data", source=s["psd"], color="#7f7f7f", legend_label="data")
+        self.spectrum.line("f", "residual", source=s["psd"], color="#d62728", legend_label="residual")
+        self.spectrum.segment("f", "y0", "f", "y1", source=s["modes"], color=COLORS["truth"], line_dash="dashed",
+                              legend_label="model natural frequencies")
+        self.acf = _fig("Residual autocorrelation (window) with ±1.96/√n", "Lag (s)", "Autocorrelation (1)")
+        self.acf.vbar(x="lag", top="acf", width=0.0, source=s["acf"], line_color=COLORS["calibration"])
+        self.acf.scatter("lag", "acf", source=s["acf"], size=2, color=COLORS["calibration"])
+        self.acf_band = [Span(dimension="width", location=v, line_dash="dashed", line_color="#d62728") for v in (0.0, 0.0)]
+        for span in self.acf_band:
+            self.acf.add_layout(span)
+        self.backbone = _fig("Backbone of mode 1: instantaneous frequency vs amplitude", "Amplitude (µm)",
+                             "Frequency (Hz)")
+        self.backbone.segment("a", "lo", "a", "hi", source=s["backbone"], color="#7f7f7f")
+        self.backbone.line("a", "f", source=s["backbone"], color=COLORS["mean"])
+        self.backbone.scatter("a", "f", source=s["backbone"], color=COLORS["mean"], size=6)
+        self.ladder = _fig("Error ladder: held-out RMSE (bars, µm) per rung", "Rung (effects added)",
+                           "Held-out RMSE (µm)", x_range=Range1d(-0.6, 3.6), y_axis_type="log")
+        self.ladder.vbar(x="rung", top="rmse", bottom="bottom", width=0.6, source=s["ladder"], color=COLORS["mean"], alpha=0.7)
+        self.ladder.text(x="rung", y="rmse", text="label", source=s["ladder"], text_font_size="8pt", text_align="center",
+                         text_baseline="top", y_offset=4)
+        for fig in (self.residual, self.spectrum):
+            fig.legend.label_text_font_size = "8pt"
+            fig.legend.click_policy = "hide"
+
+    @property
+    def figures(self) -> list:
+        """The five figures, in display order."""
+        return [self.residual, self.spectrum, self.acf, self.backbone, self.ladder]
+
+    def update(self, diagnosis) -> None:
+        """Show a :class:`~dashboard.jobs.beam.Diagnosis` (None clears)."""
+        s = self.sources
+        if diagnosis is None:
+            for name, src in s.items():
+                if name != "ladder":
+                    src.data = {k: [] for k in src.data}
+            return
+        rep = diagnosis.residuals
+        band = rep.band
+        b = diagnosis.base.bands
+        s["residual"].data = {"t": band.time_s, "r": band.residual_m * UM}
+        s["band"].data = {"t": b.time_s, "lo": (b.prediction_lower - b.mean) * UM, "hi": (b.prediction_upper - b.mean) * UM}
+        s["outside"].data = {"t": band.time_s[band.outside], "r": band.residual_m[band.outside] * UM}
+        top = float(np.max(np.abs(band.residual_m))) * UM if band.residual_m.size else 1.0
+        s["intervals"].data = {"left": [i.start_s for i in band.intervals], "right": [i.end_s for i in band.intervals],
+                               "bottom": [-top] * len(band.intervals), "top": [top] * len(band.intervals)}
+        sp = rep.spectrum
+        keep = sp.frequency_Hz > 0
+        s["psd"].data = {"f": sp.frequency_Hz[keep], "residual": sp.residual_psd_m2_Hz[keep], "data": sp.data_psd_m2_Hz[keep]}
+        positive = sp.data_psd_m2_Hz[keep]
+        positive = positive[positive > 0]
+        y0, y1 = (float(positive.min()), float(positive.max())) if positive.size else (1e-20, 1.0)
+        fm = [float(f) for f in rep.model_frequencies_Hz if f < sp.frequency_Hz[-1]]
+        s["modes"].data = {"f": fm, "y0": [y0] * len(fm), "y1": [y1] * len(fm)}
+        w = rep.whiteness
+        lag = w.lag_s if np.all(np.isfinite(w.lag_s)) else w.lags.astype(float)
+        s["acf"].data = {"lag": lag, "acf": w.acf}
+        self.acf_band[0].location, self.acf_band[1].location = float(w.band), -float(w.band)
+        self.acf.title.text = (f"Residual autocorrelation (window), ±1.96/√n = ±{w.band:.3f}; Ljung–Box p = "
+                               f"{w.p_value:.2g} ({'white' if w.white else 'NOT white'})")
+        bb = rep.mode1.backbone if rep.mode1 is not None else None
+        if bb is None:
+            s["backbone"].data = _empty("a", "f", "lo", "hi")
+            self.backbone.title.text = "Backbone of mode 1: not available on this record (no free decay)"
+        else:
+            s["backbone"].data = {"a": bb.amplitude_m * UM, "f": bb.frequency_Hz, "lo": bb.frequency_Hz - bb.frequency_std_Hz,
+                                  "hi": bb.frequency_Hz + bb.frequency_std_Hz}
+            self.backbone.title.text = (f"Backbone of mode 1: {bb.verdict} (frequency shift {100 * bb.relative_shift:+.2f} % "
+                                        "over the amplitudes seen)")
+
+    def update_ladder(self, rungs: list[dict]) -> None:
+        """Show the error ladder rows (:func:`dashboard.state.beam.ladder_rung`)."""
+        rmse = [max(r["rmse_prediction_um"], 1e-3) for r in rungs]
+        bottom = min(rmse, default=1.0) / 4
+        self.sources["ladder"].data = {
+            "rung": [r["rung"] for r in rungs], "bottom": [bottom] * len(rungs),
+            "label": [f"{r['rmse_prediction_um']:.3g} µm, {r['coverage95_pct']:.0f} %" for r in rungs],
+            "rmse": rmse,
+            "coverage": [r["coverage95_pct"] for r in rungs]}
+        self.ladder.x_range.update(start=-0.6, end=max(len(rungs), 4) - 0.4)
+        self.ladder.xaxis.major_label_overrides = {r["rung"]: r["added"] for r in rungs}
+        self.ladder.xaxis.ticker = [r["rung"] for r in rungs] or [0]

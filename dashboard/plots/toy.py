@@ -1,0 +1,67 @@
+"""Window-sweep plots of the toy view: held-out coverage and RMSE against the calibration window.
+
+Plain bokeh updated in place, like :mod:`dashboard.plots.timeseries`. They were HoloViews
+DynamicMaps; measured with the lag monitor (:mod:`dashboard.runtime.monitor`) while eight sessions
+ran inference, building the two HoloViews panes when the first sweep arrived held the server's
+event loop for 0.5–3.4 s, and each re-render when a final result moved the window marker for
+0.5–0.8 s. The bokeh figures cost a few tens of milliseconds to build and about a millisecond
+to update; without them the app does not need HoloViews at all.
+
+Data sources are named ``sweep-coverage`` and ``sweep-rmse`` (columns ``window_s``, ``value``).
+"""
+
+from __future__ import annotations
+
+from bokeh.models import ColumnDataSource, Span
+from bokeh.plotting import figure
+
+from dashboard.plots.timeseries import COLORS
+
+__all__ = ["QUANTITIES", "SweepPlot"]
+
+#: quantity -> (row key, axis label with unit, title, scale to the plotted unit)
+QUANTITIES = {
+    "coverage": ("coverage95_prediction", "Held-out coverage (%)", "Coverage of the 95 % prediction band (%) vs window",
+                 100.0),
+    "rmse": ("rmse_prediction", "Held-out RMSE (du)", "Held-out RMSE (du) vs window", 1.0),
+}
+
+
+class SweepPlot:
+    """Coverage (%) or RMSE (du) of the Laplace preview against the calibration window.
+
+    Parameters
+    ----------
+    quantity : {"coverage", "rmse"}
+        What to plot.
+    height : int
+        Figure height in pixels (the width follows the container).
+    """
+
+    def __init__(self, quantity: str, height: int = 280) -> None:
+        if quantity not in QUANTITIES:
+            raise ValueError(f"unknown sweep quantity {quantity!r}; expected one of {', '.join(QUANTITIES)}")
+        self.quantity = quantity
+        self._key, label, title, self._scale = QUANTITIES[quantity]
+        fig = figure(height=height, sizing_mode="stretch_width", title=title, toolbar_location=None, tools="")
+        fig.xaxis.axis_label = "Calibration window (s)"
+        fig.yaxis.axis_label = label
+        self.source = ColumnDataSource({"window_s": [], "value": []}, name=f"sweep-{quantity}")
+        fig.line("window_s", "value", source=self.source, color=COLORS["mean"], line_width=2)
+        fig.scatter("window_s", "value", source=self.source, color=COLORS["mean"], size=6)
+        #: The window of the latest final result (dashed).
+        self.marker = Span(dimension="height", location=0.0, line_color=COLORS["calibration"], line_dash="dashed",
+                           visible=False)
+        fig.add_layout(self.marker)
+        if quantity == "coverage":  # the nominal level
+            fig.add_layout(Span(dimension="width", location=95.0, line_color=COLORS["truth"], line_dash="dotted"))
+        self.figure = fig
+
+    def update(self, rows=None, window_s: float | None = None) -> None:
+        """Show sweep ``rows`` (:func:`beam.toy.sweep_windows`; None: empty) and mark ``window_s``."""
+        rows = rows or []
+        self.source.data = {"window_s": [r["window_s"] for r in rows],
+                            "value": [self._scale * r[self._key] for r in rows]}
+        self.marker.visible = window_s is not None
+        if window_s is not None:
+            self.marker.location = float(window_s)

@@ -1,0 +1,547 @@
+"""Run scheduler: inference jobs off the server's event loop, latest request wins.
+
+Pure Python (no panel, holoviews or bokeh), so that every rule below is unit-tested without a
+browser or a server.
+
+Vocabulary
+----------
+job
+    A zero-argument callable returning an iterator of :class:`Stage` (usually a generator
+    function bound with :func:`functools.partial`). It runs on a worker thread of a
+    :class:`RunPool`. Cancellation is cooperative: the scheduler checks for it between two
+    stages and then closes the generator (its ``finally`` blocks run), so a job should yield
+    at least every few tenths of a second (the sampler's progress reports do).
+stage
+    What a job yields: ``preview`` (instant MAP/Laplace result), ``progress`` (fraction done),
+    ``partial`` (intermediate result), ``final``. An exception raised by the job becomes an
+    ``error`` update carrying a readable one-line message (:func:`readable_error`).
+slot
+    :class:`RunSlot`: the "latest run" of one activity of one browser session. A new request
+    cancels the previous one (still waiting, queued or running). Requests are debounced,
+    leading and trailing edge: a request that comes after a quiet spell of ``debounce_s``
+    starts at once (a click on a slider or a select answers without delay); one that comes
+    within ``debounce_s`` of the previous request waits until ``debounce_s`` has passed
+    without a newer one, so a slider dragged through twenty values runs at most two jobs
+    (the first, soon cancelled, and the last). A cancelled or superseded job never publishes:
+    currency is checked on the worker before dispatching *and* again, under the slot's lock,
+    when the update is delivered (the dispatch may hop to the event loop in between).
+pool
+    :class:`RunPool`: one per server process (:func:`shared_pool`), at most ``max_workers``
+    threads (default 2, the machine's cores; environment variable ``BEAM_DASHBOARD_WORKERS``),
+    shared by all sessions. Delayed (debounced) work waits in a heap, not on a thread; worker
+    threads are started on demand and exit after ``idle_timeout_s`` without work
+    (``BEAM_DASHBOARD_IDLE_S``, default 30 s), so an idle server runs no scheduler thread at all.
+worker processes
+    A pool made with ``processes=True`` (the shared pool, unless ``BEAM_DASHBOARD_PROCESSES=0``)
+    also owns one worker *process* per thread (:class:`dashboard.runtime.workers.WorkerProcesses`).
+    A job hands its CPU-bound part to one with :func:`offload` — ``yield from
+    offload(fn, *args)`` yields what the generator function ``fn`` yields over there — so the
+    job's thread in the server only waits on a pipe and the server's event loop never shares
+    its GIL with inference. Cancellation reaches the worker at once and takes effect at its
+    next stage, as for a job on the thread. Without worker processes (the unit tests' pools)
+    :func:`offload` runs ``fn`` on the thread itself.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import logging
+import os
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = [
+    "KINDS",
+    "RunPool",
+    "RunSlot",
+    "Stage",
+    "Update",
+    "final",
+    "offload",
+    "partial",
+    "preview",
+    "progress",
+    "readable_error",
+    "shared_pool",
+]
+
+log = logging.getLogger(__name__)
+
+#: What the running job's thread knows: its pool and its request's cancellation event.
+_current = threading.local()
+
+#: Kinds of updates, in the order a successful job publishes them (``error`` ends a failed one).
+KINDS = ("preview", "progress", "partial", "final", "error")
+
+Job = Callable[[], Iterator["Stage"]]
+Dispatch = Callable[[Callable[[], None]], None]
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One item yielded by a job.
+
+    Attributes
+    ----------
+    kind : {"preview", "progress", "partial", "final"}
+        What the item is.
+    value : object
+        The (intermediate) result, None for ``progress``.
+    fraction : float or None
+        Fraction of the job done, in [0, 1].
+    message : str
+        Short human-readable status ("sampling, 120 of 400 steps").
+    """
+
+    kind: str
+    value: Any = None
+    fraction: float | None = None
+    message: str = ""
+
+
+def preview(value: Any, message: str = "") -> Stage:
+    """A ``preview`` stage (fraction 0)."""
+    return Stage("preview", value, 0.0, message)
+
+
+def progress(fraction: float, message: str = "") -> Stage:
+    """A ``progress`` stage (no value)."""
+    return Stage("progress", None, float(fraction), message)
+
+
+def partial(value: Any, fraction: float | None = None, message: str = "") -> Stage:
+    """A ``partial`` stage: an intermediate result."""
+    return Stage("partial", value, None if fraction is None else float(fraction), message)
+
+
+def final(value: Any, message: str = "") -> Stage:
+    """The ``final`` stage (fraction 1)."""
+    return Stage("final", value, 1.0, message)
+
+
+@dataclass(frozen=True)
+class Update:
+    """A stage as published to the slot's owner.
+
+    Attributes
+    ----------
+    request : int
+        Id of the request (1, 2, ... per slot) the update belongs to.
+    kind : str
+        One of :data:`KINDS`.
+    value : object
+        Result carried by ``preview``, ``partial`` and ``final``.
+    fraction : float or None
+        Fraction done.
+    message : str
+        Status text, or the error message for ``error``.
+    elapsed_s : float
+        Seconds since the request was made (debounce included).
+    slot : str
+        Name of the slot.
+    """
+
+    request: int
+    kind: str
+    value: Any
+    fraction: float | None
+    message: str
+    elapsed_s: float
+    slot: str = ""
+
+
+def readable_error(exc: BaseException) -> str:
+    """One line for the user: the message of a user error, the type and message of a bug.
+
+    :class:`beam.errors.BeamInputError` (and any ``ValueError``) carries a message meant for
+    the user; anything else is an internal error whose traceback goes to the server log.
+    """
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    if isinstance(exc, ValueError):
+        return text
+    return f"internal error ({type(exc).__name__}: {text}); the details are in the server log"
+
+
+# -- the pool ---------------------------------------------------------------------------------
+
+
+class _Entry:
+    """A scheduled call (see :meth:`RunPool.cancel`)."""
+
+    __slots__ = ("cancelled", "due", "fn", "on_drop", "seq", "taken")
+
+    def __init__(self, due: float, seq: int, fn: Callable[[], None], on_drop: Callable[[], None] | None) -> None:
+        self.due, self.seq, self.fn, self.on_drop = due, seq, fn, on_drop
+        self.cancelled = False
+        self.taken = False
+
+    def __lt__(self, other: _Entry) -> bool:
+        return (self.due, self.seq) < (other.due, other.seq)
+
+
+class RunPool:
+    """A small thread pool with delayed calls and worker threads that exit when idle.
+
+    Parameters
+    ----------
+    max_workers : int
+        Upper bound on worker threads.
+    idle_timeout_s : float
+        A worker exits after this long without work.
+    name : str
+        Prefix of the thread names.
+    processes : bool
+        Also keep ``max_workers`` worker processes for :func:`offload` (started by
+        :meth:`start_processes` or on first use; they stay until :meth:`shutdown`).
+    nice : int
+        Niceness added to the worker processes.
+    warm : callable, optional
+        Run once in each new worker process (imports, compiled kernels).
+    """
+
+    def __init__(self, max_workers: int = 2, *, idle_timeout_s: float = 30.0, name: str = "beam-run",
+                 processes: bool = False, nice: int = 0, warm: Callable[[], None] | None = None) -> None:
+        if max_workers < 1:
+            raise ValueError(f"max_workers must be at least 1, got {max_workers}")
+        self.max_workers = int(max_workers)
+        #: The worker processes of :func:`offload` (None: offloaded work runs on the threads).
+        self.workers = None
+        if processes:
+            from dashboard.runtime.workers import WorkerProcesses
+
+            self.workers = WorkerProcesses(self.max_workers, nice=nice, warm=warm)
+        self.idle_timeout_s = float(idle_timeout_s)
+        self.name = name
+        self._cv = threading.Condition()
+        self._heap: list[_Entry] = []
+        self._seq = itertools.count()
+        self._threads: set[threading.Thread] = set()
+        self._idle = 0
+        self._closed = False
+
+    @property
+    def n_threads(self) -> int:
+        """Worker threads currently alive."""
+        with self._cv:
+            return len(self._threads)
+
+    @property
+    def process_ids(self) -> list[int]:
+        """Process ids of the worker processes running now (empty without processes)."""
+        return [] if self.workers is None else self.workers.pids
+
+    def start_processes(self) -> None:
+        """Start the worker processes now (they warm up in the background); no-op without processes."""
+        if self.workers is not None:
+            self.workers.start()
+
+    def cancel(self, entry: _Entry) -> bool:
+        """Cancel a scheduled call; True if that prevented it from running."""
+        with self._cv:
+            entry.cancelled = True
+            return not entry.taken
+
+    def schedule(self, fn: Callable[[], None], delay_s: float = 0.0, *, on_drop: Callable[[], None] | None = None) -> _Entry:
+        """Run ``fn()`` on a worker no sooner than ``delay_s`` from now; returns a cancellable entry.
+
+        ``on_drop()`` is called instead if :meth:`shutdown` drops the call before it started.
+        """
+        with self._cv:
+            if self._closed:
+                raise RuntimeError("the run pool is shut down")
+            entry = _Entry(time.monotonic() + max(float(delay_s), 0.0), next(self._seq), fn, on_drop)
+            heapq.heappush(self._heap, entry)
+            pending = sum(not e.cancelled for e in self._heap)
+            if pending > self._idle and len(self._threads) < self.max_workers:
+                thread = threading.Thread(target=self._work, name=f"{self.name}-{entry.seq}", daemon=True)
+                self._threads.add(thread)
+                thread.start()
+            self._cv.notify()
+            return entry
+
+    def _next(self) -> _Entry | None:
+        """Wait for the next due, uncancelled entry (None: exit the thread). Caller holds the lock."""
+        idle_until = time.monotonic() + self.idle_timeout_s
+        self._idle += 1
+        try:
+            while not self._closed:
+                while self._heap and self._heap[0].cancelled:
+                    heapq.heappop(self._heap)
+                now = time.monotonic()
+                if self._heap and self._heap[0].due <= now:
+                    entry = heapq.heappop(self._heap)
+                    entry.taken = True
+                    return entry
+                if self._heap:
+                    self._cv.wait(self._heap[0].due - now)
+                    idle_until = time.monotonic() + self.idle_timeout_s
+                elif now >= idle_until:
+                    return None
+                else:
+                    self._cv.wait(idle_until - now)
+            return None
+        finally:
+            self._idle -= 1
+
+    def _work(self) -> None:
+        me = threading.current_thread()
+        try:
+            while True:
+                with self._cv:
+                    entry = self._next()
+                    if entry is None:
+                        return
+                try:
+                    entry.fn()
+                except Exception:  # the slot catches job errors; this is a bug in the scheduler itself
+                    log.exception("unhandled error in a scheduled call")
+        finally:
+            with self._cv:
+                self._threads.discard(me)
+                self._cv.notify_all()
+
+    def shutdown(self, wait: bool = True, timeout: float | None = 10.0) -> None:
+        """Drop pending calls, let running ones finish, and (if ``wait``) join the workers."""
+        with self._cv:
+            self._closed = True
+            dropped = [e for e in self._heap if not e.cancelled and e.on_drop is not None]
+            for entry in self._heap:
+                entry.cancelled = True
+            self._heap.clear()
+            self._cv.notify_all()
+            threads = list(self._threads)
+        for entry in dropped:
+            entry.on_drop()
+        if wait:
+            deadline = None if timeout is None else time.monotonic() + timeout
+            for thread in threads:
+                thread.join(None if deadline is None else max(deadline - time.monotonic(), 0.0))
+        if self.workers is not None:
+            self.workers.shutdown()
+
+
+#: Niceness of the shared pool's worker processes (``BEAM_DASHBOARD_NICE``): the server's
+#: event loop, which answers every browser, gets the CPU first.
+DEFAULT_NICE = 10
+
+_shared: RunPool | None = None
+_shared_lock = threading.Lock()
+
+
+def shared_pool() -> RunPool:
+    """The process-wide pool shared by all sessions (created on first use)."""
+    global _shared
+    with _shared_lock:
+        if _shared is None or _shared._closed:
+            workers = int(os.environ.get("BEAM_DASHBOARD_WORKERS", "2"))
+            idle_s = float(os.environ.get("BEAM_DASHBOARD_IDLE_S", "30"))
+            processes = os.environ.get("BEAM_DASHBOARD_PROCESSES", "1") not in ("0", "", "no", "false")
+            nice = int(os.environ.get("BEAM_DASHBOARD_NICE", str(DEFAULT_NICE)))
+            warm = None
+            if processes:
+                from dashboard.jobs.beam import warm_worker
+
+                warm = warm_worker
+            _shared = RunPool(max_workers=max(workers, 1), idle_timeout_s=idle_s, processes=processes, nice=nice,
+                              warm=warm)
+        return _shared
+
+
+def offload(fn: Callable[..., Iterator[Stage]], *args: Any, **kwargs: Any) -> Iterator[Stage]:
+    """Yield the stages of ``fn(*args, **kwargs)``, computed in a worker process of the job's pool.
+
+    Use it inside a job (``yield from offload(...)``): the stages come back as they are
+    yielded over there, and closing the job (cancellation) stops ``fn`` at its next stage.
+    ``fn`` and the arguments must pickle (a module-level generator function); objects passed
+    as arguments come back as themselves inside the results (see :mod:`dashboard.runtime.workers`).
+    Outside a job of a pool with worker processes, ``fn`` runs here, on the calling thread.
+    """
+    pool = getattr(_current, "pool", None)
+    workers = None if pool is None else pool.workers
+    if workers is None:
+        yield from fn(*args, **kwargs)
+        return
+    yield from workers.run(fn, args, kwargs, cancelled=getattr(_current, "cancelled", None))
+
+
+# -- the per-session slot -----------------------------------------------------------------------
+
+
+class _Ticket:
+    """One request of a slot. ``finished`` is set once it can publish nothing more."""
+
+    def __init__(self, request: int, job: Job, made: float) -> None:
+        self.request = request
+        self.job = job
+        self.made = made
+        self.cancelled = threading.Event()
+        self.finished = threading.Event()
+        self.entry: _Entry | None = None
+        self.last_progress = -1.0
+
+    def cancel(self, pool: RunPool) -> None:
+        self.cancelled.set()
+        if self.entry is not None and pool.cancel(self.entry):
+            self.finished.set()  # never started and never will
+
+
+def _call_now(fn: Callable[[], None]) -> None:
+    fn()
+
+
+class RunSlot:
+    """The "latest run" of one activity of one session.
+
+    Parameters
+    ----------
+    on_update : callable
+        Called with each :class:`Update` of the current request, through ``dispatch``.
+    pool : RunPool, optional
+        Where jobs run (default :func:`shared_pool`).
+    dispatch : callable, optional
+        ``dispatch(fn)`` must eventually call ``fn()`` (e.g. on the session's event loop); it
+        is called from worker threads. Default: call at once, on the worker.
+    debounce_s : float
+        Requests closer together than this are a burst: only the last of a burst runs, once
+        it has been quiet for ``debounce_s`` (see the module docstring).
+    progress_interval_s : float
+        Minimum time between two published ``progress`` updates of a request.
+    name : str
+        Name carried by the updates.
+    """
+
+    def __init__(
+        self,
+        on_update: Callable[[Update], None],
+        *,
+        pool: RunPool | None = None,
+        dispatch: Dispatch | None = None,
+        debounce_s: float = 0.15,
+        progress_interval_s: float = 0.2,
+        name: str = "run",
+    ) -> None:
+        self._on_update = on_update
+        self._pool = pool
+        self._dispatch = dispatch or _call_now
+        self.debounce_s = float(debounce_s)
+        self.progress_interval_s = float(progress_interval_s)
+        self.name = name
+        self._lock = threading.RLock()
+        self._ticket: _Ticket | None = None
+        self._count = 0
+        self._last_request = -float("inf")
+        self._closed = False
+        #: Updates dropped because their request had been superseded (for tests and logs).
+        self.dropped = 0
+
+    @property
+    def pool(self) -> RunPool:
+        """The pool jobs run on."""
+        if self._pool is None:
+            self._pool = shared_pool()
+        return self._pool
+
+    @property
+    def latest(self) -> int:
+        """Id of the latest request (0 before the first)."""
+        return self._count
+
+    @property
+    def busy(self) -> bool:
+        """True while the latest request is waiting, queued or running."""
+        ticket = self._ticket
+        return ticket is not None and not ticket.finished.is_set() and not ticket.cancelled.is_set()
+
+    def request(self, job: Job, *, debounce_s: float | None = None) -> int:
+        """Supersede the current request by ``job``; returns the new request id at once.
+
+        ``debounce_s`` overrides the slot's debounce for this request (0: start now).
+        """
+        now = time.perf_counter()
+        with self._lock:
+            if debounce_s is not None:
+                delay = float(debounce_s)
+            else:  # leading edge after a quiet spell, trailing edge within a burst
+                delay = self.debounce_s if now - self._last_request < self.debounce_s else 0.0
+            self._last_request = now
+            if self._closed:
+                raise RuntimeError(f"run slot {self.name!r} is closed")
+            if self._ticket is not None:
+                self._ticket.cancel(self.pool)
+            self._count += 1
+            ticket = _Ticket(self._count, job, now)
+            self._ticket = ticket
+            ticket.entry = self.pool.schedule(lambda: self._run(ticket), delay, on_drop=ticket.finished.set)
+            return ticket.request
+
+    def cancel(self) -> None:
+        """Cancel the current request (nothing more of it is published)."""
+        with self._lock:
+            if self._ticket is not None:
+                self._ticket.cancel(self.pool)
+
+    def close(self) -> None:
+        """Cancel and refuse further requests (call when the session ends)."""
+        with self._lock:
+            self.cancel()
+            self._closed = True
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until the latest request has finished running (for tests and scripts)."""
+        ticket = self._ticket
+        return True if ticket is None else ticket.finished.wait(timeout)
+
+    # -- worker side ----------------------------------------------------------------------------
+    def _run(self, ticket: _Ticket) -> None:
+        gen = None
+        _current.pool, _current.cancelled = self.pool, ticket.cancelled
+        try:
+            if ticket.cancelled.is_set():
+                return
+            gen = iter(ticket.job())
+            for stage in gen:
+                if ticket.cancelled.is_set():
+                    break
+                self._publish(ticket, stage)
+        except Exception as exc:
+            if not ticket.cancelled.is_set():
+                if not isinstance(exc, ValueError):
+                    log.exception("run %s #%d failed", self.name, ticket.request)
+                self._publish(ticket, Stage("error", None, None, readable_error(exc)))
+        finally:
+            close = getattr(gen, "close", None)
+            if close is not None:
+                try:
+                    close()
+                except Exception:  # pragma: no cover - a job's finally block failing
+                    log.exception("closing run %s #%d failed", self.name, ticket.request)
+            _current.pool = _current.cancelled = None
+            ticket.finished.set()
+
+    def _publish(self, ticket: _Ticket, stage: Stage) -> None:
+        if ticket.cancelled.is_set():
+            return
+        now = time.perf_counter()
+        if stage.kind == "progress":
+            if now - ticket.last_progress < self.progress_interval_s:
+                return
+            ticket.last_progress = now
+        if stage.kind not in KINDS:
+            raise ValueError(f"a job yielded an unknown stage kind {stage.kind!r}")
+        update = Update(ticket.request, stage.kind, stage.value, stage.fraction, stage.message, now - ticket.made, self.name)
+        try:
+            self._dispatch(lambda: self._deliver(ticket, update))
+        except Exception:  # the session's document is gone: stop this slot
+            log.debug("dispatch failed for run %s; closing the slot", self.name, exc_info=True)
+            self.close()
+
+    def _deliver(self, ticket: _Ticket, update: Update) -> None:
+        with self._lock:
+            if self._closed or ticket is not self._ticket or ticket.cancelled.is_set():
+                self.dropped += 1
+                return
+            self._on_update(update)

@@ -1,0 +1,356 @@
+"""Session sub-states of the beam views: :class:`BeamState` (calibration) and :class:`DiagnosisState`.
+
+Param only (no panel import), tested without a server or a browser. Both live on the
+:class:`~dashboard.state.session.SessionState` and run their jobs (:mod:`dashboard.jobs.beam`) on their
+own run slot: a new request cancels the previous one of the same activity only.
+
+:class:`BeamState`
+    Inputs (dataset, calibration window, modes, effects, likelihood; units in the labels) and
+    outputs (result shown: preview then final posterior; pinned result; status, progress,
+    error). A failed request or a rejected upload sets ``error`` and keeps the previous
+    dataset and result.
+:class:`DiagnosisState`
+    Diagnosis of the beam view's current model (residuals, ranked candidates), the error
+    ladder (one rung per effect added with :meth:`DiagnosisState.add`, each a full MCMC
+    re-calibration of the beam view) and the revealed answer of a bundled dataset.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import partial as bind
+
+import param
+
+from beam.calibration import DEFAULT_EFFECTS
+from beam.physics.effects import EFFECTS
+from dashboard.runtime import scheduler as sch
+from dashboard.jobs.beam import (
+    CalibrationKey,
+    bundled_datasets,
+    calibration_run,
+    diagnosis_run,
+    effect_label,
+    load_bundled,
+    load_upload,
+    read_answer,
+)
+from dashboard.outputs.toy import user_message
+
+__all__ = ["DEFAULT_DATASET", "BeamState", "DiagnosisState", "ladder_rung"]
+
+DEFAULT_DATASET = "lab_run_1"
+#: Likelihood choices as shown to the user.
+LIKELIHOODS = {"i.i.d. Gaussian": "iid", "AR(1) correlated": "ar1"}
+STAGES = ("idle", "queued", "preview", "sampling", "final", "error")
+_INPUTS = ("window_s", "modes", "effects", "likelihood", "seed", "target_ess")
+#: Default calibration window: this fraction of the record from its start (as the library).
+WINDOW_FRACTION = 0.3
+
+
+def _default_window(measurement) -> tuple[float, float]:
+    t = measurement.time_s
+    return float(t[0]), round(float(t[0] + WINDOW_FRACTION * (t[-1] - t[0])), 2)
+
+
+def ladder_rung(result, added: str | None, index: int) -> dict:
+    """A row of the error ladder from a :class:`~beam.calibration.CalibrationResult` (units in the keys)."""
+    return {
+        "rung": index,
+        "added": added or "(base model)",
+        "effects": ", ".join(result.setup.effects),
+        "rmse_calibration_um": 1e6 * result.rmse_calibration,
+        "rmse_prediction_um": 1e6 * result.rmse_prediction,
+        "coverage95_pct": 100.0 * result.coverage95_prediction,
+        "log_evidence_laplace": float(result.laplace.log_evidence),
+        "mcmc": not result.is_preview,
+    }
+
+
+class _Runs(param.Parameterized):
+    """Outputs shared by the two sub-states: stage, status, progress, error, request ids."""
+
+    stage = param.Selector(default="idle", objects=list(STAGES), constant=True, doc="Where the latest request is.")
+    status = param.String("", constant=True, doc="One-line status for the user.")
+    progress = param.Number(0.0, bounds=(0.0, 1.0), constant=True, doc="Fraction of the job done.")
+    error = param.String("", constant=True, doc="Readable message of the latest failure, or ''.")
+    requested = param.Integer(0, constant=True, doc="Id of the latest request.")
+    shown = param.Integer(0, constant=True, doc="Id of the request the shown result belongs to.")
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self._slot: sch.RunSlot | None = None
+        self._timings: dict[int, dict[str, float]] = {}
+
+    def attach(self, slot: sch.RunSlot) -> None:
+        """Give the state its run slot (done by :class:`~dashboard.state.session.SessionState`)."""
+        self._slot = slot
+
+    def timings(self, request: int) -> dict[str, float]:
+        """Seconds from request to each published stage, e.g. ``{"preview": 0.3, "final": 2.1}``."""
+        return dict(self._timings.get(request, {}))
+
+    def _timed(self, update: sch.Update) -> None:
+        self._timings.setdefault(update.request, {}).setdefault(update.kind, update.elapsed_s)
+        if len(self._timings) > 50:
+            self._timings.pop(min(self._timings))
+
+    def _fail(self, message: str, kept: bool) -> None:
+        with param.edit_constant(self):
+            self.param.update(stage="error", error=message, progress=0.0,
+                              status="failed." + (" The previous result is still shown." if kept else ""))
+
+
+class BeamState(_Runs):
+    """Inputs and results of the beam calibration view for one session.
+
+    Changing an input requests a new calibration (debounced; a newer request cancels the
+    older): the preview (MAP + Laplace) is published first, then MCMC progress, then the final
+    posterior.
+    """
+
+    dataset = param.Selector(default=DEFAULT_DATASET, objects=list(bundled_datasets()), label="Dataset",
+                             doc="Bundled lab run or an uploaded measurement.")
+    window_s = param.Range(default=(0.0, 1.0), bounds=(0.0, 10.0), label="Calibration window (s)",
+                           doc="The model is calibrated on this part of the record; the rest is held out.")
+    modes = param.Integer(4, bounds=(1, 8), label="Number of modes (1)", doc="Modes kept in the modal model.")
+    effects = param.ListSelector(default=list(DEFAULT_EFFECTS), objects=list(EFFECTS), label="Effects in the model",
+                                 doc="Physical effects added to the bare beam (EI, k_p).")
+    likelihood = param.Selector(default="iid", objects=LIKELIHOODS, label="Likelihood (noise model)")
+    seed = param.Integer(0, bounds=(0, None), precedence=-1, label="Seed (sampler)")
+    target_ess = param.Number(1000.0, bounds=(50.0, 10000.0), precedence=-1, label="Target ESS (per parameter)")
+
+    measurement = param.Parameter(None, constant=True, doc="The Measurement of ``dataset``.")
+    result = param.Parameter(None, constant=True, doc="CalibrationResult shown: preview or final.")
+    final = param.Parameter(None, constant=True, doc="Latest final CalibrationResult (with posterior).")
+    final_key = param.Parameter(None, constant=True, doc="CalibrationKey of ``final``.")
+    pinned = param.Parameter(None, constant=True, doc="CalibrationResult kept for comparison.")
+    uploads = param.Dict({}, constant=True, doc="Uploaded measurements of this session by dataset id.")
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self._keys: dict[int, CalibrationKey] = {}
+        self._quiet = False
+        m = self._load(self.dataset)
+        with param.edit_constant(self):
+            self.measurement = m
+        if "window_s" not in params:
+            self._set_window(m)
+
+    # -- datasets --------------------------------------------------------------------------------
+    def dataset_label(self, name: str) -> str:
+        """``"lab_run_1 — title"`` of a bundled dataset, ``"upload: name — title"`` of an upload."""
+        if name in self.uploads:
+            return f"upload: {self.uploads[name].name} — {self.uploads[name].title}"
+        return bundled_datasets().get(name, name)
+
+    def _load(self, name: str):
+        return self.uploads[name] if name in self.uploads else load_bundled(name)
+
+    def _set_window(self, m) -> None:
+        t = m.time_s
+        self._quiet = True
+        try:
+            self.param.window_s.bounds = (float(t[0]), float(t[-1]))
+            self.window_s = _default_window(m)
+        finally:
+            self._quiet = False
+
+    @param.depends("dataset", watch=True)
+    def _dataset_changed(self) -> None:
+        try:
+            m = self._load(self.dataset)
+        except Exception as exc:  # noqa: BLE001 - a bundled file broken on disk: say so, keep the rest
+            self._fail(user_message(sch.readable_error(exc)), self.result is not None)
+            return
+        with param.edit_constant(self):
+            self.measurement = m
+        self._set_window(m)
+        self.request()
+
+    def upload(self, csv_name: str | None, csv_bytes: bytes | None, toml_name: str | None,
+               toml_bytes: bytes | None) -> bool:
+        """Check and select an uploaded measurement; False (and ``error`` set) when it is rejected.
+
+        A rejected upload keeps the current dataset and result.
+        """
+        try:
+            m = load_upload(csv_name, csv_bytes, toml_name, toml_bytes)
+        except Exception as exc:  # noqa: BLE001 - any failure to read an upload is shown, never raised
+            message = user_message(sch.readable_error(exc))
+            with param.edit_constant(self):
+                self.param.update(error=f"upload rejected: {message}",
+                                  status="upload rejected; the previous dataset and result are kept.")
+            return False
+        name = f"upload-{len(self.uploads) + 1}-{m.name}"
+        with param.edit_constant(self):
+            self.uploads = {**self.uploads, name: m}
+            self.error = ""
+        self.param.dataset.objects = [*self.param.dataset.objects, name]
+        self.dataset = name
+        return True
+
+    # -- inputs -> requests ----------------------------------------------------------------------
+    def key(self) -> CalibrationKey:
+        """The :class:`~dashboard.jobs.beam.CalibrationKey` of the current inputs."""
+        lo, hi = (round(float(v), 4) for v in self.window_s)
+        effects = tuple(e for e in EFFECTS if e in set(self.effects))
+        return CalibrationKey(self.dataset, (lo, hi), effects, int(self.modes), str(self.likelihood), int(self.seed),
+                              float(self.target_ess))
+
+    @param.depends(*_INPUTS, watch=True)
+    def _inputs_changed(self) -> None:
+        if not self._quiet:
+            self.request()
+
+    def request(self, *, debounce: bool = True) -> int:
+        """Calibrate with the current inputs (preview, MCMC, final); returns the request id."""
+        key = self.key()
+        rid = self._slot.request(bind(calibration_run, key, self.measurement), debounce_s=None if debounce else 0.0)
+        self._keys[rid] = key
+        if len(self._keys) > 50:
+            self._keys.pop(min(self._keys))
+        with param.edit_constant(self):
+            self.param.update(requested=rid, stage="queued", progress=0.0, status="new inputs: calibrating")
+        return rid
+
+    def add_effect(self, effect: str) -> None:
+        """Put ``effect`` into the model (re-calibrates; a no-op request if it is there already)."""
+        if effect not in EFFECTS:
+            raise ValueError(f"unknown effect {effect!r}")
+        if effect in self.effects:
+            self.request(debounce=False)
+        else:
+            self.effects = [e for e in EFFECTS if e in set(self.effects) | {effect}]
+
+    def _on_run_update(self, update: sch.Update) -> None:
+        self._timed(update)
+        if update.kind == "error":
+            self._fail(user_message(update.message), self.result is not None)
+            return
+        with param.edit_constant(self):
+            if update.kind == "progress":
+                self.param.update(stage="sampling", progress=update.fraction or 0.0, status=update.message)
+            elif update.kind in ("preview", "partial"):
+                self.param.update(stage="preview", error="", result=update.value, shown=update.request,
+                                  progress=0.0, status=update.message)
+            else:
+                self.param.update(stage="final", error="", result=update.value, final=update.value,
+                                  final_key=self._keys.get(update.request), shown=update.request, progress=1.0,
+                                  status=f"{update.message}: ready in {update.elapsed_s:.2f} s")
+
+    # -- compare ---------------------------------------------------------------------------------
+    def pin(self) -> None:
+        """Keep the shown result for comparison with the next ones."""
+        if self.result is not None:
+            with param.edit_constant(self):
+                self.pinned = self.result
+
+    def unpin(self) -> None:
+        """Drop the pinned result."""
+        with param.edit_constant(self):
+            self.pinned = None
+
+    @staticmethod
+    def effect_options() -> dict[str, str]:
+        """``{label with units: effect id}`` for the check-boxes."""
+        return {effect_label(e): e for e in EFFECTS}
+
+
+class DiagnosisState(_Runs):
+    """Diagnosis of the beam view's current model, the error ladder and the revealed answer.
+
+    Parameters
+    ----------
+    beam : BeamState
+        The calibration state whose dataset, window, modes and effects are diagnosed, and
+        whose effect set :meth:`add` extends.
+    """
+
+    beam = param.ClassSelector(class_=BeamState, constant=True)
+    diagnosis = param.Parameter(None, constant=True, doc="Diagnosis shown (residuals and ranking so far).")
+    ladder = param.List([], constant=True, doc="Rungs of the error ladder (dicts of ladder_rung).")
+    adding = param.String("", constant=True, doc="Effect being added (waiting for its final posterior), or ''.")
+    answer = param.Dict(None, allow_None=True, constant=True, doc="Revealed truth of a bundled dataset.")
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self.beam.param.watch(self._beam_final, "final")
+        self.beam.param.watch(self._dataset_changed, "dataset")
+        self.beam.param.watch(self._beam_failed, "error")
+
+    def _beam_failed(self, event) -> None:
+        if event.new and self.adding:  # the re-calibration with the added effect failed: no rung
+            with param.edit_constant(self):
+                self.param.update(adding="", status=f"adding failed: {event.new}")
+
+    def _dataset_changed(self, event) -> None:
+        with param.edit_constant(self):
+            self.param.update(answer=None, adding="")
+
+    def request(self) -> int:
+        """Diagnose the beam view's current dataset, window, modes and effects; returns the request id."""
+        key = self.beam.key()
+        rid = self._slot.request(bind(diagnosis_run, key, self.beam.measurement), debounce_s=0.0)
+        with param.edit_constant(self):
+            self.param.update(requested=rid, stage="queued", progress=0.0, status="diagnosing the current model")
+        return rid
+
+    def is_current(self) -> bool:
+        """Whether the diagnosis shown is of the beam view's current dataset, window, modes and effects."""
+        d, k = self.diagnosis, self.beam.key()
+        return d is not None and (d.key.dataset, d.key.window, d.key.effects, d.key.modes) == (
+            k.dataset, k.window, k.effects, k.modes)
+
+    def _on_run_update(self, update: sch.Update) -> None:
+        self._timed(update)
+        if update.kind == "error":
+            self._fail(user_message(update.message), self.diagnosis is not None)
+            return
+        with param.edit_constant(self):
+            if update.kind == "progress":
+                self.param.update(stage="sampling", progress=update.fraction or 0.0, status=update.message)
+            elif update.kind in ("preview", "partial"):
+                self.param.update(stage="preview", error="", diagnosis=update.value, shown=update.request,
+                                  progress=update.fraction or 0.0, status=update.message)
+            else:
+                self.param.update(stage="final", error="", diagnosis=update.value, shown=update.request,
+                                  progress=1.0, status=f"{update.message}: ready in {update.elapsed_s:.1f} s",
+                                  ladder=[self._base_rung(update.value)], adding="")
+
+    def _base_rung(self, diagnosis) -> dict:
+        final, key = self.beam.final, self.beam.final_key
+        same = key is not None and (key.dataset, key.window, key.effects, key.modes) == (
+            diagnosis.key.dataset, diagnosis.key.window, diagnosis.key.effects, diagnosis.key.modes)
+        return ladder_rung(final if same else diagnosis.base, None, 0)
+
+    # -- the ladder ------------------------------------------------------------------------------
+    def add(self, effect: str) -> None:
+        """Add ``effect`` to the beam view's model: re-calibrate (full MCMC) and append a ladder rung."""
+        with param.edit_constant(self):
+            self.param.update(adding=effect, status=f"adding {effect}: re-calibrating with full MCMC")
+        self.beam.add_effect(effect)
+
+    def _beam_final(self, event) -> None:
+        key = self.beam.final_key
+        if not self.adding or key is None or self.diagnosis is None or self.adding not in key.effects:
+            return
+        d = self.diagnosis.key
+        if (key.dataset, key.window, key.modes) != (d.dataset, d.window, d.modes):
+            return
+        rungs = [r for r in self.ladder if r["effects"] != ", ".join(key.effects)]
+        with param.edit_constant(self):
+            self.param.update(ladder=rungs + [ladder_rung(event.new, self.adding, len(rungs))], adding="",
+                              status=f"added {self.adding}: held-out RMSE "
+                                     f"{_um(event.new.rmse_prediction)} µm")
+
+    def reveal(self) -> dict | None:
+        """The hidden effects and true parameters of a bundled dataset (None for an upload)."""
+        answer = None if self.beam.dataset in self.beam.uploads else read_answer(self.beam.dataset)
+        with param.edit_constant(self):
+            self.answer = answer
+        return answer
+
+
+def _um(value: float) -> str:
+    return f"{1e6 * value:.3g}" if math.isfinite(value) else "–"

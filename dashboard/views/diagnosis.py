@@ -1,0 +1,211 @@
+"""The "Diagnosis" view: where the beam model fails, which effect is missing, and the error ladder.
+
+A :class:`pn.viewable.Viewer` over ``session.diagnosis``
+(:class:`~dashboard.state.beam.DiagnosisState`), which diagnoses the beam view's current dataset,
+window, modes and effects. Each ranked candidate has an **Add** button: it puts the effect into
+the beam view's model, which re-calibrates with full MCMC, and the result becomes a new rung of
+the error ladder.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+import panel as pn
+import param
+
+from dashboard.outputs.beam import parameter_label
+from dashboard.views.beam import status_html
+from dashboard.plots.diagnosis import DiagnosisPlots
+from dashboard.views.panes import Markdown
+from dashboard.runtime.staging import run_steps
+from dashboard.state.session import SessionState
+from dashboard.views.texts import DIAGNOSIS_GUIDE
+
+__all__ = ["DiagnosisView", "ladder_table", "modes_table"]
+
+_STAGE_TEXT = {
+    "idle": "Open this tab to diagnose the beam view's model.",
+    "queued": "Diagnosing…",
+    "preview": "Residual diagnostics shown; ranking the candidate effects…",
+    "sampling": "Diagnosing…",
+    "final": "Diagnosis complete.",
+    "error": "Could not diagnose this model.",
+}
+
+
+def modes_table(diagnosis) -> pd.DataFrame:
+    """Identified (data) against model modes: frequencies (Hz), damping ratios (%), errors (%)."""
+    if diagnosis is None or not diagnosis.residuals.comparison:
+        return pd.DataFrame({"note": ["no modal identification on this record (no free decay)"]})
+
+    def f(v, scale=1.0, fmt="{:.4g}"):
+        return fmt.format(v * scale) if math.isfinite(v) else "–"
+
+    return pd.DataFrame([{
+        "mode": m.mode, "data f (Hz)": f(m.frequency_data_Hz), "model f (Hz)": f(m.frequency_model_Hz),
+        "f error (%)": f(m.frequency_error_pct, fmt="{:+.2f}"), "data ζ (%)": f(m.damping_data, 100, "{:.3g}"),
+        "model ζ (%)": f(m.damping_model, 100, "{:.3g}"), "ζ error (%)": f(m.damping_error_pct, fmt="{:+.0f}"),
+    } for m in diagnosis.residuals.comparison]).set_index("mode")
+
+
+def ladder_table(rungs: list[dict]) -> pd.DataFrame:
+    """The error ladder as a table with units."""
+    if not rungs:
+        return pd.DataFrame()
+    return pd.DataFrame([{
+        "rung": r["rung"], "added": r["added"], "effects": r["effects"],
+        "held-out RMSE (µm)": f"{r['rmse_prediction_um']:.4g}", "RMSE in window (µm)": f"{r['rmse_calibration_um']:.4g}",
+        "held-out coverage (%)": f"{r['coverage95_pct']:.1f}", "log evidence, Laplace (nats)": f"{r['log_evidence_laplace']:.1f}",
+        "posterior": "MCMC" if r["mcmc"] else "preview",
+    } for r in rungs]).set_index("rung")
+
+
+class DiagnosisView(pn.viewable.Viewer):
+    """Residual diagnostics, ranked missing-physics candidates with Add buttons, error ladder.
+
+    Parameters
+    ----------
+    session : SessionState
+        The browser session's state.
+    """
+
+    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self._diag = self.session.diagnosis
+        self._built = False  # built when the tab is first opened (as the beam view)
+        self._layout = pn.Column(Markdown("Open this tab to diagnose the beam view's model."),
+                                 sizing_mode="stretch_width")
+
+    def __panel__(self):
+        return self._layout
+
+    def build(self) -> None:
+        """Build the widgets, plots and tables (once), in steps (see :mod:`dashboard.runtime.staging`)."""
+        if self._built:
+            return
+        self._built = True
+        self._main = pn.Column(sizing_mode="stretch_width", min_height=600)
+        self._side = pn.Column(width=340)
+        self._layout[:] = [pn.Row(self._main, self._side, sizing_mode="stretch_width")]
+        run_steps([self._build_figures, self._build_head, self._build_ladder, self._build_residuals, self._build_modes,
+                   self._build_side])
+
+    # -- the steps of the build ------------------------------------------------------------------
+    def _build_figures(self) -> None:  # the bokeh figures alone (shown by the following steps)
+        d = self._diag
+        self._plots = DiagnosisPlots()
+        self._plots.update(d.diagnosis)
+        self._plots.update_ladder(d.ladder)
+        d.param.watch(lambda e: self._plots.update(e.new), "diagnosis")
+        d.param.watch(lambda e: self._plots.update_ladder(e.new), "ladder")
+
+    def _build_head(self) -> None:
+        d, beam = self._diag, self.session.beam
+        self._candidates = pn.Column(sizing_mode="stretch_width", css_classes=["diag-candidates"])
+        d.param.watch(self._show_candidates, ["diagnosis", "adding"])
+        beam.param.watch(self._show_candidates, "effects")
+        run = pn.widgets.Button(label="Diagnose the current model", color="primary", css_classes=["diag-run"])
+        run.on_click(lambda e: d.request())
+        stale = Markdown(pn.bind(self._stale, d.param.diagnosis, beam.param.result), margin=(0, 10))
+        verdict = Markdown(pn.bind(lambda x: f"**Verdict:** {x.verdict}" if x is not None else "",
+                                           d.param.diagnosis), css_classes=["diag-verdict"], sizing_mode="stretch_width")
+        self._show_candidates()
+        self._main.extend([self._status(), pn.Row(run, stale), verdict,
+                           Markdown("### Candidate effects (best first)", margin=(0, 10)), self._candidates])
+
+    @staticmethod
+    def _plot(fig) -> pn.pane.Bokeh:
+        return pn.pane.Bokeh(fig, sizing_mode="stretch_width", height=270)
+
+    def _build_ladder(self) -> None:
+        self._main.extend([
+            Markdown("### Error ladder", margin=(0, 10)),
+            pn.Row(pn.pane.DataFrame(pn.bind(ladder_table, self._diag.param.ladder), escape=True, width=560,
+                                     css_classes=["diag-ladder-table"]), self._plot(self._plots.ladder))])
+
+    def _build_residuals(self) -> None:
+        p = self._plots
+        self._main.extend([self._plot(p.residual),
+                           pn.Row(self._plot(p.spectrum), self._plot(p.acf), sizing_mode="stretch_width")])
+
+    def _build_modes(self) -> None:
+        self._main.append(pn.Row(
+            pn.Column(Markdown("**Modes: data (identified from the free decay) vs model**"),
+                      pn.pane.DataFrame(pn.bind(modes_table, self._diag.param.diagnosis), escape=True)),
+            self._plot(self._plots.backbone), sizing_mode="stretch_width"))
+
+    def _build_side(self) -> None:
+        self._side.extend([Markdown(DIAGNOSIS_GUIDE, sizing_mode="stretch_width"), self._reveal()])
+
+    def activate(self) -> None:
+        """Build the view and diagnose the beam view's model (called when the tab is first opened)."""
+        self.build()
+        if self._diag.requested == 0:
+            self._diag.request()
+
+    def _stale(self, diagnosis, _result) -> str:
+        if diagnosis is None or self._diag.is_current():
+            return ""
+        return "*The beam view's dataset, window, modes or effects changed since this diagnosis.*"
+
+    def _status(self) -> pn.Column:
+        d = self._diag
+        p = d.param
+
+        def html(stage, status, requested, shown, ladder, adding):
+            last = ladder[-1]["rmse_prediction_um"] if ladder else float("nan")
+            return status_html("diag-status", stage, status, requested, shown, _STAGE_TEXT.get(stage, stage),
+                               ladder_n=len(ladder), ladder_rmse_um=f"{last:.6g}", adding=adding)
+
+        status = pn.pane.HTML(pn.bind(html, p.stage, p.status, p.requested, p.shown, p.ladder, p.adding),
+                              sizing_mode="stretch_width", margin=(5, 10, 0, 10))
+        bar = pn.indicators.Progress(value=pn.bind(lambda s, f: 100 if s == "final" else round(100 * f), p.stage, p.progress),
+                                     max=100, sizing_mode="stretch_width", height=14, margin=(0, 10), bar_color="primary")
+        alert = pn.pane.Alert(pn.bind(lambda e: f"**Error:** {e}" if e else "", p.error), alert_type="danger",
+                              visible=pn.bind(bool, p.error), sizing_mode="stretch_width", css_classes=["diag-error"])
+        return pn.Column(status, bar, alert, sizing_mode="stretch_width")
+
+    def _show_candidates(self, *_) -> None:
+        d, beam = self._diag, self.session.beam
+        diagnosis = d.diagnosis
+        if diagnosis is None:
+            self._candidates[:] = []
+            return
+        cards = []
+        for c in diagnosis.candidates:
+            present = c.effect in beam.physics.effects
+            button = pn.widgets.Button(label=f"Add {c.effect}" if not present else f"{c.effect} is in the model",
+                                       color="success" if c.material else "default", width=200,
+                                       disabled=present or bool(d.adding), css_classes=[f"diag-add-{c.effect}"])
+            button.on_click(lambda e, effect=c.effect: d.add(effect))
+            evidence = f"{c.delta_log_evidence:+.1f}" if math.isfinite(c.delta_log_evidence) else "fit failed"
+            params = "; ".join(f"{parameter_label(n)} = {s['mean']:.3g}" for n, s in c.parameters.items())
+            text = (f"**{c.effect}**{' — materially better' if c.material else ''}: Δ log evidence {evidence} nats, "
+                    f"held-out RMSE {1e6 * c.rmse_prediction:.3g} µm, coverage {100 * c.coverage95_prediction:.0f} %"
+                    f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
+            cards.append(pn.Row(button, Markdown(text, sizing_mode="stretch_width", margin=(0, 10)),
+                                sizing_mode="stretch_width"))
+        if diagnosis.pending:
+            cards.append(Markdown(f"*Still ranking: {', '.join(diagnosis.pending)}…*"))
+        self._candidates[:] = cards
+
+    def _reveal(self) -> pn.Card:
+        d = self._diag
+        button = pn.widgets.Button(label="Reveal the hidden effect", color="warning", css_classes=["diag-reveal"],
+                                   disabled=pn.bind(lambda name: name in self.session.beam.uploads,
+                                                    self.session.beam.param.dataset))
+        button.on_click(lambda e: d.reveal())
+
+        def text(answer, dataset):
+            if answer is None:
+                return "Bundled datasets only: shows the effects and parameters the record was simulated with."
+            params = "<br>".join(f"{parameter_label(k)}: {v:.4g}" for k, v in answer["parameters"].items())
+            return f"**Simulated with:** {', '.join(answer['effects'])}<br>{params}"
+
+        return pn.Card(button, Markdown(pn.bind(text, d.param.answer, self.session.beam.param.dataset),
+                                                css_classes=["diag-answer"]),
+                       title="Answer (for the teacher)", collapsible=True, collapsed=False)

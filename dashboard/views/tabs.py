@@ -1,0 +1,40 @@
+"""The views of the app, as :class:`pn.viewable.Viewer` classes over one session state.
+
+Each view takes the browser session's :class:`~dashboard.state.session.SessionState` as its only
+argument; :data:`VIEWS` lists them in tab order. To add a view, write a Viewer with a
+``session`` parameter (and, if it runs ``beam`` jobs, a sub-state on the session that uses
+``session.slot(name, on_update)``), and put it in :data:`VIEWS`.
+"""
+
+from __future__ import annotations
+
+import panel as pn
+import param
+
+from dashboard.views.beam import BeamCalibrationView
+from dashboard.views.diagnosis import DiagnosisView
+from dashboard.views.panes import Markdown
+from dashboard.state.session import SessionState
+from dashboard.views.texts import PLACEHOLDER
+from dashboard.views.toy import ToyView
+
+__all__ = ["VIEWS", "BeamCalibrationView", "DiagnosisView", "PlaceholderView"]
+
+
+class PlaceholderView(pn.viewable.Viewer):
+    """A view still to come: a title and one paragraph."""
+
+    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+    title = "View"
+    what = ""
+
+    def __panel__(self):
+        return Markdown(PLACEHOLDER.format(title=self.title, what=self.what), sizing_mode="stretch_width")
+
+
+#: (tab title, Viewer class) in tab order.
+VIEWS = (
+    ("Toy periodic model", ToyView),
+    ("Beam calibration", BeamCalibrationView),
+    ("Diagnosis", DiagnosisView),
+)

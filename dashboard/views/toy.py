@@ -1,0 +1,249 @@
+"""The "Toy periodic model" view: controls, status, read-outs, plots, compare and downloads.
+
+A :class:`pn.viewable.Viewer` over a :class:`~dashboard.state.session.SessionState`: the widgets are
+made from the parameters of ``session.toy`` (units in every label), the plots follow its
+results (bokeh figures updated in place: :mod:`dashboard.plots.timeseries`, :mod:`dashboard.plots.corner`
+and, for the window sweep, :mod:`dashboard.plots.toy`), and nothing here calls ``beam``
+directly.
+"""
+
+from __future__ import annotations
+
+import math
+
+import panel as pn
+import param
+
+from dashboard.outputs import exports
+from dashboard.plots.corner import CornerPlot
+from dashboard.views.panes import Markdown
+from dashboard.runtime.staging import run_steps
+from dashboard.state.session import SessionState
+from dashboard.outputs.toy import compare_table, readouts
+from dashboard.views.texts import TOY_GUIDE
+from dashboard.plots.timeseries import TimeSeriesPlot
+from dashboard.plots.toy import SweepPlot
+
+__all__ = ["ToyView"]
+
+_STAGE_TEXT = {
+    "idle": "Waiting for the first run…",
+    "queued": "Inputs changed: calibrating…",
+    "preview": "Preview (MAP + Laplace) shown; MCMC starting…",
+    "sampling": "MCMC running…",
+    "final": "Posterior (MCMC) shown.",
+    "error": "Could not run this scenario.",
+}
+_READOUTS = (
+    ("coverage_pct", "Held-out coverage, 95 % band (%)", "{value:.1f} %", [(85.0, "#d62728"), (101.0, "#2ca02c")]),
+    ("rmse_du", "Held-out RMSE (du)", "{value:.3f}", None),
+    ("frequency_sd_mHz", "Posterior sd of f (mHz)", "{value:.2f}", None),
+    ("noise_sd_du", "Estimated noise sd (du)", "{value:.3f}", None),
+)
+
+
+class ToyView(pn.viewable.Viewer):
+    """Calibrate the toy periodic model interactively and see what discrepancy does.
+
+    Parameters
+    ----------
+    session : SessionState
+        The browser session's state.
+    """
+
+    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        toy = self.session.toy
+        self._toy = toy
+        self._timeseries: TimeSeriesPlot | None = None
+        self._corner: CornerPlot | None = None  # built when its tab is first opened (10 figures, ~0.7 s)
+        self._tabs: pn.Tabs | None = None
+        self._sweep_plots: list[SweepPlot] = []
+        self._sweep_built = False
+        toy.param.watch(self._sweep_arrived, "sweep")
+        # A skeleton now; the pieces are built in steps (dashboard.runtime.staging: one at a time on the
+        # server's event loop, so that no session holds it for long), in page order.
+        self._left = pn.Column(width=300)
+        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600)
+        self._right = pn.Column(width=320)
+        self._layout = pn.Row(self._left, self._centre, self._right, sizing_mode="stretch_width")
+        run_steps([self._build_status, self._build_figure, self._build_plot, self._build_controls, self._build_side,
+                   self._build_guide, self._build_tabs])
+
+    def __panel__(self):
+        return self._layout
+
+    # -- the steps of the build ------------------------------------------------------------------
+    def _build_status(self) -> None:
+        self._centre.extend([self._status(), self._readouts()])
+
+    def _build_figure(self) -> None:  # the bokeh figure alone (not in the document yet)
+        toy = self._toy
+        self._timeseries = TimeSeriesPlot()
+        self._timeseries.update(toy.result, toy.pinned)
+        toy.param.watch(lambda e: self._timeseries.update(toy.result, toy.pinned), ["result", "pinned"])
+
+    def _build_plot(self) -> None:
+        self._centre.append(pn.pane.Bokeh(self._timeseries.figure, sizing_mode="stretch_width", height=390))
+
+    def _build_controls(self) -> None:
+        self._left.append(self._controls())
+
+    def _build_side(self) -> None:
+        self._left.extend([self._compare_buttons(), self._downloads()])
+
+    def _build_guide(self) -> None:
+        self._right.append(Markdown(TOY_GUIDE, sizing_mode="stretch_width"))
+
+    def _build_tabs(self) -> None:
+        toy = self._toy
+        self._posterior_tab = pn.Column(
+            Markdown("Posterior draws (blue; pinned result purple), truth in green.", margin=(0, 10)),
+            sizing_mode="stretch_width")
+        # the sweep plots are built when the first sweep arrives
+        self._sweep_tab = pn.Column(Markdown(pn.bind(self._sweep_text, toy.param.sweep_status), margin=(0, 10)),
+                                    sizing_mode="stretch_width")
+        self._tabs = pn.Tabs(
+            ("Window sweep", self._sweep_tab),
+            ("Posterior: marginals and pairs", self._posterior_tab),
+            ("Compare table", pn.pane.DataFrame(pn.bind(compare_table, toy.param.result, toy.param.pinned),
+                                                sizing_mode="stretch_width", escape=True)),
+            dynamic=True,
+            sizing_mode="stretch_width",
+        )
+        self._tabs.param.watch(self._tab_opened, "active")
+        self._centre.append(self._tabs)
+        if toy.sweep is not None:
+            self._sweep_arrived()
+
+    def _sweep_arrived(self, *_) -> None:
+        if self._toy.sweep is None or self._sweep_built or self._tabs is None:
+            return
+        self._sweep_built = True
+        run_steps([self._build_sweep_figures, lambda: self._show_sweep(0), lambda: self._show_sweep(1)])
+
+    def _build_sweep_figures(self) -> None:
+        toy = self._toy
+        self._sweep_plots = [SweepPlot("coverage"), SweepPlot("rmse")]
+        self._update_sweep()
+        # the marker follows the latest final result, not the slider (fewer redraws)
+        toy.param.watch(self._update_sweep, ["sweep", "final"])
+        self._sweep_row = pn.Row(sizing_mode="stretch_width")
+        self._sweep_tab.append(self._sweep_row)
+
+    def _show_sweep(self, index: int) -> None:
+        self._sweep_row.append(pn.pane.Bokeh(self._sweep_plots[index].figure, sizing_mode="stretch_width", height=290))
+
+    def _update_sweep(self, *_) -> None:
+        toy = self._toy
+        window = None if toy.final is None else toy.final.scenario.window_s
+        for plot in self._sweep_plots:
+            plot.update(toy.sweep, window)
+
+    # -- pieces ---------------------------------------------------------------------------------
+    def _tab_opened(self, event) -> None:
+        if event.new == 1 and self._corner is None:
+            toy = self._toy
+            self._corner = CornerPlot()
+            self._corner.update(toy.result, toy.pinned)
+            toy.param.watch(lambda e: self._corner.update(toy.result, toy.pinned), ["result", "pinned"])
+            self._posterior_tab.append(self._corner_grid())
+
+    def _corner_grid(self) -> pn.GridBox:
+        # one pane per figure, not a bokeh GridPlot (see dashboard.plots.corner)
+        cells = [pn.pane.Bokeh(fig, sizing_mode="fixed", margin=0) if fig is not None else pn.Spacer(width=170, height=170)
+                 for row in self._corner.grid for fig in row]
+        return pn.GridBox(*cells, ncols=len(self._corner.grid), sizing_mode="fixed")
+
+    def _controls(self) -> pn.Card:
+        p = self._toy.param
+        widgets = [
+            pn.widgets.FloatSlider.from_param(p.window_s, format="0.0"),
+            pn.widgets.FloatSlider.from_param(p.discrepancy, format="0.00"),
+            pn.widgets.Select.from_param(p.kind),
+            pn.widgets.Select.from_param(p.noise_sd),
+            pn.widgets.Select.from_param(p.horizon_s),
+            pn.widgets.Select.from_param(p.likelihood),
+            pn.widgets.Select.from_param(p.seed),
+        ]
+        for w in widgets:
+            w.sizing_mode = "stretch_width"
+        widgets[0].css_classes = ["beam-window-slider"]
+        return pn.Card(*widgets, title="Scenario", collapsible=False, sizing_mode="stretch_width")
+
+    def _status(self) -> pn.Column:
+        toy = self._toy
+
+        def status_html(stage, status, requested, shown):
+            text = _STAGE_TEXT.get(stage, stage)
+            detail = f" <small>({status})</small>" if status else ""
+            return (f'<div class="beam-status" data-stage="{stage}" data-requested="{requested}" data-shown="{shown}">'
+                    f"<b>{text}</b>{detail}</div>")
+
+        def bar_value(stage, fraction):
+            if stage == "final":
+                return 100
+            if stage in ("preview", "sampling"):
+                return round(100 * fraction)
+            return 0
+
+        status = pn.pane.HTML(pn.bind(status_html, toy.param.stage, toy.param.status, toy.param.requested,
+                                      toy.param.shown), sizing_mode="stretch_width", margin=(5, 10, 0, 10))
+        bar = pn.indicators.Progress(label="MCMC progress (%)", value=pn.bind(bar_value, toy.param.stage, toy.param.progress),
+                                     max=100, sizing_mode="stretch_width", height=14, margin=(0, 10),
+                                     bar_color="primary")
+        alert = pn.pane.Alert(pn.bind(lambda e: f"**Error:** {e}" if e else "", toy.param.error), alert_type="danger",
+                              visible=pn.bind(bool, toy.param.error), sizing_mode="stretch_width", css_classes=["beam-error"])
+        return pn.Column(status, bar, alert, sizing_mode="stretch_width")
+
+    def _readouts(self) -> pn.Row:
+        values = pn.bind(readouts, self._toy.param.result)
+        items = []
+        for key, label, fmt, colors in _READOUTS:
+            value = pn.bind(lambda v, k=key: v[k] if math.isfinite(v[k]) else float("nan"), values)
+            items.append(pn.indicators.Number(label=label, value=value, format=fmt, colors=colors, font_size="24pt",
+                                              title_size="10pt", nan_format="–", margin=(0, 12),
+                                              css_classes=[f"beam-readout-{key.replace('_', '-')}"]))
+        return pn.Row(*items, sizing_mode="stretch_width")
+
+    def _compare_buttons(self) -> pn.Card:
+        toy = self._toy
+        pin = pn.widgets.Button(label="Pin this result", color="primary", sizing_mode="stretch_width",
+                                disabled=pn.bind(lambda r: r is None, toy.param.result))
+        unpin = pn.widgets.Button(label="Unpin", color="default", sizing_mode="stretch_width",
+                                  disabled=pn.bind(lambda r: r is None, toy.param.pinned))
+        pin.on_click(lambda event: toy.pin())
+        unpin.on_click(lambda event: toy.unpin())
+        note = Markdown(pn.bind(lambda r: "Pinned result drawn in purple; see *Compare table*." if r is not None
+                                        else "Pin a result, then change an input to compare.", toy.param.pinned))
+        return pn.Card(pin, unpin, note, title="Compare", collapsible=False, sizing_mode="stretch_width")
+
+    def _downloads(self) -> pn.Card:
+        toy = self._toy
+
+        def download(label, ext, make, enabled=lambda r: r is not None):
+            widget = pn.widgets.FileDownload(callback=lambda: make(toy.result), filename=f"toy.{ext}", label=label,
+                                             color="default", sizing_mode="stretch_width",
+                                             disabled=pn.bind(lambda r: not enabled(r), toy.param.result))
+
+            def rename(event):
+                if event.new is not None:
+                    widget.filename = exports.filename(event.new, ext)
+
+            toy.param.watch(rename, "result")
+            return widget
+
+        return pn.Card(
+            download("Summary (JSON)", "json", exports.summary_json),
+            download("Predictive bands (CSV)", "csv", exports.bands_csv),
+            download("Posterior (netCDF)", "nc", exports.posterior_netcdf, lambda r: r is not None and r.posterior is not None),
+            title="Download", collapsible=False, sizing_mode="stretch_width",
+        )
+
+    @staticmethod
+    def _sweep_text(status: str) -> str:
+        head = ("Held-out coverage and RMSE of the Laplace preview for calibration windows of 1 to 15 s "
+                "(same record; computed once per scenario).")
+        return f"{head} <small>{status}</small>" if status else head
