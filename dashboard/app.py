@@ -32,8 +32,9 @@ if _ROOT not in sys.path:  # `panel serve dashboard/app.py` only puts dashboard/
 import panel as pn
 from panel.io.state import set_curdoc
 
-from dashboard.jobs import toy as toy_jobs
-from dashboard.runtime import monitor, server
+from dashboard.jobs.beam import warm_worker
+from dashboard.jobs.warm import schedule_warm_up
+from dashboard.runtime import monitor, scheduler, server
 from dashboard.state.session import SessionState
 from dashboard.views.tabs import VIEWS
 
@@ -80,7 +81,7 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
 
     def start() -> None:
         session.toy.request(debounce=False)
-        toy_jobs.schedule_warm_up(session.pool)
+        schedule_warm_up(session.pool)
 
     if doc is not None and doc.session_context is not None:
         # Not before the page is connected: changes made to the document before the browser
@@ -91,10 +92,12 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
     template = pn.template.BootstrapTemplate(title=TITLE, main=[tabs], header_background="#2f4f6f")
     template.session_state = session  # for tests and debugging
     template.views = views
+    template.tab_titles = list(tabs._names)  # the titles as the tabs show them (for tests)
     return template
 
 
 if __name__.startswith("bokeh"):
+    scheduler.set_worker_warm_up(warm_worker)  # before the pool starts its worker processes
     server.prepare()  # once per server process: worker processes, lag monitor, gc freeze
     _t0 = time.perf_counter()
     create_app().servable(title=TITLE)

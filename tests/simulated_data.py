@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from beam.io.config import Sampling, SimulationConfig
-from beam.physics.excitation import Excitation
-from beam.physics.geometry import BeamGeometry
 from beam.io.measurement import Measurement
 from beam.io.simulation import simulate
+from beam.physics.excitation import Excitation
+from beam.physics.geometry import BeamGeometry
 
 #: Smith's B1TAPIH beam geometry (sensor at 3L/5).
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)

@@ -6,12 +6,12 @@ import sys
 
 import numpy as np
 import pytest
+from simulated_data import TRUE_BASE, simulated_measurement
 
 from beam.calibration import calibrate, calibration_preview, make_setup
 from beam.errors import BeamInputError
-from beam.physics.excitation import Excitation
 from beam.io.measurement import write_measurement
-from simulated_data import TRUE_BASE, simulated_measurement
+from beam.physics.excitation import Excitation
 
 NOISE = 1e-5
 BASE_NAMES = tuple(TRUE_BASE)

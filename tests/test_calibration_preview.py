@@ -30,12 +30,12 @@ def _mixture_cdf(q, f, sd):
 def _check_bands(f, sd, level=0.95):
     rows = mixture_bands(f, sd, level)
     alpha = 0.5 * (1 - level)
-    np.testing.assert_allclose(rows[0], f.mean(axis=0), rtol=1e-12, atol=1e-15 * np.abs(f).max())
-    np.testing.assert_allclose(rows[1:3], np.quantile(f, [alpha, 1 - alpha], axis=0), rtol=1e-12,
-                               atol=1e-15 * np.abs(f).max())
+    np.testing.assert_allclose(rows.mean, f.mean(axis=0), rtol=1e-12, atol=1e-15 * np.abs(f).max())
+    np.testing.assert_allclose([rows.credible_lower, rows.credible_upper], np.quantile(f, [alpha, 1 - alpha], axis=0),
+                               rtol=1e-12, atol=1e-15 * np.abs(f).max())
     tol = BAND_RTOL * alpha
-    assert np.abs(_mixture_cdf(rows[3], f, sd) - alpha).max() < 1.05 * tol
-    assert np.abs(_mixture_cdf(rows[4], f, sd) - (1 - alpha)).max() < 1.05 * tol
+    assert np.abs(_mixture_cdf(rows.prediction_lower, f, sd) - alpha).max() < 1.05 * tol
+    assert np.abs(_mixture_cdf(rows.prediction_upper, f, sd) - (1 - alpha)).max() < 1.05 * tol
 
 
 @pytest.mark.parametrize("level", [0.95, 0.5, 0.99])

@@ -11,11 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from beam.io.config import DEFAULT_INTERVALS, Sampling, SimulationConfig, load_config
 from beam.errors import BeamInputError
+from beam.io.config import DEFAULT_INTERVALS, Sampling, SimulationConfig, load_config
+from beam.io.measurement import write_measurement
 from beam.io.text import dump_toml
 from beam.physics.geometry import BeamGeometry
-from beam.io.measurement import write_measurement
 
 ASSET = Path(__file__).resolve().parents[1] / "assets" / "b1tapih.toml"
 

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from simulated_data import HIDDEN_EFFECTS, random_beam_case
 
-from beam.io.config import load_config
 from beam.discovery.report import diagnose
+from beam.io.config import load_config
 from beam.io.measurement import read_measurement
 from beam.io.simulation import read_truth, simulate
-from simulated_data import HIDDEN_EFFECTS, random_beam_case
 
 ASSETS = Path(__file__).resolve().parents[1] / "assets"
 MASTER_SEED = 2026

@@ -7,6 +7,9 @@ import json
 import numpy as np
 import pytest
 
+from beam.errors import BeamInputError
+from beam.physics.geometry import BeamGeometry
+from beam.physics.model import BeamModel
 from beam.residuals import (
     analyse_mode,
     backbone,
@@ -14,9 +17,6 @@ from beam.residuals import (
     extrapolate,
     mode_envelope,
 )
-from beam.errors import BeamInputError
-from beam.physics.geometry import BeamGeometry
-from beam.physics.model import BeamModel
 
 RATE = 1000.0
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)

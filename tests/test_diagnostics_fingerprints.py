@@ -9,6 +9,9 @@ import math
 import numpy as np
 import pytest
 
+from beam.physics.effects import EFFECTS
+from beam.physics.geometry import BeamGeometry
+from beam.physics.model import BeamModel
 from beam.residuals import (
     ModeMatch,
     analyse_mode,
@@ -21,9 +24,6 @@ from beam.residuals import (
     residual_spectrum,
     residual_whiteness,
 )
-from beam.physics.effects import EFFECTS
-from beam.physics.geometry import BeamGeometry
-from beam.physics.model import BeamModel
 
 RATE = 1000.0
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)

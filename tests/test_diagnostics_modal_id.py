@@ -8,17 +8,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from beam.errors import BeamInputError
 from beam.io.config import load_config
+from beam.io.simulation import simulate
+from beam.physics.geometry import BeamGeometry
+from beam.physics.model import BeamModel
 from beam.residuals import (
     compare_modes,
     free_decay_start,
     identify_modes,
     matrix_pencil_poles,
 )
-from beam.errors import BeamInputError
-from beam.physics.geometry import BeamGeometry
-from beam.physics.model import BeamModel
-from beam.io.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 RATE = 1000.0

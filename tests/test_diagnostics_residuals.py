@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import scipy.stats
 
+from beam.errors import BeamInputError
 from beam.residuals import (
     autocorrelation,
     band_residuals,
@@ -17,7 +18,6 @@ from beam.residuals import (
     residual_whiteness,
     window_scores,
 )
-from beam.errors import BeamInputError
 
 DT = 0.01
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from beam.residuals import default_nperseg, residual_spectrum
 from beam.errors import BeamInputError
+from beam.residuals import default_nperseg, residual_spectrum
 
 RATE = 1000.0
 MODES = np.array([6.15, 38.5, 107.9, 211.5])

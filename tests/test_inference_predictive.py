@@ -51,12 +51,26 @@ def test_bands_without_parameter_uncertainty():
     np.testing.assert_allclose(b.prediction_lower, 2.0 - 0.3 * stats.norm.ppf(0.975), rtol=1e-9)
 
 
+def test_bands_match_the_closed_form_of_a_normal_posterior():
+    """level ~ N(1, 0.4²) and a fixed noise sd 0.3: the credible band is 1 ± 0.4 z and the
+    prediction band 1 ± 0.5 z (0.5² = 0.4² + 0.3²), z the normal quantile; the draws are the
+    normal quantiles at (i + ½)/n, so their empirical quantiles follow the closed form to O(1/n)."""
+    problem = _const_problem()
+    n = 4000
+    level = 1.0 + 0.4 * stats.norm.ppf((np.arange(n) + 0.5) / n)
+    b = predictive_bands(problem, {"level": level, "noise_sd": np.full(n, 0.3)}, np.zeros(1), level=0.9)
+    z = stats.norm.ppf(0.95)
+    assert b.credible_lower[0] == pytest.approx(1.0 - 0.4 * z, abs=2e-3)
+    assert b.credible_upper[0] == pytest.approx(1.0 + 0.4 * z, abs=2e-3)
+    assert b.prediction_lower[0] == pytest.approx(1.0 - 0.5 * z, abs=2e-3)
+    assert b.prediction_upper[0] == pytest.approx(1.0 + 0.5 * z, abs=2e-3)
+
+
 def test_bands_match_monte_carlo_with_parameter_uncertainty():
     problem = _const_problem()
     rng = np.random.default_rng(5)
     draws = {"level": rng.normal(1.0, 0.4, 2000), "noise_sd": rng.uniform(0.1, 0.3, 2000)}
     b = predictive_bands(problem, draws, np.zeros(1), level=0.9)
-    np.testing.assert_allclose(b.credible_lower, np.quantile(draws["level"], 0.05))
     y = draws["level"][:, None] + draws["noise_sd"][:, None] * rng.standard_normal((2000, 200))
     mc = np.quantile(y, [0.05, 0.95])
     assert b.prediction_lower[0] == pytest.approx(mc[0], abs=0.02)

@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 
 import beam.io.text
 from beam.errors import BeamInputError
-from beam.physics.geometry import BeamGeometry
 from beam.io.measurement import Measurement, read_measurement, write_measurement
+from beam.physics.geometry import BeamGeometry
 
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)
 HEADER = "time_s,voltage_V,displacement_m"

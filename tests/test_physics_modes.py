@@ -2,10 +2,6 @@
 
 import numpy as np
 import pytest
-
-from beam.physics.basis import ModifiedCubicBasis, cardinal_cubic_bspline, gauss_points
-from beam.physics.geometry import BeamGeometry
-from beam.physics.model import BeamModel
 from reference_beams import (
     CANTILEVER_BETA_L,
     PINNED_FREE_BETA_L,
@@ -13,6 +9,10 @@ from reference_beams import (
     stepped_beam_frequencies_Hz,
     tip_mass_beta_l,
 )
+
+from beam.physics.basis import ModifiedCubicBasis, cardinal_cubic_bspline, gauss_points
+from beam.physics.geometry import BeamGeometry
+from beam.physics.model import BeamModel
 
 LENGTH, DENSITY, STIFFNESS = 0.5, 0.1, 0.5
 GEOMETRY = BeamGeometry(LENGTH, DENSITY, 0.1, 0.2, 0.3)

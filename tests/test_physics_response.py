@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from beam.physics import modal
 from beam.errors import BeamInputError
+from beam.physics import modal
 from beam.physics.geometry import BeamGeometry
 from beam.physics.model import BeamModel
 

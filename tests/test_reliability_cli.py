@@ -24,7 +24,14 @@ import pytest
 from hypothesis import Phase, find, given, settings
 from hypothesis import strategies as st
 from test_reliability_files import (
-    CONFIG, CONFIG_MUTATIONS, CSV_MUTATIONS, FUZZ, HEADER, SIDECAR, SIDECAR_MUTATIONS, tables,
+    CONFIG,
+    CONFIG_MUTATIONS,
+    CSV_MUTATIONS,
+    FUZZ,
+    HEADER,
+    SIDECAR,
+    SIDECAR_MUTATIONS,
+    tables,
 )
 
 from beam.calibration import make_setup

@@ -34,11 +34,17 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from beam.io.config import load_config
 from beam.errors import BeamInputError
-from beam.physics.geometry import BeamGeometry
+from beam.io.config import load_config
 from beam.io.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M
-from beam.io.measurement import CSV_COLUMNS, measurement_csv_text, read_measurement, read_sidecar, write_measurement
+from beam.io.measurement import (
+    CSV_COLUMNS,
+    measurement_csv_text,
+    read_measurement,
+    read_sidecar,
+    write_measurement,
+)
+from beam.physics.geometry import BeamGeometry
 
 HEADER = ",".join(CSV_COLUMNS)
 SIDECAR = """title = "bench test"

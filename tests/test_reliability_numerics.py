@@ -14,13 +14,13 @@ import pytest
 from simulated_data import GEOMETRY, TRUE_BASE, simulated_measurement
 
 from beam.calibration import calibration_preview, make_setup
-from beam.physics.effects import PARAMETER_SPECS
-from beam.errors import BeamInputError
-from beam.physics.excitation import Excitation
-from beam.physics.geometry import BeamGeometry
 from beam.calibration.records import decimate_measurement
+from beam.errors import BeamInputError
 from beam.io.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M
 from beam.io.measurement import Measurement
+from beam.physics.effects import PARAMETER_SPECS
+from beam.physics.excitation import Excitation
+from beam.physics.geometry import BeamGeometry
 from beam.physics.model import BeamModel
 
 LINEAR_EFFECTS = ("air_damping", "kelvin_voigt", "tip_mass", "clamp_compliance", "patch_stiffening")

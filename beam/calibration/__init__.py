@@ -3,6 +3,13 @@
 See :func:`calibrate`, :func:`calibration_preview` and :func:`calibration_stream`.
 """
 
+from beam.calibration.run import (
+    CalibrationResult,
+    calibrate,
+    calibration_preview,
+    calibration_stream,
+    prepare,
+)
 from beam.calibration.setup import (
     DEFAULT_EFFECTS,
     DEFAULT_MODES,
@@ -13,7 +20,6 @@ from beam.calibration.setup import (
     make_setup,
     parameter_prior,
 )
-from beam.calibration.run import CalibrationResult, calibrate, calibration_preview, calibration_stream, prepare
 
 __all__ = [
     "DEFAULT_EFFECTS",

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -46,7 +47,7 @@ from scipy import special
 from beam.inference import NOISE_SD, PredictiveBands, Problem
 from beam.inference.predictive import BAND_RTOL
 
-__all__ = ["fast_predictive_bands", "mixture_bands"]
+__all__ = ["BandRows", "fast_predictive_bands", "mixture_bands"]
 
 #: Half-width of the tabulated normal CDF (standard deviations); beyond it Φ is 0 or 1
 #: (Φ(-9) = 1.1e-19).
@@ -359,7 +360,17 @@ def _bands_kernel(f, sd, alpha, z_alpha, z_cut_low, z_cut_high, rtol, table, out
                                                      bracket_low, bracket_high, tol, table)
 
 
-def mixture_bands(f: np.ndarray, sd: np.ndarray, level: float = 0.95, *, rtol: float = BAND_RTOL) -> np.ndarray:
+class BandRows(NamedTuple):
+    """Mean and band edges of :func:`mixture_bands`, each of shape (T,) in the data unit."""
+
+    mean: np.ndarray
+    credible_lower: np.ndarray
+    credible_upper: np.ndarray
+    prediction_lower: np.ndarray
+    prediction_upper: np.ndarray
+
+
+def mixture_bands(f: np.ndarray, sd: np.ndarray, level: float = 0.95, *, rtol: float = BAND_RTOL) -> BandRows:
     """Mean, credible band and prediction band of model draws.
 
     Parameters
@@ -376,8 +387,8 @@ def mixture_bands(f: np.ndarray, sd: np.ndarray, level: float = 0.95, *, rtol: f
 
     Returns
     -------
-    ndarray, shape (5, T)
-        Rows: mean, credible lower, credible upper, prediction lower, prediction upper (data
+    BandRows
+        Mean, credible lower and upper, prediction lower and upper, each of shape (T,) (data
         unit).
     """
     f = np.ascontiguousarray(f, dtype=float)
@@ -394,7 +405,7 @@ def mixture_bands(f: np.ndarray, sd: np.ndarray, level: float = 0.95, *, rtol: f
     z_cut = float(special.ndtri(min(tail, 0.5)))
     out = np.empty((5, f.shape[1]))
     _bands_kernel(f, sd, alpha, float(special.ndtri(alpha)), z_cut, -z_cut, float(rtol), _CDF_TABLE, out)
-    return out
+    return BandRows(*out)
 
 
 def fast_predictive_bands(
@@ -427,11 +438,7 @@ def fast_predictive_bands(
     rows = mixture_bands(f, draws[NOISE_SD], level)
     return PredictiveBands(
         time_s=time_s,
-        mean=rows[0],
-        credible_lower=rows[1],
-        credible_upper=rows[2],
-        prediction_lower=rows[3],
-        prediction_upper=rows[4],
+        **rows._asdict(),
         level=float(level),
         n_draws=int(f.shape[0]),
     )

@@ -29,15 +29,30 @@ import numpy as np
 
 from beam.calibration.bands import fast_predictive_bands
 from beam.calibration.fit import fast_map
-from beam.calibration.starts import initial_guesses, spectral_guesses
-from beam.calibration.setup import DEFAULT_EFFECTS, DEFAULT_MODES, BeamCalibrationSetup, build_problem, make_setup
-from beam.errors import BeamInputError
-from beam.io.text import atomic_write_texts
 from beam.calibration.records import decimate_measurement
-from beam.io.limits import MAX_CALIBRATION_SAMPLES
-from beam.inference import NOISE_SD, EnsembleRun, LaplaceResult, PosteriorResult, PredictiveBands, Problem, Progress, laplace
+from beam.calibration.setup import (
+    DEFAULT_EFFECTS,
+    DEFAULT_MODES,
+    BeamCalibrationSetup,
+    build_problem,
+    make_setup,
+)
+from beam.calibration.starts import initial_guesses, spectral_guesses
+from beam.errors import BeamInputError
+from beam.inference import (
+    NOISE_SD,
+    EnsembleRun,
+    LaplaceResult,
+    PosteriorResult,
+    PredictiveBands,
+    Problem,
+    Progress,
+    laplace,
+)
 from beam.inference.summaries import summarize_draws
+from beam.io.limits import MAX_CALIBRATION_SAMPLES
 from beam.io.measurement import Measurement
+from beam.io.text import atomic_write_texts
 
 #: Posterior draws pushed through the model for the predictive bands.
 BAND_DRAWS = 400

@@ -22,11 +22,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from beam.physics.effects import PARAMETER_SPECS, parse_effects
-from beam.errors import BeamInputError
 from beam.calibration.records import check_calibration_record
-from beam.inference import AR1_COEFFICIENT, LIKELIHOODS, NOISE_SD, LogNormal, LogUniform, Parameter, Problem, Uniform
+from beam.errors import BeamInputError
+from beam.inference import (
+    AR1_COEFFICIENT,
+    LIKELIHOODS,
+    NOISE_SD,
+    LogNormal,
+    LogUniform,
+    Parameter,
+    Problem,
+    Uniform,
+)
 from beam.io.measurement import Measurement
+from beam.physics.effects import PARAMETER_SPECS, parse_effects
 from beam.physics.model import BeamModel
 
 DEFAULT_EFFECTS: tuple[str, ...] = ("air_damping", "kelvin_voigt")

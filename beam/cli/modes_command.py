@@ -30,7 +30,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the modes; returns the exit status."""
     config = load_config(args.config)
-    from beam.physics.model import BeamModel  # scipy is slow to import: only once the config is valid
+    from beam.physics.model import (
+        BeamModel,  # scipy is slow to import: only once the config is valid
+    )
 
     model = BeamModel(config.geometry, config.effects, config.intervals)
     count = None if args.count is None else min(args.count, model.size)

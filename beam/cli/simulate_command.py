@@ -7,8 +7,8 @@ import sys
 from pathlib import Path
 
 from beam.cli.arguments import non_negative_float, non_negative_int, positive_int
-from beam.io.config import load_config
 from beam.errors import BeamInputError
+from beam.io.config import load_config
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -40,7 +40,10 @@ def run(args: argparse.Namespace) -> int:
         folder.mkdir(parents=True, exist_ok=True)  # fail before simulating, not after
     except OSError as exc:
         raise BeamInputError(f"--out {args.out}: cannot create the folder {folder}: {exc.strerror}") from None
-    from beam.io.simulation import simulate, write_simulation  # imports scipy: only once the config is valid
+    from beam.io.simulation import (  # imports scipy: only once the config is valid
+        simulate,
+        write_simulation,
+    )
 
     simulation = simulate(config, modes=args.modes, noise_m=args.noise, seed=args.seed)
     csv_path, toml_path, truth = write_simulation(args.out, simulation)

@@ -27,14 +27,20 @@ MCMC; the command line uses the preview unless asked for MCMC).
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
-from beam.calibration import DEFAULT_EFFECTS, DEFAULT_MODES, CalibrationResult, calibrate, calibration_preview
-from beam.physics.effects import EFFECTS, parse_effects
+from beam.calibration import (
+    DEFAULT_EFFECTS,
+    DEFAULT_MODES,
+    CalibrationResult,
+    calibrate,
+    calibration_preview,
+)
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
+from beam.physics.effects import EFFECTS, parse_effects
 
 #: Evidence gain (nats) a candidate needs to count as a material improvement.
 MATERIAL_LOG_EVIDENCE = 5.0

@@ -17,11 +17,23 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from beam import residuals as dx
-from beam.calibration import DEFAULT_EFFECTS, DEFAULT_MODES, CalibrationResult, calibration_preview
+import beam.residuals as dx
+from beam.calibration import (
+    DEFAULT_EFFECTS,
+    DEFAULT_MODES,
+    CalibrationResult,
+    calibration_preview,
+)
+from beam.discovery.ranking import (
+    MATERIAL_LOG_EVIDENCE,
+    Explainer,
+    LadderStep,
+    Ranking,
+    error_ladder,
+    rank_candidates,
+)
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
-from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, Explainer, LadderStep, Ranking, error_ladder, rank_candidates
 
 
 @dataclass

@@ -32,12 +32,25 @@ from typing import Any
 
 import numpy as np
 
-from beam.physics.effects import BASE_PARAMETERS, EFFECTS, effects_switched_on
 from beam.errors import BeamInputError
+from beam.io.measurement import (
+    GEOMETRY_TABLES,
+    check_nominal,
+    read_geometry,
+    read_measurement_table,
+    read_nominal,
+    read_title,
+)
+from beam.io.text import (
+    TomlReader,
+    as_finite_float,
+    did_you_mean,
+    load_toml,
+    short_repr,
+)
+from beam.physics.effects import BASE_PARAMETERS, EFFECTS, effects_switched_on
 from beam.physics.excitation import ALL_EXCITATION_KEYS, EXCITATION_KEYS, Excitation
-from beam.io.text import TomlReader, as_finite_float, did_you_mean, load_toml, short_repr
 from beam.physics.geometry import BeamGeometry
-from beam.io.measurement import GEOMETRY_TABLES, check_nominal, read_geometry, read_measurement_table, read_nominal, read_title
 
 #: Top-level tables a config may hold.
 CONFIG_TABLES: tuple[str, ...] = (*GEOMETRY_TABLES, "nominal", "parameters", "excitation", "sampling", "model")

@@ -41,13 +41,24 @@ from typing import Any
 
 import numpy as np
 
-from beam.physics.effects import PARAMETER_SPECS
 from beam.errors import BeamInputError
-from beam.io.text import (
-    TomlReader, as_finite_float, atomic_write_texts, did_you_mean, dump_toml, load_toml, read_text_file, short_repr,
+from beam.io.limits import (
+    LENGTH_RANGE_M,
+    LINEAR_DENSITY_RANGE_KG_M,
+    MAX_MEASUREMENT_BYTES,
 )
+from beam.io.text import (
+    TomlReader,
+    as_finite_float,
+    atomic_write_texts,
+    did_you_mean,
+    dump_toml,
+    load_toml,
+    read_text_file,
+    short_repr,
+)
+from beam.physics.effects import PARAMETER_SPECS
 from beam.physics.geometry import BeamGeometry
-from beam.io.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M, MAX_MEASUREMENT_BYTES
 
 #: The CSV header, column by column.
 CSV_COLUMNS: tuple[str, str, str] = ("time_s", "voltage_V", "displacement_m")

@@ -16,11 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from beam.io.config import SimulationConfig, check_parameters
-from beam.physics.effects import parse_effects
 from beam.errors import BeamInputError
-from beam.io.text import TomlReader, dump_toml, load_toml
+from beam.io.config import SimulationConfig, check_parameters
 from beam.io.measurement import Measurement, measurement_paths, write_measurement
+from beam.io.text import TomlReader, dump_toml, load_toml
+from beam.physics.effects import parse_effects
 from beam.physics.model import BeamModel
 
 #: Suffix of the true-parameter file next to a simulated measurement.

@@ -2,8 +2,7 @@
 
 Every reading error is a :class:`beam.errors.BeamInputError` whose one-line message starts with
 the file name and names the line or key at fault. TOML is read with :mod:`tomllib` and written
-by :func:`dump_toml`, a deliberately small writer for what this project stores: top-level
-scalars and one level of tables holding strings, booleans, integers, floats and flat lists.
+with :mod:`tomli_w` (:func:`dump_toml`).
 """
 
 from __future__ import annotations
@@ -12,7 +11,6 @@ import difflib
 import math
 import numbers
 import os
-import re
 import secrets
 import sys
 import tomllib
@@ -20,10 +18,11 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+import tomli_w
+
 from beam.errors import BeamInputError
 from beam.io.limits import MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
 
-_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -332,78 +331,42 @@ def _listing(names: Iterable[str], pattern: str = "{}") -> str:
 # ---------------------------------------------------------------------------------------------
 
 
-def toml_value(value: Any) -> str:
-    """One TOML value: str, bool, int, float (shortest exact repr) or a flat list of those."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return _toml_string(value)
+def _plain(value: Any) -> Any:
+    """``value`` with numpy scalars as Python numbers and tuples as lists (what tomli-w writes)."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(toml_value(item) for item in value) + "]"
-    if hasattr(value, "item") and callable(value.item):  # numpy scalar
-        return toml_value(value.item())
-    raise TypeError(f"cannot write {type(value).__name__} {value!r} to TOML")
-
-
-def _toml_string(text: str) -> str:
-    escapes = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
-    out = []
-    for char in text:
-        if char in escapes:
-            out.append(escapes[char])
-        elif ord(char) < 0x20 or ord(char) == 0x7F:
-            out.append(f"\\u{ord(char):04X}")
-        else:
-            out.append(char)
-    return '"' + "".join(out) + '"'
-
-
-def toml_key(key: str) -> str:
-    """A bare key when possible, else a quoted one."""
-    return key if _BARE_KEY.match(key) else _toml_string(key)
+        return [_plain(v) for v in value]
+    if not isinstance(value, (str, bool, int, float)) and hasattr(value, "item") and callable(value.item):
+        return value.item()  # numpy scalar
+    return value
 
 
 def dump_toml(document: Mapping[str, Any], header_comment: str | None = None) -> str:
-    """Serialise top-level scalars followed by one level of tables.
+    """TOML text of ``document`` (:mod:`tomli_w`), optionally after ``# ...`` comment lines.
 
     Parameters
     ----------
     document : mapping
-        Keys to values; a mapping value becomes a ``[table]`` whose values must be scalars or
-        flat lists. Empty tables are written (as a header alone).
+        Keys to values: strings, booleans, integers, floats (written exactly: shortest repr),
+        lists, numpy scalars, and mappings (tables).
     header_comment : str, optional
         Lines written first as ``# ...`` comments.
 
     Returns
     -------
     str
-        TOML text that :func:`tomllib.loads` parses back to an equal document (floats exactly).
+        TOML text that :func:`tomllib.loads` parses back to an equal document.
+
+    Raises
+    ------
+    TypeError
+        A value TOML cannot hold.
     """
-    lines: list[str] = []
+    head = ""
     if header_comment:
-        lines.extend(f"# {line}".rstrip() for line in header_comment.splitlines())
-        lines.append("")
-    tables = [(k, v) for k, v in document.items() if isinstance(v, Mapping)]
-    for key, value in document.items():
-        if not isinstance(value, Mapping):
-            lines.append(f"{toml_key(key)} = {toml_value(value)}")
-    for name, table in tables:
-        if lines:
-            lines.append("")
-        lines.append(f"[{toml_key(name)}]")
-        for key, value in table.items():
-            if isinstance(value, Mapping):
-                raise TypeError(f"nested table [{name}.{key}] is not supported by dump_toml")
-            lines.append(f"{toml_key(key)} = {toml_value(value)}")
-    return "\n".join(lines) + "\n"
+        head = "\n".join(f"# {line}".rstrip() for line in header_comment.splitlines()) + "\n\n"
+    return head + tomli_w.dumps(_plain(document))
 
 
 def atomic_write_texts(contents: Mapping[str | os.PathLike[str], str]) -> list[Path]:

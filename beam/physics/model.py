@@ -28,10 +28,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from beam.errors import BeamInputError
 from beam.physics import modal
 from beam.physics.assembly import GalerkinParts, assemble_parts
-from beam.physics.effects import BASE_PARAMETERS, BASE_TERMS, EFFECTS, PARAMETER_SPECS, Term, parse_effects
-from beam.errors import BeamInputError
+from beam.physics.effects import (
+    BASE_PARAMETERS,
+    BASE_TERMS,
+    EFFECTS,
+    PARAMETER_SPECS,
+    Term,
+    parse_effects,
+)
 from beam.physics.geometry import BeamGeometry
 
 _SHAPE_CACHE_SIZE = 256

@@ -26,9 +26,9 @@ import scipy.ndimage
 import scipy.signal
 import scipy.stats
 
+from beam.errors import BeamInputError
 from beam.residuals.common import check_signals, integer, jsonable, positive
 from beam.residuals.modal_id import free_decay_start
-from beam.errors import BeamInputError
 
 __all__ = [
     "Backbone",

@@ -36,11 +36,11 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import scipy.optimize
 
+from beam.physics.effects import EFFECTS
 from beam.residuals.envelope import Backbone, DecayLaw
 from beam.residuals.modal_id import ModeMatch
 from beam.residuals.spectra import ResidualSpectrum
 from beam.residuals.whiteness import Whiteness
-from beam.physics.effects import EFFECTS
 
 __all__ = ["THRESHOLDS", "effect_scores", "explain", "fingerprints"]
 

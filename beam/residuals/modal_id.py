@@ -31,6 +31,7 @@ import scipy.linalg
 import scipy.optimize
 import scipy.signal
 
+from beam.errors import BeamInputError
 from beam.residuals.common import (
     as_signal,
     check_signals,
@@ -38,7 +39,6 @@ from beam.residuals.common import (
     jsonable,
     positive,
 )
-from beam.errors import BeamInputError
 
 __all__ = [
     "IdentifiedModes",

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from beam.residuals.common import check_signals, integer, jsonable
 from beam.errors import BeamInputError
+from beam.residuals.common import check_signals, integer, jsonable
 
 __all__ = ["BandResiduals", "ExceedanceInterval", "WindowScore", "WindowScores", "band_residuals", "window_scores"]
 

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 import scipy.signal
 
-from beam.residuals.common import check_signals, integer, jsonable, positive
 from beam.errors import BeamInputError
+from beam.residuals.common import check_signals, integer, jsonable, positive
 
 __all__ = ["ModePower", "ResidualSpectrum", "SpectralPeak", "default_nperseg", "residual_spectrum"]
 

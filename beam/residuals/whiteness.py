@@ -21,8 +21,8 @@ import numpy as np
 import scipy.signal
 import scipy.stats
 
-from beam.residuals.common import as_signal, integer, jsonable
 from beam.errors import BeamInputError
+from beam.residuals.common import as_signal, integer, jsonable
 
 __all__ = ["Whiteness", "autocorrelation", "default_max_lag", "ljung_box", "residual_whiteness"]
 

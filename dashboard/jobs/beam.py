@@ -17,34 +17,38 @@ The computations (:func:`calibration_stages`, :func:`diagnosis_stages`) run in a
 process of the pool (:func:`dashboard.runtime.scheduler.offload`); the jobs around them look up and fill
 the caches in the server process. Final results are deterministic for their inputs, so they are
 kept in small process-wide LRU caches shared by all sessions (bundled datasets only: an upload
-is private to a session). :func:`warm_worker` prepares a new worker process.
+is private to a session). :func:`warm_worker` prepares a new worker process (the app hands it to the pool with
+:func:`dashboard.runtime.scheduler.set_worker_warm_up`; the runtime imports no job).
 """
 
 from __future__ import annotations
 
 import math
 import tempfile
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
 from beam.calibration import CalibrationResult, calibration_preview, calibration_stream
-from beam.discovery.report import explainer, residual_report
-from beam.physics.effects import EFFECTS
-from beam.errors import BeamInputError
-from beam.inference import Progress
-from beam.io.measurement import Measurement, read_measurement
 from beam.discovery.ranking import (
     Candidate,
     Ranking,
     candidate_effects,
     rank_candidates,
 )
+from beam.discovery.report import explainer, residual_report
+from beam.errors import BeamInputError
+from beam.inference import Progress
+from beam.io.measurement import Measurement, read_measurement
 from beam.io.simulation import read_truth
+from beam.physics.effects import EFFECTS
+from dashboard.jobs.warm import warm_up
 from dashboard.runtime import scheduler as sch
-from dashboard.jobs.toy import LRU, cached_stages, warm_up
+from dashboard.runtime.caches import LRU, cached_stages
 
 __all__ = [
+    "warm_worker",
     "ASSETS",
     "CALIBRATIONS",
     "DIAGNOSES",
@@ -59,10 +63,9 @@ __all__ = [
     "load_bundled",
     "load_upload",
     "read_answer",
-    "warm_worker",
 ]
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 ASSETS = REPO / "assets"
 #: Largest accepted upload, per file (bytes).
 MAX_UPLOAD_BYTES = 20 * 1024 * 1024
@@ -148,7 +151,7 @@ def _stage_message(result: CalibrationResult) -> str:
 
 
 def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int = 25,
-                    use_cache: bool = True) -> sch.Iterator[sch.Stage]:
+                    use_cache: bool = True) -> Iterator[sch.Stage[CalibrationResult]]:
     """Preview, streamed MCMC and final calibration (a scheduler job).
 
     Parameters
@@ -176,7 +179,7 @@ def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int
     yield from cached_stages(CALIBRATIONS, key if cacheable else None, calibration_stages, key, measurement, every=every)
 
 
-def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: int = 25) -> sch.Iterator[sch.Stage]:
+def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: int = 25) -> Iterator[sch.Stage[CalibrationResult]]:
     """The computation of :func:`calibration_run` (in a worker process; no cache)."""
     stream = calibration_stream(measurement, window=key.window, effects=key.effects, modes=key.modes,
                                 likelihood=key.likelihood, seed=key.seed, target_ess=key.target_ess, every=every)
@@ -245,7 +248,7 @@ def _rank_key(c: Candidate):
     return (not c.material, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
 
 
-def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: bool = True) -> sch.Iterator[sch.Stage]:
+def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: bool = True) -> Iterator[sch.Stage[Diagnosis]]:
     """The diagnosis of the beam view's model on its window (a scheduler job).
 
     Yields
@@ -263,7 +266,7 @@ def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: b
     yield from cached_stages(DIAGNOSES, dkey if cacheable else None, diagnosis_stages, key, measurement)
 
 
-def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> sch.Iterator[sch.Stage]:
+def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> Iterator[sch.Stage[Diagnosis]]:
     """The computation of :func:`diagnosis_run` (in a worker process; no cache)."""
     yield sch.progress(0.02, "calibrating the current model (preview)")
     warm_up()  # no half-imported ArviZ under the diagnostics (see dashboard.jobs.toy.warm_up)

@@ -21,10 +21,8 @@ comes from.
 
 from __future__ import annotations
 
-import threading
 import time
-from collections import OrderedDict
-from collections.abc import Hashable, Iterator
+from collections.abc import Iterator
 from dataclasses import replace
 
 from beam.inference.laplace import preview as laplace_preview
@@ -39,10 +37,11 @@ from beam.toy import (
     simulate,
     sweep_windows,
 )
+from dashboard.jobs.warm import is_warm, warm_up
 from dashboard.runtime import scheduler as sch
+from dashboard.runtime.caches import LRU, cached_stages
 
-__all__ = ["LRU", "RESULTS", "SWEEPS", "cached_stages", "schedule_warm_up", "sweep_key", "sweep_stages", "toy_run",
-           "toy_stages", "toy_sweep", "warm_up"]
+__all__ = ["RESULTS", "SWEEPS", "sweep_key", "sweep_stages", "toy_run", "toy_stages", "toy_sweep"]
 
 #: Posterior draws behind the bands of a final result (as :func:`beam.toy.run_toy`).
 N_BAND_DRAWS = 500
@@ -52,106 +51,12 @@ MAX_STEPS = 20000
 N_PREVIEW_DRAWS = 400
 
 
-class LRU:
-    """A small thread-safe least-recently-used cache.
-
-    Parameters
-    ----------
-    size : int
-        Entries kept.
-    """
-
-    def __init__(self, size: int) -> None:
-        self.size = int(size)
-        self._data: OrderedDict = OrderedDict()
-        self._lock = threading.Lock()
-
-    def get(self, key: Hashable):
-        """The cached value or None."""
-        with self._lock:
-            if key not in self._data:
-                return None
-            self._data.move_to_end(key)
-            return self._data[key]
-
-    def put(self, key: Hashable, value) -> None:
-        """Store ``value`` (evicting the oldest entry when full)."""
-        with self._lock:
-            self._data[key] = value
-            self._data.move_to_end(key)
-            while len(self._data) > self.size:
-                self._data.popitem(last=False)
-
-    def clear(self) -> None:
-        """Drop everything."""
-        with self._lock:
-            self._data.clear()
-
-    def __len__(self) -> int:
-        return len(self._data)
-
 
 #: Final toy results by scenario.
 RESULTS = LRU(32)
 #: Window sweeps by :func:`sweep_key`.
 SWEEPS = LRU(64)
 
-_warm_lock = threading.Lock()
-_schedule_lock = threading.Lock()  # not _warm_lock: that one is held for seconds by the import
-_warmed = False
-_warm_scheduled = False
-
-
-def warm_up() -> None:
-    """Import the sampler's libraries (ArviZ takes seconds the first time); idempotent.
-
-    Blocks while another thread imports them. Jobs call it before they sample: ``beam``
-    looks ArviZ up in ``sys.modules`` first, and a module another thread is still importing
-    is there half-initialised (measured: ``partially initialized module 'arviz' has no
-    attribute 'ess'`` when a worker's warm-up thread and its first calibration met).
-    """
-    global _warmed
-    with _warm_lock:
-        if not _warmed:
-            import emcee  # noqa: F401
-
-            from beam.inference._arviz import import_arviz  # as beam imports it (without a UI toolkit)
-
-            import_arviz()
-            _warmed = True
-
-
-def schedule_warm_up(pool) -> None:
-    """Warm up once at app start, so the first MCMC need not wait (never blocks).
-
-    Starts ``pool``'s worker processes (each warms itself up), or, for a pool without
-    processes, runs :func:`warm_up` on one of its threads.
-    """
-    global _warm_scheduled
-    if getattr(pool, "workers", None) is not None:
-        pool.start_processes()
-        return
-    with _schedule_lock:
-        if _warmed or _warm_scheduled:
-            return
-        _warm_scheduled = True
-    pool.schedule(warm_up)
-
-
-def cached_stages(cache: LRU, key: Hashable, fn, *args, **kwargs) -> Iterator[sch.Stage]:
-    """The stages of ``fn(*args, **kwargs)`` run by :func:`dashboard.runtime.scheduler.offload`; the final value is cached.
-
-    The cache lives in the server process (shared by all sessions), whichever worker computed
-    the value. Closing this generator closes the offloaded run (cancellation).
-    """
-    stages = sch.offload(fn, *args, **kwargs)
-    try:
-        for stage in stages:
-            if stage.kind == "final" and key is not None:
-                cache.put(key, stage.value)
-            yield stage
-    finally:
-        stages.close()
 
 
 def sweep_key(scenario: ToyScenario) -> ToyScenario:
@@ -175,7 +80,7 @@ def toy_run(
     every: int = 25,
     partial_every_s: float = 1.0,
     use_cache: bool = True,
-) -> Iterator[sch.Stage]:
+) -> Iterator[sch.Stage[ToyResult]]:
     """Preview, streamed MCMC and final result of a toy scenario (a scheduler job).
 
     Publishes a cached final result at once when there is one; otherwise the stages of
@@ -204,7 +109,7 @@ def toy_run(
     yield from cached_stages(RESULTS, scenario, toy_stages, scenario, every=every, partial_every_s=partial_every_s)
 
 
-def toy_stages(scenario: ToyScenario, *, every: int = 25, partial_every_s: float = 1.0) -> Iterator[sch.Stage]:
+def toy_stages(scenario: ToyScenario, *, every: int = 25, partial_every_s: float = 1.0) -> Iterator[sch.Stage[ToyResult]]:
     """The computation of :func:`toy_run` (in a worker process; no cache).
 
     Parameters
@@ -236,7 +141,7 @@ def toy_stages(scenario: ToyScenario, *, every: int = 25, partial_every_s: float
         "preview (MAP + Laplace)",
     )
 
-    if not _warmed:
+    if not is_warm():
         yield sch.progress(0.0, "loading the sampler (first run only)")
     warm_up()  # at once when warm; waits for a warm-up under way
     run = EnsembleRun(problem, lap, seed=scenario.seed)
@@ -270,7 +175,7 @@ def toy_stages(scenario: ToyScenario, *, every: int = 25, partial_every_s: float
     yield sch.final(result, "posterior (MCMC)")
 
 
-def toy_sweep(scenario: ToyScenario, *, use_cache: bool = True) -> Iterator[sch.Stage]:
+def toy_sweep(scenario: ToyScenario, *, use_cache: bool = True) -> Iterator[sch.Stage[list[dict[str, float]]]]:
     """The window sweep of a scenario, one window per ``partial`` stage (a scheduler job).
 
     Yields
@@ -288,7 +193,7 @@ def toy_sweep(scenario: ToyScenario, *, use_cache: bool = True) -> Iterator[sch.
     yield from cached_stages(SWEEPS, key, sweep_stages, scenario)
 
 
-def sweep_stages(scenario: ToyScenario) -> Iterator[sch.Stage]:
+def sweep_stages(scenario: ToyScenario) -> Iterator[sch.Stage[list[dict[str, float]]]]:
     """The computation of :func:`toy_sweep` (in a worker process; no cache)."""
     windows = default_sweep_windows(scenario)
     rows: list[dict] = []

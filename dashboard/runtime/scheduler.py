@@ -52,7 +52,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 __all__ = [
     "KINDS",
@@ -66,6 +66,7 @@ __all__ = [
     "preview",
     "progress",
     "readable_error",
+    "set_worker_warm_up",
     "shared_pool",
 ]
 
@@ -81,9 +82,12 @@ Job = Callable[[], Iterator["Stage"]]
 Dispatch = Callable[[Callable[[], None]], None]
 
 
+T = TypeVar("T")
+
+
 @dataclass(frozen=True)
-class Stage:
-    """One item yielded by a job.
+class Stage(Generic[T]):
+    """One item yielded by a job; ``Stage[CalibrationResult]`` names the type of its value.
 
     Attributes
     ----------
@@ -98,7 +102,7 @@ class Stage:
     """
 
     kind: str
-    value: Any = None
+    value: T | None = None
     fraction: float | None = None
     message: str = ""
 
@@ -330,6 +334,17 @@ DEFAULT_NICE = 10
 
 _shared: RunPool | None = None
 _shared_lock = threading.Lock()
+_worker_warm_up: Callable[[], None] | None = None
+
+
+def set_worker_warm_up(warm: Callable[[], None] | None) -> None:
+    """What each new worker process of the shared pool runs first (a module-level function).
+
+    The app sets it (:func:`dashboard.jobs.warm.warm_worker`) before the pool is first used, so
+    the runtime imports nothing of the jobs it runs.
+    """
+    global _worker_warm_up
+    _worker_warm_up = warm
 
 
 def shared_pool() -> RunPool:
@@ -341,11 +356,7 @@ def shared_pool() -> RunPool:
             idle_s = float(os.environ.get("BEAM_DASHBOARD_IDLE_S", "30"))
             processes = os.environ.get("BEAM_DASHBOARD_PROCESSES", "1") not in ("0", "", "no", "false")
             nice = int(os.environ.get("BEAM_DASHBOARD_NICE", str(DEFAULT_NICE)))
-            warm = None
-            if processes:
-                from dashboard.jobs.beam import warm_worker
-
-                warm = warm_worker
+            warm = _worker_warm_up if processes else None
             _shared = RunPool(max_workers=max(workers, 1), idle_timeout_s=idle_s, processes=processes, nice=nice,
                               warm=warm)
         return _shared

@@ -22,11 +22,12 @@ from functools import partial as bind
 
 import param
 
-from beam.calibration import DEFAULT_EFFECTS
+from beam.calibration import DEFAULT_EFFECTS, CalibrationResult
+from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS
-from dashboard.runtime import scheduler as sch
 from dashboard.jobs.beam import (
     CalibrationKey,
+    Diagnosis,
     bundled_datasets,
     calibration_run,
     diagnosis_run,
@@ -36,6 +37,7 @@ from dashboard.jobs.beam import (
     read_answer,
 )
 from dashboard.outputs.toy import user_message
+from dashboard.runtime import scheduler as sch
 
 __all__ = ["DEFAULT_DATASET", "BeamState", "DiagnosisState", "ladder_rung"]
 
@@ -120,11 +122,16 @@ class BeamState(_Runs):
     seed = param.Integer(0, bounds=(0, None), precedence=-1, label="Seed (sampler)")
     target_ess = param.Number(1000.0, bounds=(50.0, 10000.0), precedence=-1, label="Target ESS (per parameter)")
 
-    measurement = param.Parameter(None, constant=True, doc="The Measurement of ``dataset``.")
-    result = param.Parameter(None, constant=True, doc="CalibrationResult shown: preview or final.")
-    final = param.Parameter(None, constant=True, doc="Latest final CalibrationResult (with posterior).")
-    final_key = param.Parameter(None, constant=True, doc="CalibrationKey of ``final``.")
-    pinned = param.Parameter(None, constant=True, doc="CalibrationResult kept for comparison.")
+    measurement = param.ClassSelector(class_=Measurement, default=None, allow_None=True, constant=True,
+                                      doc="The Measurement of ``dataset``.")
+    result = param.ClassSelector(class_=CalibrationResult, default=None, allow_None=True, constant=True,
+                                 doc="CalibrationResult shown: preview or final.")
+    final = param.ClassSelector(class_=CalibrationResult, default=None, allow_None=True, constant=True,
+                                doc="Latest final CalibrationResult (with posterior).")
+    final_key = param.ClassSelector(class_=CalibrationKey, default=None, allow_None=True, constant=True,
+                                    doc="CalibrationKey of ``final``.")
+    pinned = param.ClassSelector(class_=CalibrationResult, default=None, allow_None=True, constant=True,
+                                 doc="CalibrationResult kept for comparison.")
     uploads = param.Dict({}, constant=True, doc="Uploaded measurements of this session by dataset id.")
 
     def __init__(self, **params) -> None:
@@ -268,7 +275,8 @@ class DiagnosisState(_Runs):
     """
 
     beam = param.ClassSelector(class_=BeamState, constant=True)
-    diagnosis = param.Parameter(None, constant=True, doc="Diagnosis shown (residuals and ranking so far).")
+    diagnosis = param.ClassSelector(class_=Diagnosis, default=None, allow_None=True, constant=True,
+                                    doc="Diagnosis shown (residuals and ranking so far).")
     ladder = param.List([], constant=True, doc="Rungs of the error ladder (dicts of ladder_rung).")
     adding = param.String("", constant=True, doc="Effect being added (waiting for its final posterior), or ''.")
     answer = param.Dict(None, allow_None=True, constant=True, doc="Revealed truth of a bundled dataset.")

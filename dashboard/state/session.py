@@ -27,11 +27,11 @@ from functools import partial as bind
 
 import param
 
-from beam.toy import KINDS, ToyScenario
+from beam.toy import KINDS, ToyResult, ToyScenario
+from dashboard.jobs.toy import sweep_key, toy_run, toy_sweep
+from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState, DiagnosisState
-from dashboard.outputs.toy import user_message
-from dashboard.jobs.toy import sweep_key, toy_run, toy_sweep
 
 __all__ = ["LIKELIHOOD_LABELS", "SessionState", "ToyState"]
 
@@ -73,10 +73,14 @@ class ToyState(param.Parameterized):
     status = param.String("", constant=True, doc="One-line status for the user.")
     progress = param.Number(0.0, bounds=(0.0, 1.0), constant=True, doc="Fraction of the MCMC done.")
     error = param.String("", constant=True, doc="Readable message of the latest failed request, or ''.")
-    result = param.Parameter(None, constant=True, doc="ToyResult shown: preview, partial or final.")
-    final = param.Parameter(None, constant=True, doc="Latest final ToyResult (with posterior).")
-    pinned = param.Parameter(None, constant=True, doc="ToyResult kept for comparison.")
-    sweep = param.Parameter(None, constant=True, doc="Window sweep rows of the shown scenario.")
+    result = param.ClassSelector(class_=ToyResult, default=None, allow_None=True, constant=True,
+                                 doc="ToyResult shown: preview, partial or final.")
+    final = param.ClassSelector(class_=ToyResult, default=None, allow_None=True, constant=True,
+                                doc="Latest final ToyResult (with posterior).")
+    pinned = param.ClassSelector(class_=ToyResult, default=None, allow_None=True, constant=True,
+                                 doc="ToyResult kept for comparison.")
+    sweep = param.List(None, item_type=dict, allow_None=True, constant=True,
+                       doc="Window sweep rows (dicts of window, RMSE and coverage) of the shown scenario.")
     sweep_status = param.String("", constant=True)
     requested = param.Integer(0, constant=True, doc="Id of the latest request.")
     shown = param.Integer(0, constant=True, doc="Id of the request the shown result belongs to.")

@@ -14,16 +14,16 @@ import math
 import panel as pn
 import param
 
-from dashboard.outputs import beam as bs
 from dashboard.jobs.beam import MAX_UPLOAD_BYTES
+from dashboard.outputs import beam as bs
 from dashboard.plots.beam import BeamTimeSeriesPlot
 from dashboard.plots.corner import CornerPlot
-from dashboard.views.panes import Markdown, alert_html
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
+from dashboard.views.panes import Markdown, alert_html, status_html
 from dashboard.views.texts import BEAM_GUIDE
 
-__all__ = ["BeamCalibrationView", "status_html"]
+__all__ = ["BeamCalibrationView"]
 
 _STAGE_TEXT = {
     "idle": "Open this tab to calibrate.",
@@ -48,13 +48,6 @@ class _Draws:
         self.draws, self.truth = bs.thinned_draws(result), {}
 
 
-def status_html(css: str, stage: str, status: str, requested: int, shown: int, text: str, **data) -> str:
-    """The status line, with the state in ``data-*`` attributes (read by the browser tests)."""
-    attrs = " ".join(f'data-{k.replace("_", "-")}="{v}"' for k, v in data.items())
-    detail = f" <small>({status})</small>" if status else ""
-    return (f'<div class="{css}" data-stage="{stage}" data-requested="{requested}" data-shown="{shown}" {attrs}>'
-            f"<b>{text}</b>{detail}</div>")
-
 
 class BeamCalibrationView(pn.viewable.Viewer):
     """Calibrate the cantilever beam model on a measurement and judge it on the held-out record.
@@ -75,6 +68,31 @@ class BeamCalibrationView(pn.viewable.Viewer):
         # for the sessions that never open it)
         self._layout = pn.Column(Markdown("Open this tab to load the beam calibration view."),
                                  sizing_mode="stretch_width")
+
+    @property
+    def layout(self):
+        """The view's root panel (what ``__panel__`` returns)."""
+        return getattr(self, "_layout", None)
+
+    @property
+    def corner(self):
+        """The pair plot of the posterior draws (None until the first result)."""
+        return getattr(self, "_corner", None)
+
+    @property
+    def built(self):
+        """Whether the view's pieces exist (built when its tab is first opened)."""
+        return getattr(self, "_built", None)
+
+    @property
+    def plot(self):
+        """The measurement-and-bands figure."""
+        return getattr(self, "_plot", None)
+
+    @property
+    def result_tabs(self):
+        """The tabs below the plot (bands, pair plot, tables, ...)."""
+        return getattr(self, "_tabs", None)
 
     def __panel__(self):
         return self._layout
@@ -98,7 +116,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
     def _build_figure(self) -> None:  # the bokeh figure alone (not in the document yet)
         beam = self._beam
         self._plot = BeamTimeSeriesPlot()
-        self._plot.show_measurement(beam.io.measurement)
+        self._plot.show_measurement(beam.measurement)
         self._plot.update(beam.result, beam.pinned)
         beam.param.watch(lambda e: self._plot.update(beam.result, beam.pinned), ["result", "pinned"])
         beam.param.watch(lambda e: self._plot.show_measurement(e.new), "measurement")
@@ -170,16 +188,16 @@ class BeamCalibrationView(pn.viewable.Viewer):
                                                    sizing_mode="stretch_width", css_classes=["beam-cal-window"])
 
         def bounds(*_):
-            t = beam.io.measurement.time_s
+            t = beam.measurement.time_s
             window.param.update(start=float(t[0]), end=float(t[-1]))
 
         bounds()
         beam.param.watch(bounds, "measurement")
         modes = pn.widgets.IntSlider.from_param(beam.param.modes, sizing_mode="stretch_width", css_classes=["beam-modes"])
         options = beam.effect_options()
-        effects = pn.widgets.CheckBoxGroup(options=options, value=list(beam.physics.effects), inline=False,
+        effects = pn.widgets.CheckBoxGroup(options=options, value=list(beam.effects), inline=False,
                                            css_classes=["beam-effects"])
-        effects.param.watch(lambda e: setattr(beam, "effects", list(e.new)) if list(e.new) != list(beam.physics.effects) else None,
+        effects.param.watch(lambda e: setattr(beam, "effects", list(e.new)) if list(e.new) != list(beam.effects) else None,
                             "value")
         beam.param.watch(lambda e: setattr(effects, "value", list(e.new)) if list(e.new) != effects.value else None,
                          "effects")

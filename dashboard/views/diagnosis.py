@@ -16,11 +16,10 @@ import panel as pn
 import param
 
 from dashboard.outputs.beam import parameter_label
-from dashboard.views.beam import status_html
 from dashboard.plots.diagnosis import DiagnosisPlots
-from dashboard.views.panes import Markdown
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
+from dashboard.views.panes import Markdown, status_html
 from dashboard.views.texts import DIAGNOSIS_GUIDE
 
 __all__ = ["DiagnosisView", "ladder_table", "modes_table"]
@@ -79,6 +78,21 @@ class DiagnosisView(pn.viewable.Viewer):
         self._built = False  # built when the tab is first opened (as the beam view)
         self._layout = pn.Column(Markdown("Open this tab to diagnose the beam view's model."),
                                  sizing_mode="stretch_width")
+
+    @property
+    def layout(self):
+        """The view's root panel (what ``__panel__`` returns)."""
+        return getattr(self, "_layout", None)
+
+    @property
+    def plots(self):
+        """The diagnosis figures (None until the tab is built)."""
+        return getattr(self, "_plots", None)
+
+    @property
+    def candidates(self):
+        """The panel of candidate effects with their Add buttons."""
+        return getattr(self, "_candidates", None)
 
     def __panel__(self):
         return self._layout
@@ -177,7 +191,7 @@ class DiagnosisView(pn.viewable.Viewer):
             return
         cards = []
         for c in diagnosis.candidates:
-            present = c.effect in beam.physics.effects
+            present = c.effect in beam.effects
             button = pn.widgets.Button(label=f"Add {c.effect}" if not present else f"{c.effect} is in the model",
                                        color="success" if c.material else "default", width=200,
                                        disabled=present or bool(d.adding), css_classes=[f"diag-add-{c.effect}"])

@@ -5,6 +5,8 @@
     colour follows the results: in the browser a change of a model's ``css_classes`` (what
     :class:`panel.pane.Alert` changes with ``alert_type``) costs 0.2–0.3 s of re-layout per
     change (measured in chromium on the beam view), a change of an HTML pane's text ~1 ms.
+:func:`status_html`
+    A run's status line with its state in ``data-*`` attributes (read by the browser tests).
 :class:`Markdown`
     Panel's Markdown pane, but each text is converted to HTML once per server process: Panel
     renders the Markdown in Python (markdown-it) every time a pane is made or its text
@@ -19,7 +21,7 @@ from collections import OrderedDict
 
 import panel as pn
 
-__all__ = ["ALERT_COLOURS", "Markdown", "alert_html"]
+__all__ = ["ALERT_COLOURS", "Markdown", "alert_html", "status_html"]
 
 #: Background, text and border colours of :func:`alert_html` by kind (Bootstrap 5's alerts).
 ALERT_COLOURS = {
@@ -36,6 +38,15 @@ def alert_html(kind: str, html: str) -> str:
     background, colour, border = ALERT_COLOURS[kind]
     return (f'<div class="notice" data-kind="{kind}" style="background:{background};color:{colour};'
             f'border:1px solid {border};border-radius:6px;padding:8px 12px;">{html}</div>')
+
+
+def status_html(css: str, stage: str, status: str, requested: int, shown: int, text: str, **data) -> str:
+    """The status line, with the state in ``data-*`` attributes (read by the browser tests)."""
+    attrs = " ".join(f'data-{k.replace("_", "-")}="{v}"' for k, v in data.items())
+    detail = f" <small>({status})</small>" if status else ""
+    return (f'<div class="{css}" data-stage="{stage}" data-requested="{requested}" data-shown="{shown}" {attrs}>'
+            f"<b>{text}</b>{detail}</div>")
+
 
 _CACHE_SIZE = 256
 _cache: OrderedDict = OrderedDict()

@@ -11,10 +11,10 @@ from __future__ import annotations
 import panel as pn
 import param
 
+from dashboard.state.session import SessionState
 from dashboard.views.beam import BeamCalibrationView
 from dashboard.views.diagnosis import DiagnosisView
 from dashboard.views.panes import Markdown
-from dashboard.state.session import SessionState
 from dashboard.views.texts import PLACEHOLDER
 from dashboard.views.toy import ToyView
 

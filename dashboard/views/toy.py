@@ -15,14 +15,14 @@ import panel as pn
 import param
 
 from dashboard.outputs import exports
-from dashboard.plots.corner import CornerPlot
-from dashboard.views.panes import Markdown
-from dashboard.runtime.staging import run_steps
-from dashboard.state.session import SessionState
 from dashboard.outputs.toy import compare_table, readouts
-from dashboard.views.texts import TOY_GUIDE
+from dashboard.plots.corner import CornerPlot
 from dashboard.plots.timeseries import TimeSeriesPlot
 from dashboard.plots.toy import SweepPlot
+from dashboard.runtime.staging import run_steps
+from dashboard.state.session import SessionState
+from dashboard.views.panes import Markdown
+from dashboard.views.texts import TOY_GUIDE
 
 __all__ = ["ToyView"]
 
@@ -71,6 +71,41 @@ class ToyView(pn.viewable.Viewer):
         self._layout = pn.Row(self._left, self._centre, self._right, sizing_mode="stretch_width")
         run_steps([self._build_status, self._build_figure, self._build_plot, self._build_controls, self._build_side,
                    self._build_guide, self._build_tabs])
+
+    @property
+    def layout(self):
+        """The view's root panel (what ``__panel__`` returns)."""
+        return getattr(self, "_layout", None)
+
+    @property
+    def corner(self):
+        """The pair plot of the posterior draws (None until the first result)."""
+        return getattr(self, "_corner", None)
+
+    @property
+    def sweep_built(self):
+        """Whether the window-sweep plots exist (built when the first sweep arrives)."""
+        return getattr(self, "_sweep_built", None)
+
+    @property
+    def sweep_tab(self):
+        """The panel holding the window-sweep plots."""
+        return getattr(self, "_sweep_tab", None)
+
+    @property
+    def timeseries(self):
+        """The data-and-bands figure."""
+        return getattr(self, "_timeseries", None)
+
+    @property
+    def result_tabs(self):
+        """The tabs beside the plot (pair plot, sweep, ...)."""
+        return getattr(self, "_tabs", None)
+
+    @property
+    def sweep_plots(self):
+        """The coverage and RMSE figures of the window sweep."""
+        return getattr(self, "_sweep_plots", None)
 
     def __panel__(self):
         return self._layout

@@ -39,11 +39,11 @@ sys.path.insert(0, str(ROOT))
 from beam.calibration import calibrate, calibration_preview, prepare  # noqa: E402
 from beam.calibration.bands import fast_predictive_bands  # noqa: E402
 from beam.calibration.run import BAND_DRAWS, default_walkers, preview_fit  # noqa: E402
-from beam.io.config import load_config  # noqa: E402
 from beam.inference import EnsembleRun, preview  # noqa: E402
+from beam.io.config import load_config  # noqa: E402
 from beam.io.measurement import read_measurement  # noqa: E402
-from beam.physics.model import full_state_space  # noqa: E402
 from beam.io.simulation import simulate  # noqa: E402
+from beam.physics.model import full_state_space  # noqa: E402
 
 #: Window ends (fractions of the record) of the preview benchmark: slider positions.
 PREVIEW_WINDOW_ENDS = (0.3, 0.32, 0.35, 0.4)

@@ -20,13 +20,13 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from beam.io.config import load_config
+from beam.physics.model import BeamModel
 from beam.residuals import (
     analyse_mode,
     identify_modes,
     residual_spectrum,
     residual_whiteness,
 )
-from beam.physics.model import BeamModel
 
 RATE = 1000.0
 NOISE_M = 1.2e-5  # the bundled record's sensor noise

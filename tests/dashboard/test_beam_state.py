@@ -38,9 +38,9 @@ def settle(session, timeout=60.0):
 
 def test_defaults_are_lab_run_1_with_its_window_and_default_effects(session):
     beam = session.beam
-    assert beam.dataset == "lab_run_1" and beam.io.measurement.name == "lab_run_1"
+    assert beam.dataset == "lab_run_1" and beam.measurement.name == "lab_run_1"
     assert beam.window_s == (0.0, 1.05) and beam.param.window_s.bounds == (0.0, pytest.approx(3.499))
-    assert beam.physics.effects == ["air_damping", "kelvin_voigt"] and beam.modes == 4 and beam.likelihood == "iid"
+    assert beam.effects == ["air_damping", "kelvin_voigt"] and beam.modes == 4 and beam.likelihood == "iid"
     assert "lab_run_2 — Aluminium strip" in beam.dataset_label("lab_run_2")
     assert "(N s/m²)" in next(iter(beam.effect_options())) or any("kg" in k for k in beam.effect_options())
 
@@ -59,7 +59,7 @@ def test_request_publishes_preview_then_final(session):
     assert beam.final_key == beam.key()
     report = json.loads(summary_json(beam.result).getvalue())
     assert report["measurement"] == "lab_run_1" and report["converged"] and report["preview"] is False
-    assert bands_csv(beam.result).getvalue().decode().count("\n") == beam.io.measurement.time_s.size + 1
+    assert bands_csv(beam.result).getvalue().decode().count("\n") == beam.measurement.time_s.size + 1
     assert posterior_netcdf(beam.result).getvalue()[:4] == b"\x89HDF"
     assert posterior_netcdf(seen_results[0]) is None  # a preview has no posterior
     assert filename(beam.result, "json") == "lab_run_1_w0-1.05_m4_air_damping+kelvin_voigt_iid.json"
@@ -126,7 +126,7 @@ def test_valid_upload_becomes_the_dataset(session):
     beam = session.beam
     ok = beam.upload("mine.csv", (ASSETS / "lab_run_5.csv").read_bytes(), "mine.toml", (ASSETS / "lab_run_5.toml").read_bytes())
     assert ok and beam.error == ""
-    assert beam.dataset.startswith("upload-1-mine") and beam.io.measurement.name == "mine"
+    assert beam.dataset.startswith("upload-1-mine") and beam.measurement.name == "mine"
     assert beam.dataset_label(beam.dataset).startswith("upload: mine")
     settle(session)
     assert beam.stage == "final" and beam.result.setup.measurement.name == "mine"
@@ -157,7 +157,7 @@ def test_add_appends_a_ladder_rung_and_the_error_falls(pool):
         assert diag.diagnosis.candidates[0].effect == "tip_mass" and diag.diagnosis.candidates[0].explanation
         assert len(diag.ladder) == 1 and diag.ladder[0]["mcmc"]
         diag.add("tip_mass")
-        assert diag.adding == "tip_mass" and "tip_mass" in beam.physics.effects
+        assert diag.adding == "tip_mass" and "tip_mass" in beam.effects
         settle(s)
         assert diag.adding == "" and len(diag.ladder) == 2
         rung = diag.ladder[1]

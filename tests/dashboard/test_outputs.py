@@ -7,12 +7,19 @@ import io
 import json
 import math
 
+import numpy as np
 import pytest
 
 from beam.toy import ToyScenario
 from dashboard.jobs import toy as toy_jobs
 from dashboard.outputs import exports
-from dashboard.outputs.toy import PARAMETER_LABELS, compare_table, readouts, result_label, user_message
+from dashboard.outputs.toy import (
+    PARAMETER_LABELS,
+    compare_table,
+    readouts,
+    result_label,
+    user_message,
+)
 
 
 @pytest.fixture(scope="module")
@@ -25,7 +32,12 @@ def results():
 def test_readouts_have_units_and_sane_values(results):
     _, final = results
     r = readouts(final)
-    assert 0.0 <= r["coverage_pct"] <= 100.0 and 0.0 <= r["credible_truth_pct"] <= 100.0
+    # percentages of the held-out samples, counted here from the bands
+    held, bands, data = final.data.held_out, final.bands, final.data
+    inside = (data.data >= bands.prediction_lower) & (data.data <= bands.prediction_upper)
+    assert r["coverage_pct"] == pytest.approx(100.0 * np.count_nonzero(inside & held) / np.count_nonzero(held))
+    truth_inside = (data.truth >= bands.credible_lower) & (data.truth <= bands.credible_upper)
+    assert r["credible_truth_pct"] == pytest.approx(100.0 * np.count_nonzero(truth_inside & held) / np.count_nonzero(held))
     assert r["rmse_du"] > 0 and r["frequency_sd_mHz"] > 0 and r["noise_sd_du"] > 0
     assert math.isclose(r["coverage_pct"], 100 * final.coverage95_prediction)
     assert all(math.isnan(v) for v in readouts(None).values())

@@ -5,9 +5,9 @@ from __future__ import annotations
 import random
 import threading
 import time
+import types
 
 import pytest
-
 from recorder import make_slot
 
 from beam.errors import BeamInputError
@@ -25,6 +25,7 @@ def sleepy_job(log: dict, tag, *, chunks=5, chunk_s=0.02, fail_at=None):
                 time.sleep(chunk_s)
                 if fail_at == i:
                     raise BeamInputError(f"window (--window 12 s) must be shorter than the horizon ({tag})")
+                log.setdefault("chunks", []).append((tag, i))
                 yield sch.progress((i + 1) / chunks, f"chunk {i + 1}")
                 if i == chunks // 2:
                     yield sch.partial(("partial", tag), (i + 1) / chunks)
@@ -48,14 +49,31 @@ def test_stages_are_published_in_order(pool):
 
 
 def test_request_returns_at_once_while_the_pool_is_busy(pool):
+    """A request returns while both pool threads are held by jobs that cannot finish yet."""
+    gate = threading.Event()
+    log: dict = {}
+
+    def blocked(tag):
+        def job():
+            log.setdefault("started", []).append(tag)
+            gate.wait(10)
+            yield sch.final(tag)
+        return job
+
     slots = [make_slot(pool, debounce_s=0.0)[0] for _ in range(3)]
-    for s in slots[:2]:
-        s.request(sleepy_job({}, "busy", chunks=10, chunk_s=0.05))
-    t0 = time.perf_counter()
-    slots[2].request(sleepy_job({}, "third"))
-    assert time.perf_counter() - t0 < 0.01
+    for i, s in enumerate(slots[:2]):
+        s.request(blocked(i))
+    deadline = time.monotonic() + 5
+    while len(log.get("started", [])) < 2 and time.monotonic() < deadline:
+        time.sleep(0.002)
+    assert sorted(log["started"]) == [0, 1]  # both threads are busy
+    slots[2].request(blocked("third"))  # returns although no thread is free ...
+    assert not gate.is_set() and "third" not in log["started"]  # ... before anything could run it
+    gate.set()
     for s in slots:
+        assert s.wait(5)
         s.close()
+    assert log["started"][-1] == "third"
 
 
 def test_newer_request_cancels_the_running_one_between_chunks(pool):
@@ -65,12 +83,13 @@ def test_newer_request_cancels_the_running_one_between_chunks(pool):
     deadline = time.monotonic() + 5
     while "preview" not in rec.kinds(first) and time.monotonic() < deadline:
         time.sleep(0.005)
-    t0 = time.monotonic()
+    chunks_before = len(log.get("chunks", []))
     second = slot.request(sleepy_job(log, "new"))
-    while "old" not in log.get("closed", []) and time.monotonic() - t0 < 2:
-        time.sleep(0.002)
-    assert time.monotonic() - t0 < 0.1, "the old job should stop within about one chunk"
     assert slot.wait(5)
+    # the old job stopped at its next stage: it finished at most the chunk it was in
+    old_chunks = [c for c in log["chunks"] if c[0] == "old"]
+    assert len(old_chunks) - chunks_before <= 1
+    assert log["closed"][0] == "old" and log["started"] == ["old", "new"]
     assert rec.kinds(second)[-1] == "final"
     assert "final" not in rec.kinds(first)
     assert rec.stale == []
@@ -102,26 +121,37 @@ def test_debounce_runs_the_first_and_the_last_of_a_burst(pool):
     assert rec.kinds(5)[-1] == "final" and "final" not in rec.kinds(1)
 
 
-def test_isolated_request_starts_without_debounce_delay(pool):
-    slot, _ = make_slot(pool, debounce_s=0.25)
-    started = threading.Event()
+def test_isolated_request_starts_without_debounce_delay(pool, monkeypatch):
+    """Leading edge after a quiet spell, trailing edge within a burst, on a clock the test sets.
 
-    def job():
-        started.set()
-        yield sch.final(None)
+    The slot reads its request times from ``time.perf_counter``, which is replaced by a clock
+    that moves only when the test says so; the debounce (30 s) is far longer than the test.
+    """
+    clock = {"now": 1000.0}
+    monkeypatch.setattr(sch, "time", types.SimpleNamespace(perf_counter=lambda: clock["now"], monotonic=time.monotonic,
+                                                           sleep=time.sleep))
+    slot, _ = make_slot(pool, debounce_s=30.0)
+    other, _ = make_slot(pool, debounce_s=0.0)
+    started: list = []
 
-    t0 = time.monotonic()
-    slot.request(job)
-    assert started.wait(2) and time.monotonic() - t0 < 0.1
-    time.sleep(0.3)  # quiet spell
-    started.clear()
-    t1 = time.monotonic()
-    slot.request(job)
-    assert started.wait(2) and time.monotonic() - t1 < 0.1
-    started.clear()
-    t2 = time.monotonic()
-    slot.request(job)  # within the debounce of the previous one: waits for quiet
-    assert started.wait(2) and time.monotonic() - t2 >= 0.24
+    def job(tag):
+        def run():
+            started.append(tag)
+            yield sch.final(tag)
+        return run
+
+    slot.request(job("first"))  # nothing before it: starts at once, not 30 s later
+    assert slot.wait(5) and started == ["first"]
+    clock["now"] += 31.0  # a quiet spell longer than the debounce
+    slot.request(job("after quiet"))
+    assert slot.wait(5) and started == ["first", "after quiet"]
+    clock["now"] += 1.0  # within the debounce of the previous request: waits for quiet
+    slot.request(job("in burst"))
+    other.request(job("elsewhere"))  # a free thread runs another slot's job meanwhile
+    assert other.wait(5)
+    assert started == ["first", "after quiet", "elsewhere"]  # the burst's request is still waiting
+    slot.close()
+    other.close()
 
 
 def test_storm_of_20_requests_in_2_s_shows_only_the_latest(pool):

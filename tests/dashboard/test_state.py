@@ -10,8 +10,9 @@ import pytest
 
 from beam.toy import ToyScenario, run_toy
 from dashboard.jobs import toy as toy_jobs
-from dashboard.state.session import SessionState
 from dashboard.outputs.toy import compare_table
+from dashboard.runtime.caches import LRU
+from dashboard.state.session import SessionState
 
 FAST = 300.0  # target ESS for the tests (the app uses 1000)
 
@@ -146,7 +147,7 @@ def test_sweep_job_streams_one_window_at_a_time():
 
 
 def test_lru_evicts_the_oldest():
-    cache = toy_jobs.LRU(2)
+    cache = LRU(2)
     cache.put("a", 1)
     cache.put("b", 2)
     assert cache.get("a") == 1

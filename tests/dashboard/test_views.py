@@ -10,8 +10,8 @@ from panel.io.state import set_curdoc
 
 from dashboard.app import create_app
 from dashboard.state.session import SessionState
-from dashboard.views.toy import ToyView
 from dashboard.views.tabs import VIEWS
+from dashboard.views.toy import ToyView
 
 
 @pytest.fixture
@@ -37,17 +37,17 @@ def test_app_has_three_views_over_one_session(session):
     assert app.session_state is session
     tabs = app.main[0]
     assert [title for title, _ in VIEWS] == ["Toy periodic model", "Beam calibration", "Diagnosis"]
-    assert list(tabs._names) == ["Toy periodic model", "Beam calibration", "Diagnosis"]
-    assert list(app.views) == list(tabs._names)
+    assert app.tab_titles == ["Toy periodic model", "Beam calibration", "Diagnosis"]
+    assert list(app.views) == app.tab_titles
     assert all(view.session is session for view in app.views.values())
 
 
 def test_widget_labels_carry_units(session):
     view = ToyView(session=session)
-    names = [w.label for w in view._layout.select(pn.widgets.Widget) if hasattr(w, "value")]
+    names = [w.label for w in view.layout.select(pn.widgets.Widget) if hasattr(w, "value")]
     for label in ("Calibration window (s)", "Discrepancy amplitude δ (du)", "Noise sd (du)", "Horizon (s)"):
         assert label in names
-    numbers = [n.label for n in view._layout.select(pn.indicators.Number)]
+    numbers = [n.label for n in view.layout.select(pn.indicators.Number)]
     assert any("(%)" in n for n in numbers) and any("(du)" in n for n in numbers)
 
 
@@ -56,10 +56,10 @@ def test_results_flow_into_the_plot_sources(session):
     root = view.__panel__().get_root(Document())
     band = _sources(root, "prediction-band")
     assert len(band) == 1 and len(band[0].data["upper"]) == 0
-    assert not view._sweep_built
+    assert not view.sweep_built
     session.toy.request(debounce=False)
     assert session.wait(30)
-    assert view._sweep_built and len(view._sweep_tab) == 2  # sweep plots built when the sweep arrived
+    assert view.sweep_built and len(view.sweep_tab) == 2  # sweep plots built when the sweep arrived
     result = session.toy.result
     assert list(band[0].data["upper"]) == list(result.bands.prediction_upper)
     assert len(band[0].data["time_s"]) == result.data.time_s.size
@@ -68,7 +68,7 @@ def test_results_flow_into_the_plot_sources(session):
     session.toy.window_s = 9.0
     assert session.wait(30)
     assert list(band[0].data["upper"]) != before
-    assert view._timeseries.window.right == 9.0
+    assert view.timeseries.window.right == 9.0
     # a new result changes data and texts, not CSS classes (each costs the browser a re-layout)
     assert {k: v for k, v in _css_classes(root).items() if k in classes} == classes
 
@@ -77,9 +77,9 @@ def test_corner_plot_is_built_when_its_tab_opens(session):
     view = ToyView(session=session)
     session.toy.request(debounce=False)
     assert session.wait(30)
-    assert view._corner is None
-    view._tabs.active = 1
-    corner = view._corner
+    assert view.corner is None
+    view.result_tabs.active = 1
+    corner = view.corner
     assert corner is not None
     assert len(corner.sources[("frequency_Hz", "current")].data["top"]) == 30
     assert corner.spans["frequency_Hz"].visible
@@ -89,7 +89,7 @@ def test_corner_plot_is_built_when_its_tab_opens(session):
 
 def test_error_alert_shows_and_hides(session):
     view = ToyView(session=session)
-    alert = view._layout.select(pn.pane.Alert)[0]
+    alert = view.layout.select(pn.pane.Alert)[0]
     session.toy.request(debounce=False)
     assert session.wait(30)
     session.toy.param.update(horizon_s=10.0, window_s=12.0)
@@ -113,12 +113,12 @@ def test_beam_view_labels_carry_units_and_results_reach_the_plot(beam_session):
 
     session = beam_session
     view = BeamCalibrationView(session=session)
-    assert not view._built  # built when its tab is opened
+    assert not view.built  # built when its tab is opened
     view.build()
     root = view.__panel__().get_root(Document())
-    labels = [getattr(w, "label", "") for w in view._layout.select(pn.widgets.Widget)]
+    labels = [getattr(w, "label", "") for w in view.layout.select(pn.widgets.Widget)]
     assert "Calibration window (s)" in labels and "Number of modes (1)" in labels
-    numbers = [n.label for n in view._layout.select(pn.indicators.Number)]
+    numbers = [n.label for n in view.layout.select(pn.indicators.Number)]
     assert any("(µm)" in n for n in numbers) and any("(%)" in n for n in numbers)
     band = _sources(root, "beam-prediction-band")
     assert len(band) == 1 and len(band[0].data["upper"]) == 0
@@ -126,9 +126,9 @@ def test_beam_view_labels_carry_units_and_results_reach_the_plot(beam_session):
     assert session.wait(60)
     result = session.beam.result
     assert not result.is_preview and len(band[0].data["upper"]) == result.bands.time_s.size
-    assert view._plot.window.right == pytest.approx(1.05)
-    view._tabs.active = 1  # the pair plot is built when its tab opens
-    assert view._corner is not None and len(view._corner.sources[("bending_stiffness_Nm2", "current")].data["top"]) == 30
+    assert view.plot.window.right == pytest.approx(1.05)
+    view.result_tabs.active = 1  # the pair plot is built when its tab opens
+    assert view.corner is not None and len(view.corner.sources[("bending_stiffness_Nm2", "current")].data["top"]) == 30
 
 
 
@@ -142,7 +142,7 @@ def test_beam_results_change_no_css_classes(pool):
     view = BeamCalibrationView(session=session)
     view.build()
     root = view.__panel__().get_root(Document())
-    notice = view._layout.select(lambda o: "beam-convergence" in getattr(o, "css_classes", []))[0]
+    notice = view.layout.select(lambda o: "beam-convergence" in getattr(o, "css_classes", []))[0]
     assert 'data-kind="secondary"' in notice.object and "No result yet" in notice.object
     before = _css_classes(root)
     seen = []
@@ -167,17 +167,17 @@ def test_diagnosis_view_shows_candidates_with_add_buttons(beam_session):
     view.__panel__().get_root(Document())
     view.activate()
     assert session.wait(60)
-    names = [b.label for b in view._candidates.select(pn.widgets.Button)]
+    names = [b.label for b in view.candidates.select(pn.widgets.Button)]
     assert names[0] == "Add patch_stiffening" and len(names) == 4
-    assert len(view._plots.sources["residual"].data["r"]) == session.beam.measurement.time_s.size
-    assert len(view._plots.sources["ladder"].data["rung"]) == 1
+    assert len(view.plots.sources["residual"].data["r"]) == session.beam.measurement.time_s.size
+    assert len(view.plots.sources["ladder"].data["rung"]) == 1
 
 
 def test_sweep_plots_show_the_rows_and_mark_the_window_of_the_final_result(session):
     view = ToyView(session=session)
     session.toy.request(debounce=False)
     assert session.wait(30)
-    coverage, rmse = view._sweep_plots
+    coverage, rmse = view.sweep_plots
     rows = session.toy.sweep
     assert list(coverage.source.data["window_s"]) == [r["window_s"] for r in rows]
     assert coverage.source.data["value"][0] == pytest.approx(100.0 * rows[0]["coverage95_prediction"])

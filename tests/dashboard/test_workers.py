@@ -12,8 +12,8 @@ import recorder
 from worker_jobs import counting, dying, failing, offloaded
 
 from beam.toy import ToyScenario
-from dashboard.runtime import scheduler as sch
 from dashboard.jobs.toy import toy_run, toy_stages
+from dashboard.runtime import scheduler as sch
 from dashboard.runtime.workers import WorkerError
 
 
