@@ -5,7 +5,8 @@ the session's event loop, and shows the views of :data:`dashboard.views.tabs.VIE
 :class:`pn.template.BootstrapTemplate` (all its resources are bundled with Panel, so the app
 works offline). Needs nothing but the repository.
 
-What runs where (issue #6/#7: eight sessions at once, every request answered within a second):
+What runs where (eight sessions at once, every request answered within a second; the measured
+reasons are in ``docs/decisions.md``):
 
 * this script runs on the server's event loop for each new browser session, so it builds only
   a skeleton; the views build their pieces in steps once the page is connected

@@ -1,11 +1,8 @@
 """Window-sweep plots of the toy view: held-out coverage and RMSE against the calibration window.
 
-Plain bokeh updated in place, like :mod:`dashboard.plots.timeseries`. They were HoloViews
-DynamicMaps; measured with the lag monitor (:mod:`dashboard.runtime.monitor`) while eight sessions
-ran inference, building the two HoloViews panes when the first sweep arrived held the server's
-event loop for 0.5–3.4 s, and each re-render when a final result moved the window marker for
-0.5–0.8 s. The bokeh figures cost a few tens of milliseconds to build and about a millisecond
-to update; without them the app does not need HoloViews at all.
+Plain bokeh updated in place, like :mod:`dashboard.plots.timeseries` (a few tens of
+milliseconds to build, about a millisecond to update; ``docs/decisions.md`` has the HoloViews
+measurements behind the choice).
 
 Data sources are named ``sweep-coverage`` and ``sweep-rmse`` (columns ``window_s``, ``value``).
 """
