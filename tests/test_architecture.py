@@ -178,3 +178,17 @@ def test_checker_sees_a_cycle_and_an_upward_import():
     graph = {"dashboard.runtime.scheduler": {"dashboard.jobs.beam"}, "dashboard.jobs.beam": set()}
     assert upward_imports(graph, DASHBOARD_LAYERS, "dashboard") == [
         "dashboard.runtime.scheduler imports dashboard.jobs.beam"]
+
+
+def test_public_entry_points_resolve():
+    import beam
+    from beam.calibration import calibrate
+    from beam.discovery.report import diagnose
+    from beam.io.measurement import read_measurement
+    from beam.physics.model import BeamModel
+    from beam.toy import run_toy
+
+    assert (beam.BeamModel, beam.read_measurement, beam.calibrate, beam.diagnose, beam.run_toy) == (
+        BeamModel, read_measurement, calibrate, diagnose, run_toy)
+    with pytest.raises(AttributeError):
+        beam.not_a_name  # noqa: B018
