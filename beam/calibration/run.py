@@ -37,7 +37,7 @@ from beam.calibration.setup import (
     build_problem,
     make_setup,
 )
-from beam.calibration.starts import initial_guesses, spectral_guesses
+from beam.calibration.starts import starting_points
 from beam.errors import BeamInputError
 from beam.inference import (
     NOISE_SD,
@@ -170,6 +170,8 @@ class CalibrationResult:
             "converged": bool(diagnostics.converged) if diagnostics is not None else False,
             "warnings": list(diagnostics.warnings) if diagnostics is not None else list(self.laplace.warnings),
             "log_evidence_laplace": float(self.laplace.log_evidence),
+            "map": {name: float(v) for name, v in self.laplace.map.values.items()},
+            "log_posterior_map": float(self.laplace.map.log_posterior),
             "correlation": self.correlation(),
             "seconds": self.seconds,
             "preview": self.is_preview,
@@ -212,11 +214,11 @@ def prepare(
 ) -> tuple[BeamCalibrationSetup, Problem]:
     """Validated setup and inference problem with its starting points.
 
-    The problem's ``initial_guesses`` hook returns the screened starting points of the MAP
-    search: the short-window MAP and the spectral starts (:mod:`beam.calibration.starts`) and
-    ``extra_guesses``; with a warm ``start`` (see :func:`calibration_preview`) the warm start
-    first, then the spectral starts and ``extra_guesses`` (no short-window MAP: the warm start
-    plays its part).
+    The problem's ``initial_guesses`` hook returns the starting points of the MAP search: those
+    of :func:`beam.calibration.starts.starting_points` (the one start strategy of every
+    calibration: short-window MAP, spectral starts, screened design over the effects), then the
+    :data:`KEPT_GUESSES` best ``extra_guesses``; with a warm ``start`` (see
+    :func:`calibration_preview`) the warm start replaces the short-window MAP.
 
     A record longer than :data:`beam.io.limits.MAX_CALIBRATION_SAMPLES` is decimated first (anti-
     aliased; see :mod:`beam.io.limits`): ``setup.measurement`` is then the decimated record.
@@ -226,13 +228,11 @@ def prepare(
     extra = [dict(g) for g in extra_guesses]
     warm = None if start is None else checked_start(start, setup.physical_names)
 
-    def starting_points(problem: Problem) -> list[dict[str, float]]:
-        if warm is None:
-            return best_guesses(problem, initial_guesses(problem, setup) + extra)
-        rivals = best_guesses(problem, spectral_guesses(problem, setup) + extra, KEPT_GUESSES - 1)
-        return [clip_to_prior(problem, warm)] + rivals
+    def starts(problem: Problem) -> list[dict[str, float]]:
+        chosen = starting_points(problem, setup, None if warm is None else clip_to_prior(problem, warm))
+        return chosen + (best_guesses(problem, extra) if extra else [])
 
-    return setup, build_problem(setup, initial_guesses=starting_points)
+    return setup, build_problem(setup, initial_guesses=starts)
 
 
 def checked_start(start: Mapping[str, float], names: Iterable[str]) -> dict[str, float]:

@@ -13,6 +13,19 @@ local optimum (each cycle of phase error is a new basin). So:
    little time to accumulate) is the start of the MAP on the whole window. It is found by the
    lock-step Levenberg–Marquardt of :mod:`beam.calibration.fit` from both spectral starts at
    once, to its coarse tolerance (a start needs no Newton polish).
+4. **Screened design over the effects** (:func:`screened_design`) — an effect's parameters can
+   have a narrow basin neither the prior centre nor the spectral start reaches (a hardening
+   spring, a heavy patch): a scrambled Sobol design (:class:`scipy.stats.qmc.Sobol`, fixed seed)
+   over every effect parameter's log prior range, plus each effect "barely on" (2 % of its log
+   range from the end where it vanishes: the nested model's fit, whatever the other effects)
+   while the others range over the design. Each design point gets its own EI from the spectral
+   match of its own modal frequencies (one batched modal solve) and its k_p by least squares
+   (the response is linear in k_p; one batched model call for the whole design); the
+   :data:`DESIGN_KEPT` best, by residual RMS, are started.
+
+:func:`starting_points` is the one start strategy of every calibration (CLI, dashboard,
+diagnosis candidates, ladder rungs): its starts depend only on the record, window, modes,
+effects and likelihood.
 """
 
 from __future__ import annotations
@@ -20,6 +33,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+from scipy.stats import qmc
 
 from beam.calibration.fit import internal_starts, levenberg_marquardt
 from beam.calibration.setup import BeamCalibrationSetup, build_problem, prior_centre
@@ -29,6 +43,17 @@ from beam.inference import Problem
 SCALE_GRID = np.exp(np.linspace(np.log(0.2), np.log(5.0), 1201))
 #: Fraction of the window used for the first, short MAP.
 SHORT_WINDOW_FRACTION = 1.0 / 3.0
+#: Points of the Sobol design over the effect parameters (a power of two), and how many of the
+#: best are started.
+DESIGN_POINTS = 128
+DESIGN_KEPT = 3
+#: Smallest distance between two kept design points (max-norm, fraction of the log ranges).
+DESIGN_SPREAD = 0.2
+#: Where a "barely on" effect parameter sits: this fraction of its log prior range from the end
+#: where the effect vanishes.
+BARELY_ON = 0.02
+#: The parameters of the base model (EI from the spectrum, k_p by least squares in the design).
+BASE_NAMES = ("bending_stiffness_Nm2", "patch_coupling_NmV")
 
 
 def prior_centres(setup: BeamCalibrationSetup) -> dict[str, float]:
@@ -125,3 +150,127 @@ def _clip_to_prior(problem: Problem, guess: dict[str, float]) -> dict[str, float
         prior = problem.parameter(name).prior
         out[name] = float(np.clip(value, prior.lower * (1 + 1e-9), prior.upper * (1 - 1e-9)))
     return out
+
+
+def _effect_names(setup: BeamCalibrationSetup) -> list[str]:
+    return [name for name in setup.physical_names if name not in BASE_NAMES]
+
+
+def _log_range(problem: Problem, name: str) -> tuple[float, float]:
+    prior = problem.parameter(name).prior
+    return float(np.log(prior.lower)), float(np.log(prior.upper))
+
+
+def design_points(problem: Problem, setup: BeamCalibrationSetup, points: int = DESIGN_POINTS,
+                  seed: int = 0) -> dict[str, np.ndarray]:
+    """The design of the effect parameters (natural units, ``{name: (B,)}``): a scrambled Sobol
+    design over their log prior ranges, then, for each effect, the same design with that
+    effect barely on (see the module notes). Empty when the model has no effect parameter."""
+    from beam.physics.effects import effect_of_parameter, parameter_spec
+
+    names = _effect_names(setup)
+    if not names:
+        return {}
+    ranges = np.array([_log_range(problem, n) for n in names])
+    unit = qmc.Sobol(len(names), scramble=True, seed=seed).random(points)
+    blocks = [unit]
+    for effect in setup.effects:
+        own = [i for i, n in enumerate(names) if effect_of_parameter(n) == effect]
+        if not own:
+            continue
+        block = unit[: max(points // 4, 8)].copy()
+        for i in own:
+            block[:, i] = BARELY_ON if parameter_spec(names[i]).absent_at == "low" else 1.0 - BARELY_ON
+        blocks.append(block)
+    cube = np.vstack(blocks)
+    logs = ranges[:, 0] + cube * (ranges[:, 1] - ranges[:, 0])
+    return {n: np.exp(logs[:, i]) for i, n in enumerate(names)}
+
+
+def screened_design(problem: Problem, setup: BeamCalibrationSetup, keep: int = DESIGN_KEPT,
+                    points: int = DESIGN_POINTS, seed: int = 0) -> list[dict[str, float]]:
+    """The ``keep`` best design points (natural units, physical parameters; see the module
+    notes), each with its spectral EI and least-squares k_p, by residual RMS on the window."""
+    design = design_points(problem, setup, points, seed)
+    if not design:
+        return []
+    centres = prior_centres(setup)
+    size = next(iter(design.values())).size
+    batch = {name: np.full(size, centres[name]) for name in BASE_NAMES}
+    batch.update(design)
+    # each point twice: EI from its own spectral match, and EI at its prior centre (under a gross
+    # misfit the spectral match can prefer a wrong family of peaks)
+    spectral_ei = centres["bending_stiffness_Nm2"] * _batched_scales(setup, batch)
+    batch = {name: np.concatenate([v, v]) for name, v in batch.items()}
+    design = {name: np.concatenate([v, v]) for name, v in design.items()}
+    batch["bending_stiffness_Nm2"][:size] = spectral_ei
+    size *= 2
+    batch = {name: np.clip(v, problem.parameter(name).prior.lower * (1 + 1e-9),
+                           problem.parameter(name).prior.upper * (1 - 1e-9)) for name, v in batch.items()}
+    nonlinear = setup.model.is_nonlinear
+    if not nonlinear:
+        batch["patch_coupling_NmV"] = np.ones(size)
+    with np.errstate(all="ignore"):
+        try:
+            response = problem.predict(batch)
+        except Exception:  # noqa: BLE001 - a design point outside any physical range: no design
+            return []
+    data = problem.data
+    if nonlinear:
+        fitted = response
+    else:
+        denominator = np.einsum("ij,ij->i", response, response)
+        coupling = np.abs(response @ data) / np.where(denominator > 0, denominator, np.inf)
+        prior = problem.parameter("patch_coupling_NmV").prior
+        coupling = np.clip(coupling, prior.lower * (1 + 1e-9), prior.upper * (1 - 1e-9))
+        batch["patch_coupling_NmV"] = coupling
+        fitted = response * coupling[:, None]
+    rms = np.sqrt(np.mean((data - fitted) ** 2, axis=1))
+    rms[~np.isfinite(rms)] = np.inf
+    # the best points, each at least DESIGN_SPREAD apart (max-norm, in log-range units) from
+    # those already kept: near-duplicates would end in one basin
+    names = list(design)
+    cube = np.column_stack([(np.log(design[n]) - _log_range(problem, n)[0])
+                            / np.ptp(_log_range(problem, n)) for n in names])
+    kept: list[int] = []
+    for i in np.argsort(rms, kind="stable"):
+        if not np.isfinite(rms[i]) or len(kept) == keep:
+            break
+        if all(np.max(np.abs(cube[i] - cube[j])) >= DESIGN_SPREAD or
+               abs(np.log(batch["bending_stiffness_Nm2"][i] / batch["bending_stiffness_Nm2"][j])) > 0.05 for j in kept):
+            kept.append(int(i))
+    return [{name: float(v[i]) for name, v in batch.items()} for i in kept]
+
+
+def _batched_scales(setup: BeamCalibrationSetup, batch: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The best spectral scale factor of EI (see :func:`stiffness_scales`) of every design point,
+    from the undamped frequencies of its retained modes (one batched modal solve)."""
+    reduced, _, _ = setup.model.reduced_system({k: np.asarray(v) for k, v in batch.items()}, setup.modes)
+    model_frequencies = np.sqrt(np.maximum(reduced["omega2"], 0.0)) / (2 * np.pi)  # (B, m)
+    frequencies, power = window_spectrum(setup)
+    nyquist = frequencies[-1]
+    floor = power.max() * 1e-12 + 1e-300
+    usable = (model_frequencies > 0) & (model_frequencies < 0.8 * nyquist)
+    scaled = np.sqrt(SCALE_GRID)[None, :, None] * model_frequencies[:, None, :]  # (B, S, m)
+    inside = (scaled < 0.95 * nyquist) & usable[:, None, :]
+    log_power = np.log(np.interp(scaled, frequencies, power) + floor)
+    score = np.where(inside, log_power, np.log(floor)).sum(axis=2)  # (B, S)
+    return SCALE_GRID[np.argmax(score, axis=1)]
+
+
+def starting_points(problem: Problem, setup: BeamCalibrationSetup,
+                    warm: Mapping[str, float] | None = None) -> list[dict[str, float]]:
+    """The start strategy of every beam calibration (natural units, physical parameters): the
+    short-window MAP (or a caller's ``warm`` start in its place), the spectral starts and the
+    screened design over the effects (see the module notes)."""
+    spectral = spectral_guesses(problem, setup)
+    design = screened_design(problem, setup)
+    if warm is not None:
+        return [dict(warm)] + spectral + design
+    short = _short_window_problem(setup)
+    if short is None:
+        return spectral + design
+    refined = levenberg_marquardt(short, internal_starts(short, spectral + design))
+    values = short.from_internal(refined.z[refined.best])
+    start = {name: float(v[0]) for name, v in values.items() if name not in short.noise_names}
+    return [start] + spectral + design

@@ -20,7 +20,8 @@ is missing.
 
 The error ladder adds the materially improving candidates one at a time, best first, as long as
 each materially improves on the rung below (effects can explain the same misfit: once the best
-is in, the next may no longer help), re-calibrating at each step (the steps a user takes in the dashboard are re-calibrated with full
+is in, the next may no longer help), re-calibrating at each step with the one calibration engine and start strategy of
+:mod:`beam.calibration` (the same MAP as ``beam calibrate`` with that effect set; the steps a user takes in the dashboard are re-calibrated with full
 MCMC; the command line uses the preview unless asked for MCMC).
 """
 
@@ -163,8 +164,7 @@ def rank_candidates(
     def fit(effect: str) -> CalibrationResult | Exception:
         effects = tuple(e for e in EFFECTS if e in set(base) | {effect})
         try:
-            return calibration_preview(measurement, window=window, effects=effects, modes=modes,
-                                       extra_guesses=candidate_starts(base_result, effect))
+            return calibration_preview(measurement, window=window, effects=effects, modes=modes)
         except (RuntimeError, FloatingPointError, ValueError, BeamInputError) as exc:  # a failed fit: ranked last
             return exc
 
@@ -214,8 +214,7 @@ def error_ladder(
         elif len(effects) == len(setup.effects):
             result = ranking.results[candidate.effect]
         else:
-            result = calibration_preview(measurement, window=setup.window, effects=chosen, modes=setup.modes,
-                                         extra_guesses=candidate_starts(previous, candidate.effect))
+            result = calibration_preview(measurement, window=setup.window, effects=chosen, modes=setup.modes)
         if len(effects) > len(setup.effects) and not improves(previous, result):
             break  # on top of the rungs below, this effect no longer helps: the climb ends here
         effects.append(candidate.effect)
@@ -229,37 +228,6 @@ def improves(current: CalibrationResult, candidate: CalibrationResult) -> bool:
     delta = float(candidate.laplace.log_evidence - current.laplace.log_evidence)
     return bool(delta >= MATERIAL_LOG_EVIDENCE
                 and candidate.rmse_prediction_map <= (1 - MATERIAL_RMSE_FALL) * current.rmse_prediction_map)
-
-
-#: Where along their log prior range a candidate's own parameters start (besides the nested start).
-RANGE_STARTS = (0.2, 0.4, 0.6, 0.8)
-
-
-def candidate_starts(base_result: CalibrationResult, effect: str) -> list[dict[str, float]]:
-    """Starting points for base + ``effect``: the current model's MAP with the effect's parameters
-
-    * barely switched on (2 % of their log range from the end where the effect vanishes): the
-      candidate starts where it reproduces the current fit, so a nested model never scores far
-      below the current one for want of a good start;
-    * at fractions :data:`RANGE_STARTS` of their log range: a strong hidden effect (a hardening
-      spring) has a narrow basin that neither the nested start nor the prior centre reaches.
-    """
-    from beam.calibration.setup import parameter_prior
-
-    problem = base_result.problem
-    current = {name: float(v) for name, v in base_result.laplace.map.values.items() if name not in problem.noise_names}
-    specs = [spec for spec in EFFECTS[effect].parameters if spec.required]
-    priors = {spec.name: parameter_prior(spec.name, base_result.setup.measurement.nominal) for spec in specs}
-
-    def at(fraction_of: dict[str, float]) -> dict[str, float]:
-        start = dict(current)
-        for name, fraction in fraction_of.items():
-            prior = priors[name]
-            start[name] = float(prior.lower * (prior.upper / prior.lower) ** fraction)
-        return start
-
-    nested = at({spec.name: 0.02 if spec.absent_at == "low" else 0.98 for spec in specs})
-    return [nested] + [at({spec.name: fraction for spec in specs}) for fraction in RANGE_STARTS]
 
 
 def _step(result: CalibrationResult, added: str | None, mcmc: bool) -> LadderStep:
