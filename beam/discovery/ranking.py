@@ -106,6 +106,8 @@ class LadderStep:
     coverage95_prediction: float
     log_evidence: float
     mcmc: bool
+    #: The rung's calibration (not in the JSON).
+    result: CalibrationResult | None = field(default=None, repr=False, compare=False)
 
     def to_json(self) -> dict:
         return {
@@ -232,7 +234,7 @@ def improves(current: CalibrationResult, candidate: CalibrationResult) -> bool:
 
 def _step(result: CalibrationResult, added: str | None, mcmc: bool) -> LadderStep:
     return LadderStep(result.setup.effects, added, result.rmse_calibration, result.rmse_prediction,
-                      result.coverage95_prediction, float(result.laplace.log_evidence), mcmc)
+                      result.coverage95_prediction, float(result.laplace.log_evidence), mcmc, result)
 
 
 def _finite_or_none(value: float) -> float | None:

@@ -53,15 +53,95 @@ class ResidualReport:
     notes: list[str] = field(default_factory=list)
 
 
+#: Held-out error of the last rung, in units of the noise floor, above which it is "well above the noise".
+OUTSIDE_CATALOGUE_RATIO = 2.0
+
+
+@dataclass(frozen=True)
+class Remaining:
+    """How far the best model the catalogue reaches is from the noise.
+
+    Attributes
+    ----------
+    noise_floor : NoiseFloor
+        The record's noise, estimated without any model (:func:`beam.residuals.noise.noise_floor`).
+    remaining_error_ratio : float
+        Held-out RMSE of the last rung's MAP / the noise floor's sd (1 for a model that predicts
+        to the noise).
+    white : bool
+        Whether the last rung's residuals in the calibration window are white (Ljung–Box).
+    ljung_box_p : float
+        Their Ljung–Box p-value.
+    """
+
+    noise_floor: dx.NoiseFloor
+    remaining_error_ratio: float
+    white: bool
+    ljung_box_p: float
+
+    @property
+    def outside_catalogue(self) -> bool:
+        """The last rung is still well above the noise and its residuals are not white."""
+        return bool(self.remaining_error_ratio > OUTSIDE_CATALOGUE_RATIO and not self.white)
+
+
+def remaining_error(result: CalibrationResult, floor: dx.NoiseFloor) -> Remaining:
+    """How far ``result`` (a rung's calibration) is from the noise ``floor``."""
+    measurement = result.setup.measurement
+    window = result.setup.window_mask
+    residual = (measurement.displacement_m - result.map_prediction())[window]
+    white = dx.residual_whiteness(residual, sample_interval_s=measurement.sample_interval_s,
+                                  fitted_parameters=result.problem.ndim)
+    ratio = float(result.rmse_prediction_map / floor.sd) if floor.sd > 0 else float("inf")
+    return Remaining(floor, ratio, bool(white.white), float(white.p_value))
+
+
+def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float, rmse_after_m: float,
+                     remaining: Remaining | None) -> str:
+    """The one-sentence verdict of a diagnosis (the command line's and the dashboard's).
+
+    Parameters
+    ----------
+    missing : str or None
+        Effect id of the best materially improving candidate.
+    gain_nats : float
+        Its log-evidence gain.
+    rmse_before_m, rmse_after_m : float
+        Held-out RMSE (m) of the current model and with the missing effect (or of the last rung).
+    remaining : Remaining or None
+        Distance of the last rung from the noise floor (None: not estimated).
+    """
+    floor = "" if remaining is None else (
+        f"{remaining.remaining_error_ratio:.1f}× the noise floor ({remaining.noise_floor.sd:.3g} m)")
+    if missing is not None:
+        head = f"missing: {missing} (+{gain_nats:.0f} nats; held-out RMSE {rmse_before_m:.3g} -> {rmse_after_m:.3g} m)"
+        if remaining is None:
+            return head
+        if remaining.outside_catalogue:
+            return (f"{head}: it explains part of the misfit, but {floor} remains and the residuals are not white: "
+                    "something outside the catalogue")
+        return f"{head}; what remains is {floor}"
+    if remaining is not None and remaining.outside_catalogue:
+        return (f"nothing in the catalogue is missing, but the held-out error is {floor} and the residuals are not "
+                "white: the discrepancy is outside the catalogue")
+    if remaining is None:
+        return "nothing in the catalogue is missing"
+    if remaining.white:
+        return f"nothing in the catalogue is missing; the residuals are white (Ljung-Box p = {remaining.ljung_box_p:.2g})"
+    return (f"nothing in the catalogue is missing; the residuals are not quite white (Ljung-Box p = "
+            f"{remaining.ljung_box_p:.2g}) but the held-out error is {floor}")
+
+
 @dataclass
 class DiagnosisReport:
-    """The diagnosis of one record: residuals, ranked candidates, error ladder."""
+    """The diagnosis of one record: residuals, ranked candidates, error ladder, distance to the noise."""
 
     measurement: Measurement
     residuals: ResidualReport
     ranking: Ranking
     ladder: list[LadderStep]
     seconds: float
+    remaining: Remaining | None = None
 
     @property
     def base(self) -> CalibrationResult:
@@ -73,16 +153,18 @@ class DiagnosisReport:
 
     @property
     def verdict(self) -> str:
-        """One sentence: what is missing, or that nothing in the catalogue is."""
-        white = self.residuals.whiteness
-        if self.missing is not None:
-            best = self.ranking.candidates[0]
-            return (f"missing: {self.missing} (+{best.delta_log_evidence:.0f} nats; held-out RMSE "
-                    f"{self.base.rmse_prediction_map:.3g} -> {best.rmse_prediction:.3g} m)")
-        tail = ("the residuals are white (Ljung-Box p = %.2g)" % white.p_value if white.white
-                else "but the residuals are still not white (Ljung-Box p = %.2g): the discrepancy is outside the catalogue "
-                     "or in the noise model" % white.p_value)
-        return f"nothing in the catalogue is missing; {tail}"
+        """One sentence: what is missing, how far the last rung is from the noise, or that nothing in the catalogue is."""
+        best = self.ranking.candidates[0] if self.ranking.candidates else None
+        last = self.ladder[-1] if self.ladder else None
+        return verdict_sentence(
+            self.missing, best.delta_log_evidence if best else float("nan"), self.base.rmse_prediction_map,
+            last.result.rmse_prediction_map if last is not None and last.result is not None else float("nan"),
+            self.remaining)
+
+    @property
+    def outside_catalogue(self) -> bool:
+        """Whether the last rung is well above the noise with residuals that are not white."""
+        return bool(self.remaining is not None and self.remaining.outside_catalogue)
 
     def to_json(self) -> dict:
         """The summary of ``beam diagnose --json`` (see the README)."""
@@ -98,6 +180,9 @@ class DiagnosisReport:
             "candidates": [c.to_json() for c in self.ranking.candidates],
             "missing": self.missing,
             "verdict": self.verdict,
+            "noise_floor": None if self.remaining is None else self.remaining.noise_floor.sd,
+            "remaining_error_ratio": None if self.remaining is None else self.remaining.remaining_error_ratio,
+            "outside_catalogue": self.outside_catalogue,
             "ladder": [step.to_json() for step in self.ladder],
             "modes_table": [dx.jsonable(asdict(row)) for row in self.residuals.comparison],
             "exceedances": [dx.jsonable(asdict(interval)) for interval in self.residuals.band.intervals],
@@ -178,4 +263,10 @@ def diagnose(
     ranking = rank_candidates(measurement, base=base_result.setup.effects, modes=modes, base_result=base_result,
                               explain=explainer(residuals))
     ladder = error_ladder(measurement, ranking, mcmc=ladder_mcmc, seed=seed)
-    return DiagnosisReport(measurement, residuals, ranking, ladder, time.perf_counter() - t0)
+    remaining = None
+    try:
+        floor = dx.noise_floor(measurement.time_s, measurement.displacement_m)
+        remaining = remaining_error(ladder[-1].result, floor)
+    except BeamInputError as exc:
+        residuals.notes.append(f"no noise floor: {exc}")
+    return DiagnosisReport(measurement, residuals, ranking, ladder, time.perf_counter() - t0, remaining)

@@ -23,8 +23,6 @@ import tomli_w
 from beam.errors import BeamInputError
 from beam.io.limits import MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
 
-
-
 # ---------------------------------------------------------------------------------------------
 # reading
 # ---------------------------------------------------------------------------------------------

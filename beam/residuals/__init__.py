@@ -50,6 +50,7 @@ from beam.residuals.modal_id import (
     identify_modes,
     matrix_pencil_poles,
 )
+from beam.residuals.noise import NoiseFloor, noise_floor
 from beam.residuals.residuals import (
     BandResiduals,
     ExceedanceInterval,
@@ -74,6 +75,8 @@ from beam.residuals.whiteness import (
 )
 
 __all__ = [
+    "NoiseFloor",
+    "noise_floor",
     "THRESHOLDS",
     "Backbone",
     "BandResiduals",
