@@ -46,6 +46,7 @@ class BeamTimeSeriesPlot:
                      tools="pan,wheel_zoom,box_zoom,reset,save", toolbar_location="above", min_border_left=50,
                      title="Measurement and calibrated model (window shaded)")
         fig.title.text_font_size = "12pt"
+        fig.css_classes = ["beam-plot"]  # found by the layout tests
         fig.xaxis.axis_label_text_font_size = fig.yaxis.axis_label_text_font_size = "11pt"
         fig.xaxis.major_label_text_font_size = fig.yaxis.major_label_text_font_size = "10pt"
         fig.xaxis.ticker.desired_num_ticks = 6
@@ -76,7 +77,7 @@ class BeamTimeSeriesPlot:
                               LegendItem(label="pinned: mean", renderers=[pinned_mean], visible=False)]
         self._truth_item = LegendItem(label="mean ± 1.96 × true noise", renderers=true_noise, visible=False)
         legend = Legend(items=[LegendItem(label=label, renderers=[r]) for label, r in items] + self._pinned_items
-                        + [self._truth_item], click_policy="hide", label_text_font_size="10pt", spacing=2,
+                        + [self._truth_item], click_policy="hide", label_text_font_size="10pt", spacing=14,
                         orientation="horizontal", padding=4, margin=4, glyph_width=18)
         fig.add_layout(legend, "below")
         self.figure = fig

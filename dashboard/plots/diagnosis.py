@@ -82,6 +82,7 @@ class DiagnosisPlots:
         self.backbone.scatter("a", "f", source=s["backbone"], color=COLORS["mean"], size=6)
         self.ladder = _fig("Held-out error per step", "Effect added", "Held-out error (µm)",
                            x_range=Range1d(-0.6, 3.6), y_axis_type="log")
+        self.ladder.css_classes = ["diag-ladder-plot"]  # found by the layout tests
         self.ladder.vbar(x="rung", top="rmse", bottom="bottom", width=0.6, source=s["ladder"], color=COLORS["mean"], alpha=0.7)
         self.ladder.text(x="rung", y="rmse", text="label", source=s["ladder"], text_font_size="8pt", text_align="center",
                          text_baseline="top", y_offset=4)

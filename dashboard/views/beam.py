@@ -56,7 +56,7 @@ def readouts_html(items: list[dict], true_noise_m: float | None = None) -> str:
             extra = f'<div class="truth" style="color:#2ca02c;font-weight:600">true: {bs.fmt_um(1e6 * true_noise_m)} µm</div>'
         boxes.append(
             f'<div class="readout beam-cal-{it["key"].replace("_", "-")}" data-kind="{it["kind"]}" '
-            f'title="{html.escape(it["gloss"])}" style="flex:1 1 190px;min-width:0;padding:2px 6px;">'
+            f'title="{html.escape(it["gloss"])}" style="flex:1 1 170px;padding:2px 6px;">'
             f'<div class="label" style="font-size:11pt;color:#444;">{html.escape(it["label"])}</div>'
             f'<div class="number" style="font-size:28pt;line-height:1.15;font-weight:600;color:{KIND_COLOURS[it["kind"]]};'
             f'white-space:nowrap;">{html.escape(it["value"])}<span style="font-size:14pt;font-weight:400;"> '
@@ -172,8 +172,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
         self._plot.show_true_noise(_true_noise(d.answer))
 
     def _build_plot(self) -> None:
-        self._centre.append(pn.pane.Bokeh(self._plot.figure, sizing_mode="stretch_width", height=420,
-                                          css_classes=["beam-plot"]))
+        self._centre.append(pn.pane.Bokeh(self._plot.figure, sizing_mode="stretch_width", height=420))
 
     def _build_inputs(self) -> None:
         self._left.extend([self._dataset_card(), self._controls()])

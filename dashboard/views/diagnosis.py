@@ -148,10 +148,10 @@ class DiagnosisView(pn.viewable.Viewer):
         return pn.pane.Bokeh(fig, sizing_mode="stretch_width", height=280, **kw)
 
     @staticmethod
-    def _pair(*items) -> pn.FlexBox:
-        """Two panes side by side when there is room, one above the other when not."""
+    def _pair(*items, basis_px: int = 380) -> pn.FlexBox:
+        """Two panes side by side when each has ``basis_px`` of room, one above the other when not."""
         for item in items:
-            item.styles = {"flex": "1 1 380px", "min-width": "0"}
+            item.styles = {"flex": f"1 1 {basis_px}px", "min-width": "0"}
         return pn.FlexBox(*items, flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width")
 
     def _build_ladder(self) -> None:
@@ -159,7 +159,7 @@ class DiagnosisView(pn.viewable.Viewer):
                                   sizing_mode="stretch_width", css_classes=["diag-ladder-table"])
         self._main.extend([
             Markdown("### Error ladder: one step per effect added", margin=(0, 10)),
-            self._pair(table, self._plot(self._plots.ladder, css_classes=["diag-ladder-plot"]))])
+            self._pair(table, self._plot(self._plots.ladder))])
 
     def _build_residuals(self) -> None:
         p, d = self._plots, self._diag
@@ -177,7 +177,7 @@ class DiagnosisView(pn.viewable.Viewer):
                       sizing_mode="stretch_width"),
             pn.Column(self._plot(self._plots.backbone), Markdown(pn.bind(_backbone_text, self._diag.param.diagnosis),
                                                                  margin=(0, 10), sizing_mode="stretch_width"),
-                      sizing_mode="stretch_width")))
+                      sizing_mode="stretch_width"), basis_px=560))  # the modes table has seven columns
 
     def _build_side(self) -> None:
         self._side.extend([pn.Card(Markdown(DIAGNOSIS_GUIDE, sizing_mode="stretch_width"), title="For the class",
