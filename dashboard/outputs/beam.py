@@ -23,15 +23,14 @@ __all__ = [
     "bands_csv",
     "compare_table",
     "convergence",
+    "correlation_table",
     "effect_title",
     "evidence_words",
+    "filename",
     "fmt_pct",
     "fmt_um",
     "judged_readouts",
     "noise_floor_m",
-    "verdict_text",
-    "correlation_table",
-    "filename",
     "parameter_label",
     "parameter_table",
     "posterior_netcdf",
@@ -39,6 +38,7 @@ __all__ = [
     "result_label",
     "summary",
     "summary_json",
+    "verdict_text",
 ]
 
 _EXTRA_LABELS = {"noise_sd": "Noise sd σ (m)", "ar1_coefficient": "AR(1) coefficient ρ (1)"}
@@ -270,7 +270,7 @@ def evidence_words(delta_nats: float) -> str:
         return f"{delta_nats:+.1f} nats: no preference (odds 1 : 1)"
     else:
         ratio = math.exp(abs(delta_nats))
-        digits = int(math.floor(math.log10(ratio)))
+        digits = math.floor(math.log10(ratio))
         text = f"{float(f'{ratio:.2g}'):,.0f}" if digits < 4 else "10" + str(digits).translate(_SUPERSCRIPT)
         odds = f"about {text} : 1" if delta_nats > 0 else f"about 1 : {text}"
     side = "for" if delta_nats > 0 else "against"

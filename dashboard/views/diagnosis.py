@@ -16,11 +16,23 @@ import panel as pn
 import param
 
 from dashboard.outputs import beam as bs
-from dashboard.outputs.beam import effect_title, evidence_words, fmt_pct, fmt_um, parameter_label
+from dashboard.outputs.beam import (
+    effect_title,
+    evidence_words,
+    fmt_pct,
+    fmt_um,
+    parameter_label,
+)
 from dashboard.plots.diagnosis import DiagnosisPlots
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
-from dashboard.views.panes import BUTTON_WRAP, FLEX_ITEM_GUIDE, FLEX_ITEM_MAIN, Markdown, status_html
+from dashboard.views.panes import (
+    BUTTON_WRAP,
+    FLEX_ITEM_GUIDE,
+    FLEX_ITEM_MAIN,
+    Markdown,
+    status_html,
+)
 from dashboard.views.texts import DIAGNOSIS_GUIDE
 
 __all__ = ["DiagnosisView", "ladder_table", "modes_table"]
@@ -125,7 +137,7 @@ class DiagnosisView(pn.viewable.Viewer):
         self._plots.update_ladder(d.ladder)
         d.param.watch(lambda e: self._plots.update(e.new), "diagnosis")
         d.param.watch(lambda e: self._plots.update_ladder(e.new), "ladder")
-        noise = lambda answer: None if answer is None else answer.get("noise_m")  # noqa: E731
+        noise = lambda answer: None if answer is None else answer.get("noise_m")
         self._plots.show_true_noise(noise(d.answer))
         d.param.watch(lambda e: self._plots.show_true_noise(noise(e.new)), "answer")
 

@@ -134,7 +134,12 @@ def test_readouts_judge_a_missing_effect_by_its_noise_not_by_its_coverage():
 
 
 def test_student_words():
-    from dashboard.outputs.beam import change_words, effect_title, evidence_words, fmt_um
+    from dashboard.outputs.beam import (
+        change_words,
+        effect_title,
+        evidence_words,
+        fmt_um,
+    )
 
     assert effect_title("tip_cubic_spring") == "Hardening tip spring"
     assert change_words(96.7, 100.0) == "3.3 % lower" and change_words(112.0, 100.0) == "12 % higher"
