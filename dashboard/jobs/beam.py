@@ -108,12 +108,15 @@ def load_bundled(name: str) -> Measurement:
 
 
 def read_answer(name: str) -> dict | None:
-    """The hidden truth of a bundled dataset: ``{"title", "effects", "parameters"}`` or None."""
+    """The hidden truth of a bundled dataset: ``{"title", "effects", "parameters", "noise_m"}`` or None
+    (``noise_m``: the true noise sd in m, None if the truth file has none)."""
     path = ASSETS / "answers" / f"{name}.truth.toml"
     if not path.exists():
         return None
     truth = read_truth(path)
-    return {"title": getattr(truth, "title", name), "effects": list(truth.effects), "parameters": dict(truth.parameters)}
+    noise = getattr(truth, "noise_m", None)
+    return {"title": getattr(truth, "title", name), "effects": list(truth.effects), "parameters": dict(truth.parameters),
+            "noise_m": float(noise) if noise is not None else None}
 
 
 def load_upload(csv_name: str | None, csv_bytes: bytes | None, toml_name: str | None, toml_bytes: bytes | None) -> Measurement:

@@ -14,6 +14,10 @@ from bokeh.plotting import figure
 
 from dashboard.plots.timeseries import COLORS
 
+#: The pinned result (grey: the pink bands are the current result's) and the measurement (dark blue).
+PINNED = "#555555"
+MEASUREMENT = "#08306b"
+
 __all__ = ["MM", "BeamTimeSeriesPlot"]
 
 #: Metres -> millimetres.
@@ -39,32 +43,47 @@ class BeamTimeSeriesPlot:
 
     def __init__(self, height: int = 380) -> None:
         fig = figure(height=height, sizing_mode="stretch_width", x_range=Range1d(0.0, 1.0), y_range=Range1d(-1.0, 1.0),
-                     tools="pan,wheel_zoom,box_zoom,reset,save", toolbar_location="above",
-                     title="Measured displacement and calibrated model (calibration window shaded)")
+                     tools="pan,wheel_zoom,box_zoom,reset,save", toolbar_location="above", min_border_left=50,
+                     title="Measurement and calibrated model (window shaded)")
+        fig.title.text_font_size = "12pt"
+        fig.css_classes = ["beam-plot"]  # found by the layout tests
+        fig.xaxis.axis_label_text_font_size = fig.yaxis.axis_label_text_font_size = "11pt"
+        fig.xaxis.major_label_text_font_size = fig.yaxis.major_label_text_font_size = "10pt"
+        fig.xaxis.ticker.desired_num_ticks = 6
         fig.xaxis.axis_label = "Time (s)"
-        fig.yaxis.axis_label = "Displacement at the sensor (mm)"
+        fig.yaxis.axis_label = "Displacement (mm)"
         self.window = BoxAnnotation(left=0.0, right=0.0, fill_color=COLORS["window"], fill_alpha=0.35, level="underlay")
         fig.add_layout(self.window)
-        names = ("pinned-band", "prediction-band", "credible-band", "data", "pinned-mean", "mean")
-        src = self.sources = {n: ColumnDataSource(dict(_BAND if "band" in n else _XY), name=f"beam-{n}") for n in names}
+        names = ("pinned-band", "prediction-band", "credible-band", "data", "pinned-mean", "mean", "true-noise")
+        src = self.sources = {n: ColumnDataSource(dict(_BAND if "band" in n or n == "true-noise" else _XY),
+                                                  name=f"beam-{n}") for n in names}
+        # drawn in this order: bands under the lines, the measurement over the model mean (dots, so
+        # the mean shows between them); the pinned result in grey, far from the pink bands
+        pinned_band = fig.varea("time_s", "lower", "upper", source=src["pinned-band"], color=PINNED, alpha=0.25)
         items = [
             ("95 % prediction band", fig.varea("time_s", "lower", "upper", source=src["prediction-band"],
                                                color=COLORS["prediction"], alpha=0.45)),
             ("95 % credible band", fig.varea("time_s", "lower", "upper", source=src["credible-band"],
                                              color=COLORS["credible"], alpha=0.35)),
-            ("measurement", fig.line("time_s", "value", source=src["data"], color=COLORS["calibration"],
-                                     line_width=1)),
-            ("model: posterior mean", fig.line("time_s", "value", source=src["mean"], color=COLORS["mean"],
-                                               line_width=1.5)),
-            ("pinned: 95 % prediction band", fig.varea("time_s", "lower", "upper", source=src["pinned-band"],
-                                                       color=COLORS["pinned"], alpha=0.15)),
-            ("pinned: mean", fig.line("time_s", "value", source=src["pinned-mean"], color=COLORS["pinned"],
-                                      line_width=1.5, line_dash="dotdash")),
+            ("model mean", fig.line("time_s", "value", source=src["mean"], color=COLORS["mean"], line_width=1.5)),
+            ("measurement", fig.scatter("time_s", "value", source=src["data"], color=MEASUREMENT, size=2.5,
+                                        alpha=0.7)),
         ]
-        fig.add_layout(Legend(items=[LegendItem(label=label, renderers=[r]) for label, r in items], click_policy="hide",
-                              label_text_font_size="9pt", spacing=0), "right")
+        pinned_mean = fig.line("time_s", "value", source=src["pinned-mean"], color=PINNED, line_width=2,
+                               line_dash="dashed")
+        true_noise = [fig.line("time_s", edge, source=src["true-noise"], color=COLORS["truth"], line_width=1.5,
+                               line_dash="dotted") for edge in ("lower", "upper")]
+        self._pinned_items = [LegendItem(label="pinned: 95 % band", renderers=[pinned_band], visible=False),
+                              LegendItem(label="pinned: mean", renderers=[pinned_mean], visible=False)]
+        self._truth_item = LegendItem(label="mean ± 1.96 × true noise", renderers=true_noise, visible=False)
+        legend = Legend(items=[LegendItem(label=label, renderers=[r]) for label, r in items] + self._pinned_items
+                        + [self._truth_item], click_policy="hide", label_text_font_size="10pt", spacing=14,
+                        orientation="horizontal", padding=4, margin=4, glyph_width=18)
+        fig.add_layout(legend, "below")
         self.figure = fig
         self._measurement = None
+        self._result = None
+        self._true_noise_m: float | None = None
 
     def show_measurement(self, measurement) -> None:
         """Draw a record (before any result) and reset the axes to it."""
@@ -82,7 +101,8 @@ class BeamTimeSeriesPlot:
             self.sources[name].data = dict(_BAND if "band" in name else _XY)
 
     def update(self, result=None, pinned=None) -> None:
-        """Show ``result`` (its bands and window; its record if new) and ``pinned`` (purple)."""
+        """Show ``result`` (its bands and window; its record if new) and ``pinned`` (grey; its legend
+        entries only while there is one)."""
         src = self.sources
         if result is not None:
             self.show_measurement(result.setup.measurement)
@@ -103,3 +123,25 @@ class BeamTimeSeriesPlot:
         else:
             src["pinned-band"].data = dict(_BAND)
             src["pinned-mean"].data = dict(_XY)
+        for item in self._pinned_items:
+            item.visible = same_record
+        self._show_truth(result)
+
+    def show_true_noise(self, noise_m: float | None) -> None:
+        """Draw the model mean ± 1.96 × the true noise sd (after Reveal; None hides it)."""
+        self._true_noise_m = noise_m
+        self._show_truth(self._result)
+
+    def _show_truth(self, result) -> None:
+        self._result = result
+        noise = getattr(self, "_true_noise_m", None)
+        if result is None or noise is None:
+            self.sources["true-noise"].data = dict(_BAND)
+            self._truth_item.visible = False
+            return
+        b = result.bands
+        k = _every(b.time_s.size)
+        mean = np.asarray(b.mean[k]) * MM
+        half = 1.959964 * noise * MM
+        self.sources["true-noise"].data = {"time_s": b.time_s[k], "lower": mean - half, "upper": mean + half}
+        self._truth_item.visible = True

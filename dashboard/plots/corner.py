@@ -74,6 +74,8 @@ class CornerPlot:
                 fig.xaxis.major_label_text_font_size = "8pt"
                 fig.yaxis.major_label_text_font_size = "8pt"
                 fig.xaxis.ticker.desired_num_ticks = 3
+                # tilted, so that long tick labels (0.2925, 0.2930, ...) do not run into each other
+                fig.xaxis.major_label_orientation = 0.7
                 fig.yaxis.ticker.desired_num_ticks = 3
                 if i == j:
                     fig.y_range = self.hist_ranges[xname] = Range1d(0.0, 1.0)

@@ -13,6 +13,7 @@ import numpy as np
 from bokeh.models import ColumnDataSource, Range1d, Span
 from bokeh.plotting import figure
 
+from dashboard.outputs.beam import effect_title as _title
 from dashboard.plots.timeseries import COLORS
 
 __all__ = ["DiagnosisPlots"]
@@ -21,9 +22,11 @@ UM = 1e6
 
 
 def _fig(title: str, x: str, y: str, **kw):
-    fig = figure(height=260, sizing_mode="stretch_width", title=title, tools="pan,wheel_zoom,box_zoom,reset,save",
-                 toolbar_location="above", **kw)
+    fig = figure(height=270, sizing_mode="stretch_width", title=title, tools="pan,wheel_zoom,box_zoom,reset,save",
+                 toolbar_location="above", min_border_left=40, **kw)
     fig.xaxis.axis_label, fig.yaxis.axis_label = x, y
+    fig.title.text_font_size = "11pt"
+    fig.xaxis.ticker.desired_num_ticks = 5
     return fig
 
 
@@ -46,33 +49,40 @@ class DiagnosisPlots:
             "backbone": ColumnDataSource(_empty("a", "f", "lo", "hi")),
             "ladder": ColumnDataSource(_empty("rung", "label", "rmse", "coverage", "bottom"), name="diag-ladder"),
         }
-        self.residual = _fig("Residual (data − model mean) with the 95 % prediction band; exceedances red",
-                             "Time (s)", "Residual (µm)")
+        #: Titles are short (they are drawn on the canvas and would be cut, not wrapped, in a
+        #: narrow column); the verdicts in words are HTML under the plots.
+        self.residual = _fig("Residual: data − model mean", "Time (s)", "Residual (µm)")
         self.residual.quad(left="left", right="right", bottom="bottom", top="top", source=s["intervals"],
                            color="#d62728", alpha=0.12, legend_label="exceedance intervals")
         self.residual.varea("t", "lo", "hi", source=s["band"], color=COLORS["prediction"], alpha=0.45,
                             legend_label="95 % prediction band")
         self.residual.line("t", "r", source=s["residual"], color=COLORS["calibration"], legend_label="residual")
         self.residual.scatter("t", "r", source=s["outside"], color="#d62728", size=3, legend_label="outside the band")
-        self.spectrum = _fig("Spectra (Welch): residual vs data, model modes dashed", "Frequency (Hz)",
+        # after Reveal: ± 1.96 × the true noise sd (where a right model's residual stays)
+        self.true_noise = [Span(dimension="width", location=0.0, line_dash="dotted", line_width=2,
+                                line_color=COLORS["truth"], visible=False) for _ in range(2)]
+        for span in self.true_noise:
+            self.residual.add_layout(span)
+        self.spectrum = _fig("Spectra of data and residual", "Frequency (Hz)",
                              "PSD (m²/Hz)", y_axis_type="log")
         self.spectrum.line("f", "data", source=s["psd"], color="#7f7f7f", legend_label="data")
         self.spectrum.line("f", "residual", source=s["psd"], color="#d62728", legend_label="residual")
         self.spectrum.segment("f", "y0", "f", "y1", source=s["modes"], color=COLORS["truth"], line_dash="dashed",
                               legend_label="model natural frequencies")
-        self.acf = _fig("Residual autocorrelation (window) with ±1.96/√n", "Lag (s)", "Autocorrelation (1)")
+        self.acf = _fig("Residual autocorrelation (window)", "Lag (s)", "Autocorrelation")
         self.acf.vbar(x="lag", top="acf", width=0.0, source=s["acf"], line_color=COLORS["calibration"])
         self.acf.scatter("lag", "acf", source=s["acf"], size=2, color=COLORS["calibration"])
         self.acf_band = [Span(dimension="width", location=v, line_dash="dashed", line_color="#d62728") for v in (0.0, 0.0)]
         for span in self.acf_band:
             self.acf.add_layout(span)
-        self.backbone = _fig("Backbone of mode 1: instantaneous frequency vs amplitude", "Amplitude (µm)",
+        self.backbone = _fig("Mode 1: frequency vs amplitude", "Amplitude (µm)",
                              "Frequency (Hz)")
         self.backbone.segment("a", "lo", "a", "hi", source=s["backbone"], color="#7f7f7f")
         self.backbone.line("a", "f", source=s["backbone"], color=COLORS["mean"])
         self.backbone.scatter("a", "f", source=s["backbone"], color=COLORS["mean"], size=6)
-        self.ladder = _fig("Error ladder: held-out RMSE (bars, µm) per rung", "Rung (effects added)",
-                           "Held-out RMSE (µm)", x_range=Range1d(-0.6, 3.6), y_axis_type="log")
+        self.ladder = _fig("Held-out error per step", "Effect added", "Held-out error (µm)",
+                           x_range=Range1d(-0.6, 3.6), y_axis_type="log")
+        self.ladder.css_classes = ["diag-ladder-plot"]  # found by the layout tests
         self.ladder.vbar(x="rung", top="rmse", bottom="bottom", width=0.6, source=s["ladder"], color=COLORS["mean"], alpha=0.7)
         self.ladder.text(x="rung", y="rmse", text="label", source=s["ladder"], text_font_size="8pt", text_align="center",
                          text_baseline="top", y_offset=4)
@@ -114,17 +124,20 @@ class DiagnosisPlots:
         lag = w.lag_s if np.all(np.isfinite(w.lag_s)) else w.lags.astype(float)
         s["acf"].data = {"lag": lag, "acf": w.acf}
         self.acf_band[0].location, self.acf_band[1].location = float(w.band), -float(w.band)
-        self.acf.title.text = (f"Residual autocorrelation (window), ±1.96/√n = ±{w.band:.3f}; Ljung–Box p = "
-                               f"{w.p_value:.2g} ({'white' if w.white else 'NOT white'})")
         bb = rep.mode1.backbone if rep.mode1 is not None else None
         if bb is None:
             s["backbone"].data = _empty("a", "f", "lo", "hi")
-            self.backbone.title.text = "Backbone of mode 1: not available on this record (no free decay)"
+            self.backbone.title.text = "Mode 1: no free decay on this record"
         else:
             s["backbone"].data = {"a": bb.amplitude_m * UM, "f": bb.frequency_Hz, "lo": bb.frequency_Hz - bb.frequency_std_Hz,
                                   "hi": bb.frequency_Hz + bb.frequency_std_Hz}
-            self.backbone.title.text = (f"Backbone of mode 1: {bb.verdict} (frequency shift {100 * bb.relative_shift:+.2f} % "
-                                        "over the amplitudes seen)")
+            self.backbone.title.text = "Mode 1: frequency vs amplitude"
+
+    def show_true_noise(self, noise_m: float | None) -> None:
+        """Mark ± 1.96 × the true noise sd on the residual plot (after Reveal; None hides the lines)."""
+        for span, sign in zip(self.true_noise, (1.0, -1.0)):
+            span.visible = noise_m is not None
+            span.location = sign * 1.959964 * (noise_m or 0.0) * UM
 
     def update_ladder(self, rungs: list[dict]) -> None:
         """Show the error ladder rows (:func:`dashboard.state.beam.ladder_rung`)."""
@@ -132,9 +145,10 @@ class DiagnosisPlots:
         bottom = min(rmse, default=1.0) / 4
         self.sources["ladder"].data = {
             "rung": [r["rung"] for r in rungs], "bottom": [bottom] * len(rungs),
-            "label": [f"{r['rmse_prediction_um']:.3g} µm, {r['coverage95_pct']:.0f} %" for r in rungs],
+            "label": [f"{r['rmse_prediction_um']:.3g} µm" for r in rungs],
             "rmse": rmse,
             "coverage": [r["coverage95_pct"] for r in rungs]}
         self.ladder.x_range.update(start=-0.6, end=max(len(rungs), 4) - 0.4)
-        self.ladder.xaxis.major_label_overrides = {r["rung"]: r["added"] for r in rungs}
+        self.ladder.xaxis.major_label_overrides = {r["rung"]: "start" if r["rung"] == 0 else _title(r["added"])
+                                                   for r in rungs}
         self.ladder.xaxis.ticker = [r["rung"] for r in rungs] or [0]

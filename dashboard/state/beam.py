@@ -12,7 +12,8 @@ own run slot: a new request cancels the previous one of the same activity only.
 :class:`DiagnosisState`
     Diagnosis of the beam view's current model (residuals, ranked candidates), the error
     ladder (one rung per effect added with :meth:`DiagnosisState.add`, each a full MCMC
-    re-calibration of the beam view) and the revealed answer of a bundled dataset.
+    re-calibration of the beam view, after which the diagnosis re-runs for the new model) and the
+    revealed answer of a bundled dataset.
 """
 
 from __future__ import annotations
@@ -283,6 +284,7 @@ class DiagnosisState(_Runs):
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
+        self._ladder_key: tuple | None = None
         self.beam.param.watch(self._beam_final, "final")
         self.beam.param.watch(self._dataset_changed, "dataset")
         self.beam.param.watch(self._beam_failed, "error")
@@ -324,7 +326,17 @@ class DiagnosisState(_Runs):
             else:
                 self.param.update(stage="final", error="", diagnosis=update.value, shown=update.request,
                                   progress=1.0, status=f"{update.message}: ready in {update.elapsed_s:.1f} s",
-                                  ladder=[self._base_rung(update.value)], adding="")
+                                  ladder=self._ladder_for(update.value), adding="")
+
+    def _ladder_for(self, diagnosis) -> list[dict]:
+        """The ladder kept when ``diagnosis`` is of its top rung's model (the re-diagnosis after
+        :meth:`add`), else a new ladder from ``diagnosis``'s model."""
+        k = diagnosis.key
+        if self.ladder and self._ladder_key == (k.dataset, k.window, k.modes) and \
+                self.ladder[-1]["effects"] == ", ".join(k.effects):
+            return list(self.ladder)
+        self._ladder_key = (k.dataset, k.window, k.modes)
+        return [self._base_rung(diagnosis)]
 
     def _base_rung(self, diagnosis) -> dict:
         final, key = self.beam.final, self.beam.final_key
@@ -351,6 +363,7 @@ class DiagnosisState(_Runs):
             self.param.update(ladder=rungs + [ladder_rung(event.new, self.adding, len(rungs))], adding="",
                               status=f"added {self.adding}: held-out RMSE "
                                      f"{_um(event.new.rmse_prediction)} µm")
+        self.request()  # every view of the diagnosis (residuals, spectra, modes, candidates) for the new model
 
     def reveal(self) -> dict | None:
         """The hidden effects and true parameters of a bundled dataset (None for an upload)."""

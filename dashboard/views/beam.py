@@ -9,7 +9,6 @@ when its tab is first opened and rebuilt when the set of parameters changes.
 from __future__ import annotations
 
 import html
-import math
 
 import panel as pn
 import param
@@ -20,7 +19,15 @@ from dashboard.plots.beam import BeamTimeSeriesPlot
 from dashboard.plots.corner import CornerPlot
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
-from dashboard.views.panes import Markdown, alert_html, status_html
+from dashboard.views.panes import (
+    BUTTON_WRAP,
+    FLEX_ITEM_GUIDE,
+    FLEX_ITEM_INPUTS,
+    FLEX_ITEM_MAIN,
+    Markdown,
+    alert_html,
+    status_html,
+)
 from dashboard.views.texts import BEAM_GUIDE
 
 __all__ = ["BeamCalibrationView"]
@@ -33,20 +40,58 @@ _STAGE_TEXT = {
     "final": "Posterior (MCMC) shown.",
     "error": "Could not calibrate with these inputs.",
 }
-_READOUTS = (
-    ("rmse_calibration_um", "RMSE in the window (µm)", "{value:.4g}", None),
-    ("rmse_prediction_um", "Held-out RMSE (µm)", "{value:.4g}", None),
-    ("coverage_pct", "Held-out coverage, 95 % band (%)", "{value:.1f} %", [(85.0, "#d62728"), (101.0, "#2ca02c")]),
-    ("noise_sd_um", "Estimated noise sd (µm)", "{value:.3g}", None),
-)
+#: Colour of a read-out's number by its judgement (:func:`dashboard.outputs.beam.judged_readouts`).
+KIND_COLOURS = {"good": "#1a7f37", "bad": "#c62828", "warn": "#a35200", "none": "#212529"}
+
+def readouts_html(items: list[dict], true_noise_m: float | None = None) -> str:
+    """The read-outs as one HTML block: a big number (for a projector), its label, and a line in
+    words on what the number means for this model (see :func:`dashboard.outputs.beam.judged_readouts`).
+
+    The boxes wrap onto more rows when the column is narrow (CSS flex-wrap), so no read-out
+    overprints its neighbour whatever the window width."""
+    boxes = []
+    for it in items:
+        extra = ""
+        if it["key"] == "noise_sd_um" and true_noise_m is not None:
+            extra = f'<div class="truth" style="color:#2ca02c;font-weight:600">true: {bs.fmt_um(1e6 * true_noise_m)} µm</div>'
+        boxes.append(
+            f'<div class="readout beam-cal-{it["key"].replace("_", "-")}" data-kind="{it["kind"]}" '
+            f'title="{html.escape(it["gloss"])}" style="flex:1 1 170px;padding:2px 6px;">'
+            f'<div class="label" style="font-size:11pt;color:#444;">{html.escape(it["label"])}</div>'
+            f'<div class="number" style="font-size:28pt;line-height:1.15;font-weight:600;color:{KIND_COLOURS[it["kind"]]};'
+            f'white-space:nowrap;">{html.escape(it["value"])}<span style="font-size:14pt;font-weight:400;"> '
+            f'{html.escape(it["unit"])}</span></div>'
+            f'<div class="words" style="font-size:10pt;color:#333;line-height:1.25;">{html.escape(it["words"])}</div>'
+            f"{extra}</div>")
+    return f'<div class="beam-readouts" style="display:flex;flex-wrap:wrap;gap:6px 12px;">{"".join(boxes)}</div>'
+
+
+def convergence_html(result) -> str:
+    """The convergence notice in words: grey preview, green converged, yellow not."""
+    c = bs.convergence(result)
+    if result is None:
+        return alert_html("secondary", "No result yet.")
+    if not c["mcmc"]:
+        return alert_html("secondary", "Preview: the single best fit (MAP) with a quick error estimate; the full "
+                                       "posterior (MCMC draws) follows, and is checked then.")
+    head = "Converged" if c["converged"] else "<b>Not converged</b> — read the posterior with care"
+    warn = html.escape("; " + "; ".join(c["warnings"])) if c["warnings"] else ""
+    body = (f"{head}: the chains agree (R-hat {c['rhat_max']:.3f}; 1.01 or less is agreement) and are worth "
+            f"{c['ess_min']:,.0f} independent draws (ESS; at least 1,000 wanted){warn}.")
+    return alert_html("success" if c["converged"] else "warning", body)
 
 
 class _Draws:
     """What :class:`CornerPlot` reads from a result: ``draws`` (dict) and ``truth`` (dict)."""
 
-    def __init__(self, result) -> None:
-        self.draws, self.truth = bs.thinned_draws(result), {}
+    def __init__(self, result, truth: dict | None = None) -> None:
+        self.draws = bs.thinned_draws(result)
+        self.truth = {k: v for k, v in (truth or {}).items() if k in self.draws}
 
+
+
+def _true_noise(answer: dict | None) -> float | None:
+    return None if answer is None else answer.get("noise_m")
 
 
 class BeamCalibrationView(pn.viewable.Viewer):
@@ -102,10 +147,12 @@ class BeamCalibrationView(pn.viewable.Viewer):
         if self._built:
             return
         self._built = True
-        self._left = pn.Column(width=320)
-        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600)
-        self._right = pn.Column(width=320)
-        self._layout[:] = [pn.Row(self._left, self._centre, self._right, sizing_mode="stretch_width")]
+        self._left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS, css_classes=["beam-inputs"])
+        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN,
+                                 css_classes=["beam-main"])
+        self._right = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=["beam-guide"])
+        self._layout[:] = [pn.FlexBox(self._left, self._centre, self._right, flex_wrap="wrap",
+                                      align_items="flex-start", sizing_mode="stretch_width")]
         run_steps([self._build_status, self._build_figure, self._build_plot, self._build_inputs, self._build_side,
                    self._build_tabs])
 
@@ -120,26 +167,33 @@ class BeamCalibrationView(pn.viewable.Viewer):
         self._plot.update(beam.result, beam.pinned)
         beam.param.watch(lambda e: self._plot.update(beam.result, beam.pinned), ["result", "pinned"])
         beam.param.watch(lambda e: self._plot.show_measurement(e.new), "measurement")
+        d = self.session.diagnosis
+        d.param.watch(lambda e: self._plot.show_true_noise(_true_noise(e.new)), "answer")
+        self._plot.show_true_noise(_true_noise(d.answer))
 
     def _build_plot(self) -> None:
-        self._centre.append(pn.pane.Bokeh(self._plot.figure, sizing_mode="stretch_width", height=390))
+        self._centre.append(pn.pane.Bokeh(self._plot.figure, sizing_mode="stretch_width", height=420))
 
     def _build_inputs(self) -> None:
         self._left.extend([self._dataset_card(), self._controls()])
 
     def _build_side(self) -> None:
-        self._left.extend([self._compare_buttons(), self._downloads()])
-        self._right.append(Markdown(BEAM_GUIDE, sizing_mode="stretch_width"))
+        self._left.extend([self._compare_buttons(), self._reveal(), self._downloads()])
+        self._right.append(pn.Card(Markdown(BEAM_GUIDE, sizing_mode="stretch_width"), title="For the class",
+                                   collapsible=True, collapsed=False, sizing_mode="stretch_width",
+                                   css_classes=["beam-class-guide"]))
 
     def _build_tabs(self) -> None:
         beam = self._beam
         self._corner: CornerPlot | None = None
         self._posterior_tab = pn.Column(Markdown(
-            "Posterior draws: marginals on the diagonal, pairs below (blue; pinned result purple).", margin=(0, 10)),
+            "Posterior draws (the parameter values that fit the data): each parameter alone on the diagonal, "
+            "pairs below — blue current, grey pinned, green the truth after *Reveal*.", margin=(0, 10)),
             sizing_mode="stretch_width")
         self._tabs = pn.Tabs(
-            ("Parameters", pn.pane.DataFrame(pn.bind(bs.parameter_table, beam.param.result), sizing_mode="stretch_width",
-                                             escape=True, css_classes=["beam-parameter-table"])),
+            ("Parameters", pn.pane.DataFrame(pn.bind(bs.truth_table, beam.param.result, self.session.diagnosis.param.answer),
+                                             sizing_mode="stretch_width", escape=True,
+                                             css_classes=["beam-parameter-table"])),
             ("Posterior: marginals and pairs", self._posterior_tab),
             ("Correlations", pn.pane.DataFrame(pn.bind(bs.correlation_table, beam.param.result), escape=True)),
             ("Compare table", pn.pane.DataFrame(pn.bind(bs.compare_table, beam.param.result, beam.param.pinned),
@@ -147,6 +201,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
             dynamic=True, sizing_mode="stretch_width")
         self._tabs.param.watch(self._tab_opened, "active")
         beam.param.watch(self._update_corner, ["result", "pinned"])
+        self.session.diagnosis.param.watch(self._update_corner, "answer")
         self._centre.append(self._tabs)
 
     def activate(self) -> None:
@@ -193,7 +248,8 @@ class BeamCalibrationView(pn.viewable.Viewer):
 
         bounds()
         beam.param.watch(bounds, "measurement")
-        modes = pn.widgets.IntSlider.from_param(beam.param.modes, sizing_mode="stretch_width", css_classes=["beam-modes"])
+        modes = pn.widgets.IntSlider.from_param(beam.param.modes, name="Number of modes", sizing_mode="stretch_width",
+                                                css_classes=["beam-modes"])
         options = beam.effect_options()
         effects = pn.widgets.CheckBoxGroup(options=options, value=list(beam.effects), inline=False,
                                            css_classes=["beam-effects"])
@@ -202,7 +258,8 @@ class BeamCalibrationView(pn.viewable.Viewer):
         beam.param.watch(lambda e: setattr(effects, "value", list(e.new)) if list(e.new) != effects.value else None,
                          "effects")
         likelihood = pn.widgets.Select.from_param(beam.param.likelihood, sizing_mode="stretch_width")
-        return pn.Card(window, modes, Markdown("**Effects in the model** (besides EI in N m² and k_p in N m/V)",
+        return pn.Card(window, modes, Markdown("**Effects in the model** (besides the beam's stiffness EI and the "
+                                               "patch's drive k_p)",
                                                        margin=(5, 10, 0, 10)),
                        effects, likelihood, title="Model and calibration", collapsible=False, sizing_mode="stretch_width")
 
@@ -228,33 +285,32 @@ class BeamCalibrationView(pn.viewable.Viewer):
                               visible=pn.bind(bool, p.error), sizing_mode="stretch_width", css_classes=["beam-cal-error"])
         return pn.Column(status, bar, alert, sizing_mode="stretch_width")
 
-    def _readouts(self) -> pn.Row:
-        values = pn.bind(bs.readouts, self._beam.param.result)
-        items = []
-        for key, label, fmt, colors in _READOUTS:
-            value = pn.bind(lambda v, k=key: v[k] if math.isfinite(v[k]) else float("nan"), values)
-            items.append(pn.indicators.Number(label=label, value=value, format=fmt, colors=colors, font_size="22pt",
-                                              title_size="10pt", nan_format="–", margin=(0, 12),
-                                              css_classes=[f"beam-cal-{key.replace('_', '-')}"]))
-        return pn.Row(*items, sizing_mode="stretch_width")
+    def _readouts(self) -> pn.pane.HTML:
+        """The read-outs, judged against the model (one HTML pane whose text changes: cheap in the browser)."""
+        def text(result, answer):
+            return readouts_html(bs.judged_readouts(result), _true_noise(answer))
+
+        return pn.pane.HTML(pn.bind(text, self._beam.param.result, self.session.diagnosis.param.answer),
+                            sizing_mode="stretch_width", margin=(4, 10), css_classes=["beam-cal-readouts"])
 
     def _convergence(self) -> pn.pane.HTML:
-        """Convergence notice: grey for a preview, green converged, yellow not (one HTML pane
-        whose text changes: see :func:`dashboard.views.panes.alert_html`)."""
-        def notice(result):
-            c = bs.convergence(result)
-            if result is None:
-                return alert_html("secondary", "No result yet.")
-            if not c["mcmc"]:
-                return alert_html("secondary", "Preview (MAP + Laplace): the MCMC posterior follows; convergence is "
-                                               "checked then.")
-            head = "Converged" if c["converged"] else "<b>Not converged</b> — read the posterior with care"
-            warn = html.escape("; " + "; ".join(c["warnings"])) if c["warnings"] else ""
-            body = f"{head}: min bulk ESS {c['ess_min']:.0f} (target ≥ 1000), max R-hat {c['rhat_max']:.4f} (≤ 1.01){warn}."
-            return alert_html("success" if c["converged"] else "warning", body)
-
-        return pn.pane.HTML(pn.bind(notice, self._beam.param.result), sizing_mode="stretch_width",
+        """Convergence notice (one HTML pane whose text changes: see :func:`dashboard.views.panes.alert_html`)."""
+        return pn.pane.HTML(pn.bind(convergence_html, self._beam.param.result), sizing_mode="stretch_width",
                             margin=(0, 10), css_classes=["beam-convergence"])
+
+    def _reveal(self) -> pn.Card:
+        d, beam = self.session.diagnosis, self._beam
+        button = pn.widgets.Button(label="Reveal the true values", color="warning", sizing_mode="stretch_width",
+                                   css_classes=["beam-reveal"], stylesheets=BUTTON_WRAP,
+                                   disabled=pn.bind(lambda name, uploads: name in uploads, beam.param.dataset,
+                                                    beam.param.uploads))
+        button.on_click(lambda e: d.reveal())
+        note = Markdown(pn.bind(lambda a: "True values shown in green: *Parameters* table, pair plot, and the true "
+                                          "noise around the model mean." if a is not None else
+                                          "Bundled records only: shows what the record was simulated with.",
+                                d.param.answer), margin=(0, 10))
+        return pn.Card(button, note, title="Answer (for the teacher)", collapsible=True, collapsed=True,
+                       sizing_mode="stretch_width")
 
     def _tab_opened(self, event) -> None:
         if event.new == 1 and self._corner is None:
@@ -274,7 +330,9 @@ class BeamCalibrationView(pn.viewable.Viewer):
             grid = pn.GridBox(*cells, ncols=len(names), sizing_mode="fixed")
             self._posterior_tab[:] = [self._posterior_tab[0], grid]
         pinned = beam.pinned if beam.pinned is not None and tuple(bs.summary(beam.pinned)) == names else None
-        self._corner.update(_Draws(beam.result), _Draws(pinned) if pinned is not None else None)
+        answer = self.session.diagnosis.answer
+        self._corner.update(_Draws(beam.result, answer["parameters"] if answer else None),
+                            _Draws(pinned) if pinned is not None else None)
 
     def _compare_buttons(self) -> pn.Card:
         beam = self._beam
@@ -284,7 +342,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
                                   disabled=pn.bind(lambda r: r is None, beam.param.pinned))
         pin.on_click(lambda e: beam.pin())
         unpin.on_click(lambda e: beam.unpin())
-        note = Markdown(pn.bind(lambda r: "Pinned result drawn in purple; see *Compare table*." if r is not None
+        note = Markdown(pn.bind(lambda r: "Pinned result drawn in grey; see *Compare table*." if r is not None
                                         else "Pin a result, then change an input to compare.", beam.param.pinned))
         return pn.Card(pin, unpin, note, title="Compare", collapsible=False, sizing_mode="stretch_width")
 

@@ -15,11 +15,24 @@ import pandas as pd
 import panel as pn
 import param
 
-from dashboard.outputs.beam import parameter_label
+from dashboard.outputs import beam as bs
+from dashboard.outputs.beam import (
+    effect_title,
+    evidence_words,
+    fmt_pct,
+    fmt_um,
+    parameter_label,
+)
 from dashboard.plots.diagnosis import DiagnosisPlots
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
-from dashboard.views.panes import Markdown, status_html
+from dashboard.views.panes import (
+    BUTTON_WRAP,
+    FLEX_ITEM_GUIDE,
+    FLEX_ITEM_MAIN,
+    Markdown,
+    status_html,
+)
 from dashboard.views.texts import DIAGNOSIS_GUIDE
 
 __all__ = ["DiagnosisView", "ladder_table", "modes_table"]
@@ -42,10 +55,17 @@ def modes_table(diagnosis) -> pd.DataFrame:
     def f(v, scale=1.0, fmt="{:.4g}"):
         return fmt.format(v * scale) if math.isfinite(v) else "–"
 
+    def off(v, digits):
+        if not math.isfinite(v):
+            return "–"
+        if round(abs(v), digits) == 0:
+            return "matches"
+        return f"{abs(v):.{digits}f} % {'high' if v > 0 else 'low'}"
+
     return pd.DataFrame([{
-        "mode": m.mode, "data f (Hz)": f(m.frequency_data_Hz), "model f (Hz)": f(m.frequency_model_Hz),
-        "f error (%)": f(m.frequency_error_pct, fmt="{:+.2f}"), "data ζ (%)": f(m.damping_data, 100, "{:.3g}"),
-        "model ζ (%)": f(m.damping_model, 100, "{:.3g}"), "ζ error (%)": f(m.damping_error_pct, fmt="{:+.0f}"),
+        "mode": m.mode, "measured f (Hz)": f(m.frequency_data_Hz), "model f (Hz)": f(m.frequency_model_Hz),
+        "model f is": off(m.frequency_error_pct, 1), "measured damping ζ (%)": f(m.damping_data, 100, "{:.2g}"),
+        "model ζ (%)": f(m.damping_model, 100, "{:.2g}"), "model ζ is": off(m.damping_error_pct, 0),
     } for m in diagnosis.residuals.comparison]).set_index("mode")
 
 
@@ -54,11 +74,10 @@ def ladder_table(rungs: list[dict]) -> pd.DataFrame:
     if not rungs:
         return pd.DataFrame()
     return pd.DataFrame([{
-        "rung": r["rung"], "added": r["added"], "effects": r["effects"],
-        "held-out RMSE (µm)": f"{r['rmse_prediction_um']:.4g}", "RMSE in window (µm)": f"{r['rmse_calibration_um']:.4g}",
-        "held-out coverage (%)": f"{r['coverage95_pct']:.1f}", "log evidence, Laplace (nats)": f"{r['log_evidence_laplace']:.1f}",
-        "posterior": "MCMC" if r["mcmc"] else "preview",
-    } for r in rungs]).set_index("rung")
+        "step": r["rung"], "added": "(starting model)" if r["rung"] == 0 else effect_title(r["added"]),
+        "held-out error (µm)": fmt_um(r["rmse_prediction_um"]), "in the 95 % band (%)": fmt_pct(r["coverage95_pct"]),
+        "posterior": "full (MCMC)" if r["mcmc"] else "preview",
+    } for r in rungs]).set_index("step")
 
 
 class DiagnosisView(pn.viewable.Viewer):
@@ -102,9 +121,11 @@ class DiagnosisView(pn.viewable.Viewer):
         if self._built:
             return
         self._built = True
-        self._main = pn.Column(sizing_mode="stretch_width", min_height=600)
-        self._side = pn.Column(width=340)
-        self._layout[:] = [pn.Row(self._main, self._side, sizing_mode="stretch_width")]
+        self._main = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN,
+                               css_classes=["diag-main"])
+        self._side = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=["diag-guide"])
+        self._layout[:] = [pn.FlexBox(self._main, self._side, flex_wrap="wrap", align_items="flex-start",
+                                      sizing_mode="stretch_width")]
         run_steps([self._build_figures, self._build_head, self._build_ladder, self._build_residuals, self._build_modes,
                    self._build_side])
 
@@ -116,6 +137,9 @@ class DiagnosisView(pn.viewable.Viewer):
         self._plots.update_ladder(d.ladder)
         d.param.watch(lambda e: self._plots.update(e.new), "diagnosis")
         d.param.watch(lambda e: self._plots.update_ladder(e.new), "ladder")
+        noise = lambda answer: None if answer is None else answer.get("noise_m")
+        self._plots.show_true_noise(noise(d.answer))
+        d.param.watch(lambda e: self._plots.show_true_noise(noise(e.new)), "answer")
 
     def _build_head(self) -> None:
         d, beam = self._diag, self.session.beam
@@ -125,35 +149,52 @@ class DiagnosisView(pn.viewable.Viewer):
         run = pn.widgets.Button(label="Diagnose the current model", color="primary", css_classes=["diag-run"])
         run.on_click(lambda e: d.request())
         stale = Markdown(pn.bind(self._stale, d.param.diagnosis, beam.param.result), margin=(0, 10))
-        verdict = Markdown(pn.bind(lambda x: f"**Verdict:** {x.verdict}" if x is not None else "",
-                                           d.param.diagnosis), css_classes=["diag-verdict"], sizing_mode="stretch_width")
+        verdict = Markdown(pn.bind(bs.verdict_text, d.param.diagnosis), css_classes=["diag-verdict"],
+                           sizing_mode="stretch_width", styles={"font-size": "13pt"})
         self._show_candidates()
-        self._main.extend([self._status(), pn.Row(run, stale), verdict,
+        self._main.extend([self._status(), pn.Row(run, stale, sizing_mode="stretch_width"), verdict,
                            Markdown("### Candidate effects (best first)", margin=(0, 10)), self._candidates])
 
     @staticmethod
-    def _plot(fig) -> pn.pane.Bokeh:
-        return pn.pane.Bokeh(fig, sizing_mode="stretch_width", height=270)
+    def _plot(fig, **kw) -> pn.pane.Bokeh:
+        return pn.pane.Bokeh(fig, sizing_mode="stretch_width", height=280, **kw)
+
+    @staticmethod
+    def _pair(*items, basis_px: int = 380) -> pn.FlexBox:
+        """Two panes side by side when each has ``basis_px`` of room, one above the other when not."""
+        for item in items:
+            item.styles = {"flex": f"1 1 {basis_px}px", "min-width": "0"}
+        return pn.FlexBox(*items, flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width")
 
     def _build_ladder(self) -> None:
+        table = pn.pane.DataFrame(pn.bind(ladder_table, self._diag.param.ladder), escape=True,
+                                  sizing_mode="stretch_width", css_classes=["diag-ladder-table"])
         self._main.extend([
-            Markdown("### Error ladder", margin=(0, 10)),
-            pn.Row(pn.pane.DataFrame(pn.bind(ladder_table, self._diag.param.ladder), escape=True, width=560,
-                                     css_classes=["diag-ladder-table"]), self._plot(self._plots.ladder))])
+            Markdown("### Error ladder: one step per effect added", margin=(0, 10)),
+            self._pair(table, self._plot(self._plots.ladder))])
 
     def _build_residuals(self) -> None:
-        p = self._plots
-        self._main.extend([self._plot(p.residual),
-                           pn.Row(self._plot(p.spectrum), self._plot(p.acf), sizing_mode="stretch_width")])
+        p, d = self._plots, self._diag
+        whiteness = Markdown(pn.bind(_whiteness_text, d.param.diagnosis), margin=(0, 10), sizing_mode="stretch_width",
+                             css_classes=["diag-whiteness"])
+        self._main.extend([Markdown("### Where the model fails", margin=(0, 10)), self._plot(p.residual),
+                           self._pair(self._plot(p.spectrum), pn.Column(self._plot(p.acf), whiteness,
+                                                                       sizing_mode="stretch_width"))])
 
     def _build_modes(self) -> None:
-        self._main.append(pn.Row(
-            pn.Column(Markdown("**Modes: data (identified from the free decay) vs model**"),
-                      pn.pane.DataFrame(pn.bind(modes_table, self._diag.param.diagnosis), escape=True)),
-            self._plot(self._plots.backbone), sizing_mode="stretch_width"))
+        self._main.append(self._pair(
+            pn.Column(Markdown("**Modes: measured in the free decay vs the model**"),
+                      pn.pane.DataFrame(pn.bind(modes_table, self._diag.param.diagnosis), escape=True,
+                                        sizing_mode="stretch_width", css_classes=["diag-modes-table"]),
+                      sizing_mode="stretch_width"),
+            pn.Column(self._plot(self._plots.backbone), Markdown(pn.bind(_backbone_text, self._diag.param.diagnosis),
+                                                                 margin=(0, 10), sizing_mode="stretch_width"),
+                      sizing_mode="stretch_width"), basis_px=560))  # the modes table has seven columns
 
     def _build_side(self) -> None:
-        self._side.extend([Markdown(DIAGNOSIS_GUIDE, sizing_mode="stretch_width"), self._reveal()])
+        self._side.extend([pn.Card(Markdown(DIAGNOSIS_GUIDE, sizing_mode="stretch_width"), title="For the class",
+                                   collapsible=True, collapsed=False, sizing_mode="stretch_width",
+                                   css_classes=["diag-class-guide"]), self._reveal()])
 
     def activate(self) -> None:
         """Build the view and diagnose the beam view's model (called when the tab is first opened)."""
@@ -190,16 +231,21 @@ class DiagnosisView(pn.viewable.Viewer):
             self._candidates[:] = []
             return
         cards = []
+        now_um = 1e6 * diagnosis.base.rmse_prediction_map
         for c in diagnosis.candidates:
             present = c.effect in beam.effects
-            button = pn.widgets.Button(label=f"Add {c.effect}" if not present else f"{c.effect} is in the model",
-                                       color="success" if c.material else "default", width=200,
-                                       disabled=present or bool(d.adding), css_classes=[f"diag-add-{c.effect}"])
+            title = effect_title(c.effect)
+            button = pn.widgets.Button(label=f"Add {title}" if not present else f"{title} is in the model",
+                                       color="success" if c.material else "default", width=230,
+                                       stylesheets=BUTTON_WRAP, disabled=present or bool(d.adding),
+                                       css_classes=[f"diag-add-{c.effect}"])
             button.on_click(lambda e, effect=c.effect: d.add(effect))
-            evidence = f"{c.delta_log_evidence:+.1f}" if math.isfinite(c.delta_log_evidence) else "fit failed"
+            after_um = 1e6 * c.rmse_prediction
             params = "; ".join(f"{parameter_label(n)} = {s['mean']:.3g}" for n, s in c.parameters.items())
-            text = (f"**{c.effect}**{' — materially better' if c.material else ''}: Δ log evidence {evidence} nats, "
-                    f"held-out RMSE {1e6 * c.rmse_prediction:.3g} µm, coverage {100 * c.coverage95_prediction:.0f} %"
+            text = (f"**{title}**{' — materially better' if c.material else ''}<br>"
+                    f"held-out error {fmt_um(after_um)} µm ({bs.change_words(after_um, now_um)} than now), "
+                    f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
+                    f"<span title='{bs.GLOSSES['log evidence']}'>{evidence_words(c.delta_log_evidence)}</span>"
                     f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
             cards.append(pn.Row(button, Markdown(text, sizing_mode="stretch_width", margin=(0, 10)),
                                 sizing_mode="stretch_width"))
@@ -210,6 +256,7 @@ class DiagnosisView(pn.viewable.Viewer):
     def _reveal(self) -> pn.Card:
         d = self._diag
         button = pn.widgets.Button(label="Reveal the hidden effect", color="warning", css_classes=["diag-reveal"],
+                                   stylesheets=BUTTON_WRAP,
                                    disabled=pn.bind(lambda name: name in self.session.beam.uploads,
                                                     self.session.beam.param.dataset))
         button.on_click(lambda e: d.reveal())
@@ -218,8 +265,36 @@ class DiagnosisView(pn.viewable.Viewer):
             if answer is None:
                 return "Bundled datasets only: shows the effects and parameters the record was simulated with."
             params = "<br>".join(f"{parameter_label(k)}: {v:.4g}" for k, v in answer["parameters"].items())
-            return f"**Simulated with:** {', '.join(answer['effects'])}<br>{params}"
+            noise = (f"<br>Sensor noise sd: {fmt_um(1e6 * answer['noise_m'])} µm (green dotted lines on the residual)"
+                     if answer.get("noise_m") is not None else "")
+            return (f"**Simulated with:** {', '.join(effect_title(e) for e in answer['effects'])}<br>{params}{noise}"
+                    "<br>The *Parameters* tab of the beam view sets them beside the posterior.")
 
         return pn.Card(button, Markdown(pn.bind(text, d.param.answer, self.session.beam.param.dataset),
                                                 css_classes=["diag-answer"]),
                        title="Answer (for the teacher)", collapsible=True, collapsed=False)
+
+
+def _whiteness_text(diagnosis) -> str:
+    """The Ljung–Box result in words (under the autocorrelation plot)."""
+    if diagnosis is None:
+        return ""
+    w = diagnosis.residuals.whiteness
+    p = bs._p(w.p_value)
+    if w.white:
+        return f"Ljung–Box p = {p} (≥ 0.05): the residual looks like **white noise**, as for a right model."
+    return (f"Ljung–Box p = {p} (< 0.05): the residual is **not white noise** — the misfit has structure the "
+            "model does not explain.")
+
+
+def _backbone_text(diagnosis) -> str:
+    """The backbone verdict in words (under the backbone plot)."""
+    if diagnosis is None:
+        return ""
+    m1 = diagnosis.residuals.mode1
+    bb = m1.backbone if m1 is not None else None
+    if bb is None:
+        return "No backbone on this record (no free decay to measure it on)."
+    shift = 100 * bb.relative_shift
+    change = "does not change" if abs(shift) < 0.05 else f"changes by {abs(shift):.2f} % ({'up' if shift > 0 else 'down'})"
+    return f"The mode-1 frequency {change} over the amplitudes seen: {bb.verdict}."

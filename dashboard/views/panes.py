@@ -21,7 +21,18 @@ from collections import OrderedDict
 
 import panel as pn
 
-__all__ = ["ALERT_COLOURS", "Markdown", "alert_html", "status_html"]
+__all__ = ["ALERT_COLOURS", "BUTTON_WRAP", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "Markdown",
+           "alert_html", "status_html"]
+
+#: Layout of the views (CSS, shared with the diagnosis view): a wrapping flex row of a fixed
+#: input column, a main column that takes the rest, and the "For the class" panel, which
+#: wraps below when the window is too narrow for three columns.
+FLEX_ITEM_INPUTS = {"flex": "0 0 300px", "min-width": "0"}
+FLEX_ITEM_MAIN = {"flex": "1 1 560px", "min-width": "0"}
+FLEX_ITEM_GUIDE = {"flex": "1 1 300px", "min-width": "0", "max-width": "460px"}
+#: Lets a button's label wrap instead of spilling over its edges.
+BUTTON_WRAP = [":host .bk-btn { white-space: normal; text-align: center; }"]
+
 
 #: Background, text and border colours of :func:`alert_html` by kind (Bootstrap 5's alerts).
 ALERT_COLOURS = {

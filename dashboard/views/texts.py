@@ -36,50 +36,55 @@ The view will plug into the same session state as the toy model.
 """
 
 BEAM_GUIDE = """
-### For the class
-
 **The set-up.** A piezo patch drives a cantilever; a sensor records its displacement. The
-model (Euler–Bernoulli beam, a few modes, the effects ticked on the left) is calibrated on the
-shaded window with an i.i.d. (or AR(1)) noise likelihood and judged on the rest of the record.
+model (a beam with a few vibration modes, plus the effects ticked on the left) is calibrated
+on the shaded window and judged on the rest of the record (the *held-out* data).
 
-**Try this** (default dataset `lab_run_1`).
+**Try this** (default record `lab_run_1`).
 
-1. *Read the bands.* The model mean follows the chirp in the window; outside it, watch where
-   the measurement leaves the prediction band.
+1. *Read the numbers, then the plot.* Beside each number a line says what it means for this
+   model. Outside the window, watch where the measurement (dots) leaves the pink band.
 2. *Calibrate on the first second, then on the last* (move the window; *Pin* the first
    result): the stiffness estimates EI disagree, each with a tiny error bar — **the model is
    missing something**. More data made it more confident, not more right.
-3. *More modes* (1 → 8): the calibration RMSE falls a little; the held-out error does not.
-4. *AR(1) likelihood*: the band widens — the noise model absorbs the misfit — but the
+3. *More modes*: the error in the window falls a little; the held-out error does not.
+4. *AR(1) noise model*: the band widens — the noise absorbs the misfit — but the
    parameters stay biased.
 5. Open the **Diagnosis** tab: it points at the missing effect. *Add* it and watch the
-   held-out RMSE fall.
+   held-out error fall.
 
-**Notice.** A narrow band is not a good band: read the held-out RMSE (µm) and the coverage
-(%) together, and the convergence flag before trusting a posterior.
+**Notice.** A wide band holds the data whatever the physics: compare the noise the model
+needs with the sensor's noise floor before trusting the coverage.
 
-<small>RMSE in µm of displacement; EI in N m², k_p in N m/V. Kennedy & O'Hagan (2001);
+**Words.** *Posterior*: the parameter values that fit the data, with their uncertainty.
+*95 % prediction band*: where new measurements should fall if the model were right.
+*Coverage*: the share of held-out data inside it. *RMSE*: root-mean-square error.
+*ESS*: how many independent draws the sampler's chain is worth. *R-hat*: whether the
+sampler's chains agree (1.00 is perfect).
+
+<small>Displacements in µm; EI in N m², k_p in N m/V. Kennedy & O'Hagan (2001);
 Brynjarsdóttir & O'Hagan (2014).</small>
 """
 
 DIAGNOSIS_GUIDE = """
-### For the class
+The diagnosis looks at the beam view's current model (record, window, modes, effects) over
+the **whole** record:
 
-The diagnosis looks at the beam view's current model (dataset, window, modes, effects) over the
-**whole** record:
-
-* **Residual** — where the data leave the 95 % prediction band (red intervals).
+* **Residual** (data − model) — where the data leave the 95 % band (red intervals).
 * **Spectra** — residual power piled up near a model mode means that mode is wrong
   (a frequency shift: mass or stiffness missing).
-* **Autocorrelation** — a white residual stays inside ±1.96/√n; Ljung–Box p < 0.05 says the
-  misfit is structure, not noise.
-* **Modes table** — frequencies and damping identified from the free decay against the model's.
+* **Autocorrelation** — the residual of a right model is white noise: its bars stay inside
+  the dashed lines. The *Ljung–Box test* says the same in one number: p < 0.05 means
+  left-over structure, not noise.
+* **Modes table** — frequencies and damping measured in the free decay against the model's.
 * **Backbone** — a frequency that changes with amplitude is a nonlinearity (a hardening spring).
 
-Each candidate effect is calibrated on the same window and scored by the **Laplace log
-evidence** (nats; ≥ 5 is very strong) and the **held-out RMSE** (µm). Press **Add** on the best
-one: the beam view re-calibrates with full MCMC and the **error ladder** gets a new rung.
-Then *Diagnose the current model* again: is anything else missing?
+Each candidate effect is calibrated on the same window and scored two ways: the **held-out
+error** (µm) and the **evidence** — how much better the model explains the data, paying for
+its extra parameters. It is given in nats: a gain of Δ nats means odds of e^Δ : 1 for the
+effect (5 nats ≈ 150 : 1 counts as material). Press **Add** on the best one: the beam view
+re-calibrates, the diagnosis re-runs for the new model and the **error ladder** gets a new
+step. Is anything else missing?
 
-<small>On `lab_run_2` the hidden effect is a tip mass; `lab_run_5` is a control with nothing missing.</small>
+*Reveal* (teacher) shows what the record was simulated with.
 """

@@ -163,8 +163,13 @@ def test_add_appends_a_ladder_rung_and_the_error_falls(pool):
         rung = diag.ladder[1]
         assert rung["added"] == "tip_mass" and rung["mcmc"]
         assert diag.ladder[0]["rmse_prediction_um"] > 3 * rung["rmse_prediction_um"]
-        assert diag.reveal()["effects"] == ["air_damping", "kelvin_voigt", "tip_mass"]
-        assert not diag.is_current()
+        answer = diag.reveal()
+        assert answer["effects"] == ["air_damping", "kelvin_voigt", "tip_mass"]
+        assert answer["noise_m"] == pytest.approx(2e-5)  # the truth file of lab_run_2
+        # after Add the whole diagnosis re-runs for the new model, and the ladder is kept
+        assert diag.is_current() and "tip_mass" in diag.diagnosis.key.effects
+        assert len(diag.ladder) == 2 and diag.ladder[1]["added"] == "tip_mass"
+        assert "tip_mass" not in [c.effect for c in diag.diagnosis.candidates]
     finally:
         s.close()
         s.wait(30)

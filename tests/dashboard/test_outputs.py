@@ -101,3 +101,48 @@ def test_user_messages_drop_command_line_options():
         "window (12 s) must be shorter than the horizon (10 s)")
     assert user_message("noise sd (--noise) must not be negative, got -1") == "noise sd must not be negative, got -1"
     assert user_message("frequency must lie in the prior range [0.2, 5] Hz") == "frequency must lie in the prior range [0.2, 5] Hz"
+
+
+# -- the beam views' words and judgements -------------------------------------------------------------
+@pytest.mark.parametrize("name", ["lab_run_1", "lab_run_2", "lab_run_3", "lab_run_4", "lab_run_5"])
+def test_noise_floor_reads_the_true_sensor_noise_of_each_bundled_record(name):
+    from beam.io.simulation import read_truth
+    from dashboard.jobs.beam import ASSETS, load_bundled
+    from dashboard.outputs.beam import noise_floor_m
+
+    true = read_truth(ASSETS / "answers" / f"{name}.truth.toml").noise_m  # what the record was simulated with
+    assert noise_floor_m(load_bundled(name)) == pytest.approx(true, rel=0.15)
+
+
+def test_readouts_judge_a_missing_effect_by_its_noise_not_by_its_coverage():
+    """lab_run_1 without patch stiffening: ~99 % coverage from a noise sd ~90x the sensor's is not good news."""
+    from beam.calibration import calibration_preview
+    from dashboard.jobs.beam import load_bundled
+    from dashboard.outputs.beam import judged_readouts
+
+    m = load_bundled("lab_run_1")
+    wrong = calibration_preview(m, window=(0.0, 1.05), effects=("air_damping", "kelvin_voigt"), modes=4)
+    items = {i["key"]: i for i in judged_readouts(wrong)}
+    assert float(items["coverage_pct"]["value"]) > 95.0
+    assert items["coverage_pct"]["kind"] != "good" and "too wide" in items["coverage_pct"]["words"]
+    assert items["noise_sd_um"]["kind"] == "bad" and "noise floor" in items["noise_sd_um"]["words"]
+    assert items["rmse_prediction_um"]["kind"] == "bad"
+    right = calibration_preview(m, window=(0.0, 1.05), effects=("air_damping", "kelvin_voigt", "patch_stiffening"),
+                                modes=4)
+    items = {i["key"]: i for i in judged_readouts(right)}
+    assert items["noise_sd_um"]["kind"] == "good"  # the noise the model needs is the sensor's
+
+
+def test_student_words():
+    from dashboard.outputs.beam import (
+        change_words,
+        effect_title,
+        evidence_words,
+        fmt_um,
+    )
+
+    assert effect_title("tip_cubic_spring") == "Hardening tip spring"
+    assert change_words(96.7, 100.0) == "3.3 % lower" and change_words(112.0, 100.0) == "12 % higher"
+    assert evidence_words(5.0).startswith("+5.0 nats: odds about 150 : 1")  # e^5 = 148.4
+    assert "10¹⁰⁰" in evidence_words(4106.5) and "against" in evidence_words(-3.0)
+    assert fmt_um(1379.2) == "1\u2009379" and fmt_um(57.34) == "57.3" and fmt_um(4.213) == "4.21"

@@ -117,9 +117,9 @@ def test_beam_view_labels_carry_units_and_results_reach_the_plot(beam_session):
     view.build()
     root = view.__panel__().get_root(Document())
     labels = [getattr(w, "label", "") for w in view.layout.select(pn.widgets.Widget)]
-    assert "Calibration window (s)" in labels and "Number of modes (1)" in labels
-    numbers = [n.label for n in view.layout.select(pn.indicators.Number)]
-    assert any("(µm)" in n for n in numbers) and any("(%)" in n for n in numbers)
+    assert "Calibration window (s)" in labels and "Number of modes" in labels  # no "(1)": a count has no unit
+    readouts = view.layout.select(lambda o: "beam-cal-readouts" in getattr(o, "css_classes", []))[0]
+    assert readouts.object.count(" µm</span>") == 3 and " %</span>" in readouts.object
     band = _sources(root, "beam-prediction-band")
     assert len(band) == 1 and len(band[0].data["upper"]) == 0
     view.activate()
@@ -150,7 +150,7 @@ def test_beam_results_change_no_css_classes(pool):
     view.activate()
     assert session.wait(60)
     assert [preview for preview, *_ in seen] == [True, False]  # the preview, then the MCMC posterior
-    assert 'data-kind="secondary"' in seen[0][1] and "Preview (MAP + Laplace)" in seen[0][1]
+    assert 'data-kind="secondary"' in seen[0][1] and "Preview: the single best fit (MAP)" in seen[0][1]
     converged = session.beam.result.posterior.diagnostics.converged
     assert f'data-kind="{"success" if converged else "warning"}"' in notice.object
     assert ("Converged" if converged else "Not converged") in notice.object
@@ -168,7 +168,7 @@ def test_diagnosis_view_shows_candidates_with_add_buttons(beam_session):
     view.activate()
     assert session.wait(60)
     names = [b.label for b in view.candidates.select(pn.widgets.Button)]
-    assert names[0] == "Add patch_stiffening" and len(names) == 4
+    assert names[0] == "Add Patch stiffening" and len(names) == 4  # effect titles, not ids
     assert len(view.plots.sources["residual"].data["r"]) == session.beam.measurement.time_s.size
     assert len(view.plots.sources["ladder"].data["rung"]) == 1
 
