@@ -37,12 +37,20 @@ from beam.discovery.ranking import (
     candidate_effects,
     rank_candidates,
 )
-from beam.discovery.report import explainer, residual_report
+from beam.discovery.report import (
+    Remaining,
+    ResidualReport,
+    explainer,
+    remaining_error,
+    residual_report,
+    verdict_sentence,
+)
 from beam.errors import BeamInputError
 from beam.inference import Progress
 from beam.io.measurement import Measurement, read_measurement
 from beam.io.simulation import read_truth
 from beam.physics.effects import EFFECTS
+from beam.residuals.noise import noise_floor
 from dashboard.jobs.warm import warm_up
 from dashboard.runtime import scheduler as sch
 from dashboard.runtime.caches import LRU, cached_stages
@@ -222,9 +230,11 @@ class Diagnosis:
 
     key: CalibrationKey
     base: CalibrationResult
-    residuals: object
+    residuals: ResidualReport
     candidates: list[Candidate] = field(default_factory=list)
     pending: list[str] = field(default_factory=list)
+    #: Distance of the best model reached from the noise floor (set when the ranking is complete).
+    remaining: Remaining | None = None
 
     @property
     def missing(self) -> str | None:
@@ -233,18 +243,12 @@ class Diagnosis:
 
     @property
     def verdict(self) -> str:
-        """One sentence, as :attr:`beam.discovery.report.DiagnosisReport.verdict`."""
+        """One sentence, as :attr:`beam.discovery.report.DiagnosisReport.verdict` (the same function)."""
         if self.pending:
             return f"ranking the candidates: {len(self.pending)} to go"
-        white = self.residuals.whiteness
-        if self.missing is not None:
-            best = self.candidates[0]
-            return (f"missing: {self.missing} (+{best.delta_log_evidence:.0f} nats; held-out RMSE "
-                    f"{self.base.rmse_prediction_map * 1e6:.3g} µm -> {best.rmse_prediction * 1e6:.3g} µm)")
-        if white.white:
-            return f"nothing in the catalogue is missing; the residuals are white (Ljung-Box p = {white.p_value:.2g})"
-        return ("nothing in the catalogue is missing, but the residuals are still not white (Ljung-Box p = "
-                f"{white.p_value:.2g}): the discrepancy is outside the catalogue or in the noise model")
+        best = self.candidates[0] if self.candidates else None
+        return verdict_sentence(self.missing, best.delta_log_evidence if best else math.nan,
+                                self.base.rmse_prediction_map, best.rmse_prediction if best else math.nan, self.remaining)
 
 
 def _rank_key(c: Candidate):
@@ -281,14 +285,21 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> Iterator[
     yield sch.partial(diagnosis, 0.25, f"ranking {len(names)} candidate effects")
     explain = explainer(residuals)
     ranked: list[Candidate] = []
+    fits: dict[str, CalibrationResult] = {}
     for i in range(0, len(names), 2):
         chunk = names[i:i + 2]
         ranking = rank_candidates(measurement, base=base.setup.effects, modes=key.modes, base_result=base,
                                   candidates=chunk, explain=explain, workers=2)
         ranked = sorted(ranked + ranking.candidates, key=_rank_key)
+        fits.update(ranking.results)
         done = min(i + 2, len(names))
         diagnosis = Diagnosis(key, base, residuals, ranked, names[done:])
         yield sch.partial(diagnosis, 0.25 + 0.75 * done / max(len(names), 1), f"ranked {done} of {len(names)} candidates")
+    try:  # how far the best model reached is from the record's noise (as the command line's verdict)
+        best = fits.get(diagnosis.missing) if diagnosis.missing is not None else base
+        diagnosis.remaining = remaining_error(best, noise_floor(measurement.time_s, measurement.displacement_m))
+    except BeamInputError:
+        pass
     yield sch.final(diagnosis, "diagnosis")
 
 

@@ -16,7 +16,9 @@ import threading
 import numpy as np
 import pandas as pd
 
+from beam.errors import BeamInputError
 from beam.physics.effects import EFFECTS, parameter_spec
+from beam.residuals.noise import noise_floor
 from dashboard.outputs.exports import _jsonable
 
 __all__ = [
@@ -297,26 +299,20 @@ GLOSSES = {
 
 # -- the noise floor of a record ------------------------------------------------------------------
 def noise_floor_m(measurement) -> float:
-    """Model-free estimate of the sensor noise sd of a record (m): MAD of the fourth differences / √70.
+    """Model-free estimate of the sensor noise sd of a record (m), NaN when it cannot be made.
 
-    For white noise of sd σ the k-th difference has sd σ √C(2k, k) (√70 σ for k = 4), while a
-    signal well below the Nyquist frequency is attenuated by (2 sin(π f / f_s))⁴; the median
-    absolute deviation ignores the few samples where the signal still dominates. Measured on the
-    bundled records against the true noise of their truth files: lab_run_1 15.9 µm (true 15),
-    lab_run_2 20.0 (20), lab_run_3 5.09 (5), lab_run_4 20.2 (20), lab_run_5 10.3 (10); second
-    differences over-read by up to 20×, so the fourth are used. Any leak of signal makes the
-    estimate larger, never smaller: a noise sd far above it is a misfit, not noise.
+    :func:`beam.residuals.noise.noise_floor` (the quietest sub-band of the record's spectrum),
+    the same estimate as the diagnosis's verdict; memoised per record. A noise sd far above it
+    is a misfit, not noise.
     """
     if measurement is None:
         return math.nan
 
     def compute():
-        y = np.asarray(measurement.displacement_m, dtype=float)
-        if y.size < 20:
+        try:
+            return noise_floor(measurement.time_s, measurement.displacement_m).sd
+        except BeamInputError:
             return math.nan
-        d = np.diff(y, 4)
-        mad = float(np.median(np.abs(d - np.median(d))))
-        return 1.4826 * mad / math.sqrt(70.0)
 
     return _memoised(measurement, "noise_floor", compute)
 
@@ -391,23 +387,36 @@ def judged_readouts(result, floor_m: float | None = None) -> list[dict]:
 
 
 def verdict_text(diagnosis) -> str:
-    """The diagnosis verdict in words, with effect titles and odds (Markdown)."""
+    """The diagnosis verdict in words, with effect titles, odds and the distance to the noise (Markdown)."""
     if diagnosis is None:
         return ""
     if diagnosis.pending:
         return f"Ranking the candidate effects: {len(diagnosis.pending)} to go…"
     white = diagnosis.residuals.whiteness
     missing = diagnosis.missing
+    remaining = getattr(diagnosis, "remaining", None)
+    tail = ""
+    if remaining is not None:
+        ratio, floor = remaining.remaining_error_ratio, 1e6 * remaining.noise_floor.sd
+        if remaining.outside_catalogue:
+            tail = (f" Still, the held-out error is **{ratio:.1f}× the sensor's noise** ({fmt_um(floor)} µm, "
+                    "estimated from the record alone) and the residuals are not white: **something outside the "
+                    "catalogue** is at work.")
+        else:
+            tail = f" What remains is {ratio:.1f}× the sensor's noise ({fmt_um(floor)} µm): the model predicts to the noise."
     if missing is not None:
         best = diagnosis.candidates[0]
         before, after = 1e6 * diagnosis.base.rmse_prediction_map, 1e6 * best.rmse_prediction
         return (f"**Missing: {effect_title(missing)}.** With it the held-out error is {fmt_um(after)} µm instead of "
-                f"{fmt_um(before)} µm ({change_words(after, before)}); evidence {evidence_words(best.delta_log_evidence)}.")
+                f"{fmt_um(before)} µm ({change_words(after, before)}); evidence {evidence_words(best.delta_log_evidence)}."
+                + tail)
+    if remaining is not None and remaining.outside_catalogue:
+        return "**Nothing in the catalogue helps.**" + tail
     if white.white:
         return ("**Nothing in the catalogue is missing**, and the residuals look like white noise "
-                f"(Ljung–Box p = {white.p_value:.2g} ≥ 0.05).")
+                f"(Ljung–Box p = {white.p_value:.2g} ≥ 0.05)." + tail)
     return ("**Nothing in the catalogue is missing**, but the residuals are not white noise (Ljung–Box p = "
-            f"{_p(white.p_value)} < 0.05): the discrepancy is outside the catalogue or in the noise model.")
+            f"{_p(white.p_value)} < 0.05): the discrepancy is outside the catalogue or in the noise model." + tail)
 
 
 def _p(p: float) -> str:
