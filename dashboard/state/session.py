@@ -63,13 +63,14 @@ class ToyState(param.Parameterized):
     discrepancy = param.Number(0.0, bounds=(0.0, 1.0), step=0.05, label="Discrepancy amplitude δ (du)",
                                doc="Amplitude of the physics the model misses, in data units.")
     kind = param.Selector(default="harmonic", objects=list(KINDS), label="Discrepancy kind",
-                          doc="harmonic: 2f distortion; tone: unmodelled 1.37 f mode; drift: baseline drift.")
+                          doc="harmonic: 2f distortion; tone: unmodelled 1.37 f mode; drift: baseline drift δ t / 5 s.")
     noise_sd = param.Selector(default=0.1, objects=[0.02, 0.05, 0.1, 0.2, 0.3, 0.5], label="Noise sd (du)",
                               doc="Standard deviation of the i.i.d. measurement noise.")
     horizon_s = param.Selector(default=20.0, objects=[10.0, 15.0, 20.0, 30.0, 40.0], label="Horizon (s)",
                                doc="End of the record; (window, horizon] is held out.")
     likelihood = param.Selector(default="iid", objects=LIKELIHOOD_LABELS, label="Likelihood (noise model)",
-                                doc="Noise model of the calibration.")
+                                doc="Noise model of the calibration: i.i.d. = independent Gaussian noise; AR(1) = each noise "
+                                    "value correlated with the previous one (can absorb a smooth misfit).")
     seed = param.Selector(default=LANDING_SEED, objects=list(range(10)), label="Seed (noise realisation)",
                           doc="Seed of the noise and of the sampler.")
     target_ess = param.Number(1000.0, bounds=(100.0, 10000.0), label="Target ESS (per parameter)", precedence=-1)
