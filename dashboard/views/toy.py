@@ -21,7 +21,7 @@ from dashboard.plots.timeseries import TimeSeriesPlot
 from dashboard.plots.toy import SweepPlot
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
-from dashboard.views.panes import Markdown, alert_html
+from dashboard.views.panes import HTML, DataFrame, Markdown, alert_html
 from dashboard.views.texts import TOY_GLOSSARY, TOY_GUIDE, TOY_STEPS
 
 __all__ = ["ToyView"]
@@ -147,7 +147,7 @@ class ToyView(pn.viewable.Viewer):
         self._tabs = pn.Tabs(
             ("Window sweep", self._sweep_tab),
             ("Posterior: marginals and pairs", self._posterior_tab),
-            ("Compare table", pn.pane.DataFrame(pn.bind(compare_table, toy.param.result, toy.param.pinned),
+            ("Compare table", DataFrame(pn.bind(compare_table, toy.param.result, toy.param.pinned),
                                                 sizing_mode="stretch_width", escape=True)),
             dynamic=True,
             sizing_mode="stretch_width",
@@ -228,7 +228,7 @@ class ToyView(pn.viewable.Viewer):
                 return round(100 * fraction)
             return 0
 
-        status = pn.pane.HTML(pn.bind(status_html, toy.param.stage, toy.param.status, toy.param.requested,
+        status = HTML(pn.bind(status_html, toy.param.stage, toy.param.status, toy.param.requested,
                                       toy.param.shown), sizing_mode="stretch_width", margin=(5, 10, 0, 10))
         bar = pn.indicators.Progress(label="MCMC progress (%)", value=pn.bind(bar_value, toy.param.stage, toy.param.progress),
                                      max=100, sizing_mode="stretch_width", height=14, margin=(0, 10),
@@ -253,7 +253,7 @@ class ToyView(pn.viewable.Viewer):
             kind, lines = judge(result, pinned)
             return alert_html(kind, "<br>".join(lines))
 
-        verdict = pn.pane.HTML(pn.bind(verdict_html, toy.param.result, toy.param.pinned), sizing_mode="stretch_width",
+        verdict = HTML(pn.bind(verdict_html, toy.param.result, toy.param.pinned), sizing_mode="stretch_width",
                                margin=(0, 10), css_classes=["beam-verdict"])
         return pn.Column(pn.Row(*items, sizing_mode="stretch_width"), verdict, sizing_mode="stretch_width")
 
