@@ -28,7 +28,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "toy",
         help="toy periodic model with model discrepancy (calibration, prediction, window sweep)",
-        description=__doc__,
+        description=__doc__.replace("``", ""),  # the docstring without its reST markup
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--window", type=_number, default=5.0, metavar="T", help="calibration window [0, T] in s (default 5)")
