@@ -31,6 +31,7 @@ if _ROOT not in sys.path:  # `panel serve dashboard/app.py` only puts dashboard/
     sys.path.insert(0, _ROOT)
 
 import panel as pn
+from panel.io.resources import LOCAL_DIST
 from panel.io.state import set_curdoc
 
 from dashboard.jobs.beam import warm_worker
@@ -68,6 +69,12 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
         session = SessionState(dispatch=session_dispatch(doc) if doc is not None else None)
     if doc is not None and doc.session_context is not None:
         pn.state.on_session_destroyed(lambda context: session.close())
+        # Panel rewrites its components' stylesheets (named by CDN address) to the server's copy
+        # using the document's ``dist_url``, which it sets only when the page is rendered; a model
+        # made before (the staged build runs on the next ticks) kept the CDN address, and the page
+        # asked cdn.holoviz.org for loading.css and dataframe.css. Set it now, as Panel will.
+        doc._template_variables.setdefault("dist_url", f"{pn.state.rel_path}/{LOCAL_DIST}" if pn.state.rel_path
+                                           else LOCAL_DIST)
     views = {title: view(session=session) for title, view in VIEWS}
     tabs = pn.Tabs(*views.items(), sizing_mode="stretch_width", css_classes=["beam-views"])
 

@@ -61,7 +61,11 @@ def test_simulation_defaults_and_discrepancy_shapes():
     assert not np.array_equal(simulate(ToyScenario(seed=1)).data, data.data)
 
     t = np.array([0.0, 2.5, 5.0, 10.0])
-    np.testing.assert_allclose(discrepancy_shape("drift", t, sc), [0.0, 0.5, 1.0, 2.0])  # 1 at the window's end
+    np.testing.assert_allclose(discrepancy_shape("drift", t, sc), [0.0, 0.5, 1.0, 2.0])  # t / 5 s
+    # the drift is in absolute time: moving the window changes the mask, never the truth
+    np.testing.assert_allclose(discrepancy_shape("drift", t, ToyScenario(window_s=12.0)), [0.0, 0.5, 1.0, 2.0])
+    np.testing.assert_array_equal(simulate(ToyScenario(kind="drift", discrepancy=0.3, window_s=3.0)).truth,
+                                  simulate(ToyScenario(kind="drift", discrepancy=0.3, window_s=12.0)).truth)
     np.testing.assert_allclose(discrepancy_shape("harmonic", t, sc), np.sin(4 * math.pi * t + 0.3))
     np.testing.assert_allclose(discrepancy_shape("tone", t, sc), np.sin(2 * math.pi * TONE_RATIO * t))
     d = simulate(ToyScenario(discrepancy=0.4, kind="drift"))

@@ -8,6 +8,10 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
+
+#: Where the bundled lab runs live when the package is used from the repository checkout.
+BUNDLED_MEASUREMENTS = Path(__file__).resolve().parents[2] / "assets" / "measurements"
 
 
 def finite_float(text: str) -> float:
@@ -58,3 +62,45 @@ def time_window(text: str) -> tuple[float, float]:
     if not start < end:
         raise argparse.ArgumentTypeError(f"window start must be before its end, got {text!r}")
     return start, end
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Wraps one-paragraph texts (descriptions) as usual; keeps texts with line breaks (tables) as written."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if "\n" in text.strip("\n"):
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
+def measurement_path(text: str) -> str:
+    """A measurement as given (``NAME.csv``, ``NAME.toml`` or ``NAME``), or a bundled lab run.
+
+    A bare name (no directory part) whose files are not in the current directory is looked up
+    in :data:`BUNDLED_MEASUREMENTS`: ``beam calibrate lab_run_1`` finds
+    ``assets/measurements/lab_run_1.csv`` from anywhere. Anything else is returned unchanged
+    (and a missing file is reported by the reader).
+    """
+    path = Path(text)
+    stem = path.with_suffix("") if path.suffix.lower() in (".csv", ".toml") else path
+    if path.parent != Path(".") or not path.name or stem.with_name(stem.name + ".csv").exists():
+        return text
+    bundled = BUNDLED_MEASUREMENTS / f"{stem.name}.csv"
+    return str(bundled) if bundled.exists() else text
+
+
+def bundled_names() -> list[str]:
+    """Names of the bundled lab runs (empty when the package is installed without its assets)."""
+    return sorted(p.stem for p in BUNDLED_MEASUREMENTS.glob("*.csv")) if BUNDLED_MEASUREMENTS.is_dir() else []
+
+
+def effects_epilog() -> str:
+    """The effect ids with their titles, for the ``--help`` of the commands that take ``--effects``."""
+    from beam.physics.effects import EFFECTS
+
+    width = max(len(name) for name in EFFECTS)
+    lines = ["effects (ids for --effects):"] + [f"  {name:<{width}}  {effect.title}" for name, effect in EFFECTS.items()]
+    names = bundled_names()
+    if names:
+        lines += ["", "bundled measurements (DATA by name): " + ", ".join(names)]
+    return "\n".join(lines)

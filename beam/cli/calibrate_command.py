@@ -7,16 +7,17 @@ import json
 import math
 import sys
 
-from beam.cli.arguments import non_negative_int, positive_int, time_window
+from beam.cli.arguments import HelpFormatter, effects_epilog, measurement_path, non_negative_int, positive_int, time_window
 
 LIKELIHOOD_CHOICES = ("iid", "ar1")
 
 
 def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     """--window and --modes, shared with ``beam diagnose``."""
-    parser.add_argument("data", metavar="DATA", help="measurement: NAME.csv, NAME.toml or NAME")
+    parser.add_argument("data", metavar="DATA", type=measurement_path,
+                        help="measurement: NAME.csv, NAME.toml or NAME; a bundled run (e.g. lab_run_1) by its name")
     parser.add_argument("--window", type=time_window, default=None, metavar="START:END",
-                        help="calibration window in seconds (default: the first 30%% of the record)")
+                        help="calibration window in seconds, e.g. 0:1.5 (default: the first 30 %% of the record)")
     parser.add_argument("--modes", type=positive_int, default=4, metavar="N", help="retained modes (default 4)")
 
 
@@ -27,7 +28,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="Bayesian calibration of the beam on a window of a measurement",
         description="Calibrate base (bending_stiffness_Nm2, patch_coupling_NmV) + effects on the window, then predict "
         "the rest of the record: posterior summaries, noise sd, RMSE in the calibration and prediction windows, "
-        "coverage of the 95%% prediction band on the held-out samples, ESS, R-hat, correlations.",
+        "coverage of the 95 % prediction band on the held-out samples, ESS, R-hat, correlations.",
+        epilog=effects_epilog(),
+        formatter_class=HelpFormatter,
     )
     add_model_arguments(parser)
     parser.add_argument("--effects", default="air_damping,kelvin_voigt", metavar="A,B,...",
@@ -68,29 +71,53 @@ def _null_nan(value):
     raise TypeError(f"not JSON serialisable: {value!r}")
 
 
+def format_window(window_s) -> str:
+    """``[0, 1.0497]`` -> ``"0–1.05 s"`` (3 significant digits: the sampling step of the bundled runs is 0.2 ms)."""
+    return f"{_readable(window_s[0])}–{_readable(window_s[1])} s"
+
+
 def format_summary(summary: dict) -> str:
-    """A readable report of a calibration summary."""
+    """A readable report of a calibration summary (lengths in µm, coverage in %; the JSON keeps SI units)."""
     lines = [
-        f"{summary['measurement']}: window {summary['window_s'][0]:g}-{summary['window_s'][1]:g} s, "
+        f"{summary['measurement']}: calibration window {format_window(summary['window_s'])}, "
         f"{summary['modes']} modes, effects: {', '.join(summary['effects']) or 'none'}, likelihood {summary['likelihood']}",
         "",
-        f"{'parameter':32s} {'mean':>12s} {'sd':>11s} {'2.5%':>12s} {'97.5%':>12s}",
+        f"{'parameter':32s} {'mean':>12s} {'sd':>11s} {'2.5 %':>12s} {'97.5 %':>12s}",
     ]
-    rows = dict(summary["parameters"], noise_sd_m=summary["noise_sd"])
+    rows = dict(summary["parameters"])
+    noise = summary["noise_sd"]
+    rows["noise_sd_um"] = {k: (v * 1e6 if isinstance(v, (int, float)) else v) for k, v in noise.items()}
     if "ar1_coefficient" in summary:
         rows["ar1_coefficient"] = summary["ar1_coefficient"]
     for name, s in rows.items():
         lines.append(f"{name:32s} {s['mean']:12.5g} {s['sd']:11.3g} {s['q025']:12.5g} {s['q975']:12.5g}")
     lines += [
         "",
-        f"RMSE calibration window   {summary['rmse_calibration']:.4g} m",
-        f"RMSE prediction window    {_number(summary['rmse_prediction'])} m",
-        f"coverage of 95% band      {_number(summary['coverage95_prediction'])} (prediction window)",
+        f"RMSE, calibration window   {_micrometres(summary['rmse_calibration'])}",
+        f"RMSE, held-out part        {_micrometres(summary['rmse_prediction'])}",
+        f"held-out data inside the 95 % prediction band: {_percent(summary['coverage95_prediction'])}",
         f"ESS min {_number(summary['ess_min'])}, R-hat max {_number(summary['rhat_max'])}, "
         f"{'converged' if summary['converged'] else 'NOT converged'}; {summary['seconds']:.2f} s",
     ]
     lines += [f"warning: {w}" for w in summary["warnings"]]
     return "\n".join(lines) + "\n"
+
+
+def _missing(value) -> bool:
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
+def _readable(x: float) -> str:
+    """Three significant digits, never an exponent below 10⁶ (1271.4 -> "1271", 0.0123 -> "0.0123")."""
+    return f"{x:.0f}" if abs(x) >= 1000 else f"{x:.3g}"
+
+
+def _micrometres(value_m) -> str:
+    return "n/a" if _missing(value_m) else f"{_readable(value_m * 1e6)} µm"
+
+
+def _percent(fraction) -> str:
+    return "n/a" if _missing(fraction) else f"{100 * fraction:.1f} %"
 
 
 def _number(value) -> str:

@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from beam.cli.arguments import non_negative_int
+from beam.cli.arguments import HelpFormatter, effects_epilog, non_negative_int
 from beam.cli.calibrate_command import add_model_arguments
 
 
@@ -18,6 +18,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Calibrate the base model on the window (MAP + Laplace), examine its residuals (band exceedances, "
         "spectrum, whiteness, identified modes, amplitude dependence), rank every catalogue effect not in the model "
         "by Laplace evidence and held-out error, and climb the error ladder.",
+        epilog=effects_epilog(),
+        formatter_class=HelpFormatter,
     )
     add_model_arguments(parser)
     parser.add_argument("--base", default="air_damping,kelvin_voigt", metavar="A,B",

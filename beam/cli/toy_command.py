@@ -28,12 +28,12 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "toy",
         help="toy periodic model with model discrepancy (calibration, prediction, window sweep)",
-        description=__doc__,
+        description=__doc__.replace("``", ""),  # the docstring without its reST markup
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--window", type=_number, default=5.0, metavar="T", help="calibration window [0, T] in s (default 5)")
     p.add_argument("--discrepancy", type=_number, default=0.0, metavar="DELTA", help="discrepancy amplitude δ in data units (default 0)")
-    p.add_argument("--kind", default="harmonic", metavar="KIND", help="discrepancy shape: harmonic, tone or drift (default harmonic)")
+    p.add_argument("--kind", default="harmonic", metavar="KIND", help="discrepancy shape: harmonic (sin 4πft+φ), tone (sin 2π·1.37ft) or drift (t / 5 s, a fixed time constant: the truth does not depend on --window) (default harmonic)")
     p.add_argument("--noise", type=_number, default=0.1, metavar="SD", help="noise standard deviation in data units (default 0.1)")
     p.add_argument("--horizon", type=_number, default=20.0, metavar="T", help="end of the record in s; (window, horizon] is held out (default 20)")
     p.add_argument("--likelihood", default="iid", metavar="KIND", help="noise model of the calibration: iid or ar1 (default iid)")

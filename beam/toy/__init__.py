@@ -8,7 +8,8 @@ calibrated model is ``A sin(2π f t + φ)``, so ``δ d(t)`` is physics the model
 
 ``harmonic``  ``sin(4π f t + φ)`` — distortion at twice the frequency;
 ``tone``      ``sin(2π · 1.37 f t)`` — an unmodelled second mode;
-``drift``     ``t / T_window`` — a baseline drift reaching 1 at the end of the window.
+``drift``     ``t / 5 s`` — a baseline drift reaching 1 at t = 5 s (:data:`DRIFT_TIME_S`, a fixed
+              time constant: the truth does not change when the calibration window moves).
 
 The model is calibrated on ``[0, T_window]`` and judged on the held-out ``(T_window, horizon]``.
 
@@ -56,6 +57,7 @@ from beam.toy.run import (
 from beam.toy.scenario import (
     AMPLITUDE_PRIOR,
     AR1_PRIOR,
+    DRIFT_TIME_S,
     FREQUENCY_PRIOR_HZ,
     KINDS,
     MODEL_PARAMETERS,
@@ -72,6 +74,7 @@ from beam.toy.scenario import (
 __all__ = [
     "AMPLITUDE_PRIOR",
     "AR1_PRIOR",
+    "DRIFT_TIME_S",
     "FREQUENCY_PRIOR_HZ",
     "KINDS",
     "MODEL_PARAMETERS",

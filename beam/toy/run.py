@@ -210,8 +210,8 @@ def default_sweep_windows(scenario: ToyScenario) -> list[float]:
 def sweep_windows(scenario: ToyScenario, windows: Sequence[float] | None = None, *, n_draws: int = 400) -> list[dict[str, float]]:
     """Held-out RMSE and 95 % prediction-band coverage against the calibration window.
 
-    One record is simulated with the scenario's seed (the truth, including the drift
-    normalisation by ``scenario.window_s``, is fixed); for each window the model is calibrated
+    One record is simulated with the scenario's seed (the truth does not depend on the
+    window); for each window the model is calibrated
     on ``[0, window]`` with the MAP + Laplace preview (no MCMC) and scored on
     ``(window, horizon]``. Deterministic for a given scenario.
 

@@ -14,6 +14,10 @@ from beam.inference.likelihood import AR1_COEFFICIENT, LIKELIHOODS, NOISE_SD
 KINDS = ("harmonic", "tone", "drift")
 #: Frequency of the ``tone`` discrepancy relative to the model frequency.
 TONE_RATIO = 1.37
+#: Time constant of the ``drift`` discrepancy ``d(t) = t / DRIFT_TIME_S`` (s): a fixed time, not
+#: the calibration window, so that moving the window changes what is fitted, never the truth. It
+#: equals the default window, where the drift reaches δ as it did when it was ``t / T_window``.
+DRIFT_TIME_S = 5.0
 #: Physical parameters of the toy model, in order.
 MODEL_PARAMETERS = ("amplitude", "frequency_Hz", "phase_rad")
 #: Support of the frequency prior, Hz.
@@ -182,16 +186,15 @@ def discrepancy_shape(kind: str, time_s: np.ndarray, scenario: ToyScenario) -> n
     if kind == "tone":
         return np.sin(2.0 * math.pi * TONE_RATIO * f * t)
     if kind == "drift":
-        return t / scenario.window_s
+        return t / DRIFT_TIME_S
     raise BeamInputError(f"unknown discrepancy kind {kind!r}; expected one of {', '.join(KINDS)}")
 
 
 def simulate(scenario: ToyScenario, *, calibration_window_s: float | None = None) -> ToyData:
     """Simulate the record of a scenario (deterministic for ``scenario.seed``).
 
-    ``calibration_window_s`` overrides the calibration mask only (the truth, including the
-    drift normalisation by ``scenario.window_s``, is unchanged), which is what the window
-    sweep uses.
+    ``calibration_window_s`` overrides the calibration mask only (the truth does not depend on
+    the window), which is what the window sweep uses.
     """
     scenario.validate()
     n = math.floor(scenario.horizon_s * scenario.sample_rate_Hz + 1e-9) + 1

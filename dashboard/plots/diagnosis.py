@@ -64,7 +64,7 @@ class DiagnosisPlots:
         for span in self.true_noise:
             self.residual.add_layout(span)
         self.spectrum = _fig("Spectra of data and residual", "Frequency (Hz)",
-                             "PSD (m²/Hz)", y_axis_type="log")
+                             "PSD (m²/Hz)", y_axis_type="log", y_range=Range1d(1e-20, 1.0))
         self.spectrum.line("f", "data", source=s["psd"], color="#7f7f7f", legend_label="data")
         self.spectrum.line("f", "residual", source=s["psd"], color="#d62728", legend_label="residual")
         self.spectrum.segment("f", "y0", "f", "y1", source=s["modes"], color=COLORS["truth"], line_dash="dashed",
@@ -81,7 +81,8 @@ class DiagnosisPlots:
         self.backbone.line("a", "f", source=s["backbone"], color=COLORS["mean"])
         self.backbone.scatter("a", "f", source=s["backbone"], color=COLORS["mean"], size=6)
         self.ladder = _fig("Held-out error per step", "Effect added", "Held-out error (µm)",
-                           x_range=Range1d(-0.6, 3.6), y_axis_type="log")
+                           x_range=Range1d(-0.6, 3.6), y_axis_type="log",
+                           y_range=Range1d(0.1, 10.0))
         self.ladder.css_classes = ["diag-ladder-plot"]  # found by the layout tests
         self.ladder.vbar(x="rung", top="rmse", bottom="bottom", width=0.6, source=s["ladder"], color=COLORS["mean"], alpha=0.7)
         self.ladder.text(x="rung", y="rmse", text="label", source=s["ladder"], text_font_size="8pt", text_align="center",
@@ -118,6 +119,8 @@ class DiagnosisPlots:
         positive = sp.data_psd_m2_Hz[keep]
         positive = positive[positive > 0]
         y0, y1 = (float(positive.min()), float(positive.max())) if positive.size else (1e-20, 1.0)
+        # explicit range: a log axis over a data range with no positive value yet logs a console warning
+        self.spectrum.y_range.update(start=y0 / 2, end=y1 * 2)
         fm = [float(f) for f in rep.model_frequencies_Hz if f < sp.frequency_Hz[-1]]
         s["modes"].data = {"f": fm, "y0": [y0] * len(fm), "y1": [y1] * len(fm)}
         w = rep.whiteness
@@ -149,6 +152,7 @@ class DiagnosisPlots:
             "rmse": rmse,
             "coverage": [r["coverage95_pct"] for r in rungs]}
         self.ladder.x_range.update(start=-0.6, end=max(len(rungs), 4) - 0.4)
+        self.ladder.y_range.update(start=bottom / 2, end=max(rmse, default=1.0) * 3)
         self.ladder.xaxis.major_label_overrides = {r["rung"]: "start" if r["rung"] == 0 else _title(r["added"])
                                                    for r in rungs}
         self.ladder.xaxis.ticker = [r["rung"] for r in rungs] or [0]

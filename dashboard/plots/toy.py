@@ -9,7 +9,7 @@ Data sources are named ``sweep-coverage`` and ``sweep-rmse`` (columns ``window_s
 
 from __future__ import annotations
 
-from bokeh.models import ColumnDataSource, Span
+from bokeh.models import ColumnDataSource, Range1d, Span
 from bokeh.plotting import figure
 
 from dashboard.plots.timeseries import COLORS
@@ -40,7 +40,10 @@ class SweepPlot:
             raise ValueError(f"unknown sweep quantity {quantity!r}; expected one of {', '.join(QUANTITIES)}")
         self.quantity = quantity
         self._key, label, title, self._scale = QUANTITIES[quantity]
-        fig = figure(height=height, sizing_mode="stretch_width", title=title, toolbar_location=None, tools="")
+        # explicit ranges (set by update): a DataRange1d over empty sources (the sweep of a new
+        # scenario is cleared while it is computed) logs "could not set initial ranges" in the browser
+        fig = figure(height=height, sizing_mode="stretch_width", title=title, toolbar_location=None, tools="",
+                     x_range=Range1d(0.0, 16.0), y_range=Range1d(0.0, 100.0 if quantity == "coverage" else 1.0))
         fig.xaxis.axis_label = "Calibration window (s)"
         fig.yaxis.axis_label = label
         self.source = ColumnDataSource({"window_s": [], "value": []}, name=f"sweep-{quantity}")
@@ -59,6 +62,14 @@ class SweepPlot:
         rows = rows or []
         self.source.data = {"window_s": [r["window_s"] for r in rows],
                             "value": [self._scale * r[self._key] for r in rows]}
+        values = self.source.data["value"]
+        windows = [r["window_s"] for r in rows] + ([window_s] if window_s is not None else [])
+        if windows:
+            self.figure.x_range.update(start=min(0.0, min(windows)), end=max(windows) + 1.0)
+        if self.quantity == "coverage":
+            self.figure.y_range.update(start=min([0.0] + values), end=102.0)
+        elif values:
+            self.figure.y_range.update(start=0.0, end=1.1 * max(values) or 1.0)
         self.marker.visible = window_s is not None
         if window_s is not None:
             self.marker.location = float(window_s)

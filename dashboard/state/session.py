@@ -33,7 +33,7 @@ from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState, DiagnosisState
 
-__all__ = ["LIKELIHOOD_LABELS", "SessionState", "ToyState"]
+__all__ = ["LANDING_SEED", "LIKELIHOOD_LABELS", "SessionState", "ToyState"]
 
 #: Likelihood choices as shown to the user.
 LIKELIHOOD_LABELS = {"i.i.d. Gaussian": "iid", "AR(1) correlated": "ar1"}
@@ -41,6 +41,12 @@ STAGES = ("idle", "queued", "preview", "sampling", "final", "error")
 #: Seconds between two progress updates of a run: each one redraws a status line and a bar on
 #: the server's event loop, so with eight sessions sampling at once 0.2 s meant 40 a second.
 PROGRESS_INTERVAL_S = 0.4
+#: Seed the toy tab opens with. Criterion (checked by tests/test_toy_lessons.py): of seeds 0–9 of
+#: the default scenario (δ = 0, window 5 s, full MCMC), the one whose held-out coverage of the 95 %
+#: prediction band is closest to 95 % with every true parameter inside its 95 % interval.
+#: Measured: seed 7, coverage 95.7 % (seed 0, the library's default, gave 82.3 % with f outside its
+#: interval, the worst of the ten).
+LANDING_SEED = 7
 _INPUTS = ("window_s", "discrepancy", "kind", "noise_sd", "horizon_s", "likelihood", "seed")
 
 
@@ -51,20 +57,21 @@ class ToyState(param.Parameterized):
     explicitly (e.g. on page load).
     """
 
-    # -- inputs (the defaults are those of :class:`beam.toy.ToyScenario`) -------------------------
+    # -- inputs (the defaults are those of :class:`beam.toy.ToyScenario`, but the seed) -------------------------
     window_s = param.Number(5.0, bounds=(1.0, 15.0), step=0.5, label="Calibration window (s)",
                             doc="Calibration on [0, window]; the rest of the record is held out.")
     discrepancy = param.Number(0.0, bounds=(0.0, 1.0), step=0.05, label="Discrepancy amplitude δ (du)",
                                doc="Amplitude of the physics the model misses, in data units.")
     kind = param.Selector(default="harmonic", objects=list(KINDS), label="Discrepancy kind",
-                          doc="harmonic: 2f distortion; tone: unmodelled 1.37 f mode; drift: baseline drift.")
+                          doc="harmonic: 2f distortion; tone: unmodelled 1.37 f mode; drift: baseline drift δ t / 5 s.")
     noise_sd = param.Selector(default=0.1, objects=[0.02, 0.05, 0.1, 0.2, 0.3, 0.5], label="Noise sd (du)",
                               doc="Standard deviation of the i.i.d. measurement noise.")
     horizon_s = param.Selector(default=20.0, objects=[10.0, 15.0, 20.0, 30.0, 40.0], label="Horizon (s)",
                                doc="End of the record; (window, horizon] is held out.")
     likelihood = param.Selector(default="iid", objects=LIKELIHOOD_LABELS, label="Likelihood (noise model)",
-                                doc="Noise model of the calibration.")
-    seed = param.Selector(default=0, objects=list(range(10)), label="Seed (noise realisation)",
+                                doc="Noise model of the calibration: i.i.d. = independent Gaussian noise; AR(1) = each noise "
+                                    "value correlated with the previous one (can absorb a smooth misfit).")
+    seed = param.Selector(default=LANDING_SEED, objects=list(range(10)), label="Seed (noise realisation)",
                           doc="Seed of the noise and of the sampler.")
     target_ess = param.Number(1000.0, bounds=(100.0, 10000.0), label="Target ESS (per parameter)", precedence=-1)
 

@@ -24,6 +24,8 @@ from dashboard.views.panes import (
     FLEX_ITEM_GUIDE,
     FLEX_ITEM_INPUTS,
     FLEX_ITEM_MAIN,
+    HTML,
+    DataFrame,
     Markdown,
     alert_html,
     status_html,
@@ -191,12 +193,12 @@ class BeamCalibrationView(pn.viewable.Viewer):
             "pairs below — blue current, grey pinned, green the truth after *Reveal*.", margin=(0, 10)),
             sizing_mode="stretch_width")
         self._tabs = pn.Tabs(
-            ("Parameters", pn.pane.DataFrame(pn.bind(bs.truth_table, beam.param.result, self.session.diagnosis.param.answer),
+            ("Parameters", DataFrame(pn.bind(bs.truth_table, beam.param.result, self.session.diagnosis.param.answer),
                                              sizing_mode="stretch_width", escape=True,
                                              css_classes=["beam-parameter-table"])),
             ("Posterior: marginals and pairs", self._posterior_tab),
-            ("Correlations", pn.pane.DataFrame(pn.bind(bs.correlation_table, beam.param.result), escape=True)),
-            ("Compare table", pn.pane.DataFrame(pn.bind(bs.compare_table, beam.param.result, beam.param.pinned),
+            ("Correlations", DataFrame(pn.bind(bs.correlation_table, beam.param.result), escape=True)),
+            ("Compare table", DataFrame(pn.bind(bs.compare_table, beam.param.result, beam.param.pinned),
                                                 sizing_mode="stretch_width", escape=True)),
             dynamic=True, sizing_mode="stretch_width")
         self._tabs.param.watch(self._tab_opened, "active")
@@ -275,7 +277,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
                                rmse_prediction_um=f"{r['rmse_prediction_um']:.6g}")
 
         p = beam.param
-        status = pn.pane.HTML(pn.bind(html, p.stage, p.status, p.requested, p.shown, p.result, p.dataset),
+        status = HTML(pn.bind(html, p.stage, p.status, p.requested, p.shown, p.result, p.dataset),
                               sizing_mode="stretch_width", margin=(5, 10, 0, 10))
         bar = pn.indicators.Progress(
             value=pn.bind(lambda s, f: 100 if s == "final" else round(100 * f) if s in ("preview", "sampling") else 0,
@@ -290,12 +292,12 @@ class BeamCalibrationView(pn.viewable.Viewer):
         def text(result, answer):
             return readouts_html(bs.judged_readouts(result), _true_noise(answer))
 
-        return pn.pane.HTML(pn.bind(text, self._beam.param.result, self.session.diagnosis.param.answer),
+        return HTML(pn.bind(text, self._beam.param.result, self.session.diagnosis.param.answer),
                             sizing_mode="stretch_width", margin=(4, 10), css_classes=["beam-cal-readouts"])
 
     def _convergence(self) -> pn.pane.HTML:
         """Convergence notice (one HTML pane whose text changes: see :func:`dashboard.views.panes.alert_html`)."""
-        return pn.pane.HTML(pn.bind(convergence_html, self._beam.param.result), sizing_mode="stretch_width",
+        return HTML(pn.bind(convergence_html, self._beam.param.result), sizing_mode="stretch_width",
                             margin=(0, 10), css_classes=["beam-convergence"])
 
     def _reveal(self) -> pn.Card:

@@ -30,6 +30,8 @@ from dashboard.views.panes import (
     BUTTON_WRAP,
     FLEX_ITEM_GUIDE,
     FLEX_ITEM_MAIN,
+    HTML,
+    DataFrame,
     Markdown,
     status_html,
 )
@@ -167,7 +169,7 @@ class DiagnosisView(pn.viewable.Viewer):
         return pn.FlexBox(*items, flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width")
 
     def _build_ladder(self) -> None:
-        table = pn.pane.DataFrame(pn.bind(ladder_table, self._diag.param.ladder), escape=True,
+        table = DataFrame(pn.bind(ladder_table, self._diag.param.ladder), escape=True,
                                   sizing_mode="stretch_width", css_classes=["diag-ladder-table"])
         self._main.extend([
             Markdown("### Error ladder: one step per effect added", margin=(0, 10)),
@@ -184,7 +186,7 @@ class DiagnosisView(pn.viewable.Viewer):
     def _build_modes(self) -> None:
         self._main.append(self._pair(
             pn.Column(Markdown("**Modes: measured in the free decay vs the model**"),
-                      pn.pane.DataFrame(pn.bind(modes_table, self._diag.param.diagnosis), escape=True,
+                      DataFrame(pn.bind(modes_table, self._diag.param.diagnosis), escape=True,
                                         sizing_mode="stretch_width", css_classes=["diag-modes-table"]),
                       sizing_mode="stretch_width"),
             pn.Column(self._plot(self._plots.backbone), Markdown(pn.bind(_backbone_text, self._diag.param.diagnosis),
@@ -216,7 +218,7 @@ class DiagnosisView(pn.viewable.Viewer):
             return status_html("diag-status", stage, status, requested, shown, _STAGE_TEXT.get(stage, stage),
                                ladder_n=len(ladder), ladder_rmse_um=f"{last:.6g}", adding=adding)
 
-        status = pn.pane.HTML(pn.bind(html, p.stage, p.status, p.requested, p.shown, p.ladder, p.adding),
+        status = HTML(pn.bind(html, p.stage, p.status, p.requested, p.shown, p.ladder, p.adding),
                               sizing_mode="stretch_width", margin=(5, 10, 0, 10))
         bar = pn.indicators.Progress(value=pn.bind(lambda s, f: 100 if s == "final" else round(100 * f), p.stage, p.progress),
                                      max=100, sizing_mode="stretch_width", height=14, margin=(0, 10), bar_color="primary")

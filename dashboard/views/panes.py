@@ -7,8 +7,10 @@
     change (measured in chromium on the beam view), a change of an HTML pane's text ~1 ms.
 :func:`status_html`
     A run's status line with its state in ``data-*`` attributes (read by the browser tests).
+:class:`HTML`, :class:`DataFrame`
+    Panel's panes, but their stylesheets stay on this server (:class:`LocalStylesheets`).
 :class:`Markdown`
-    Panel's Markdown pane, but each text is converted to HTML once per server process: Panel
+    Panel's Markdown pane (stylesheets on this server too), but each text is converted to HTML once per server process: Panel
     renders the Markdown in Python (markdown-it) every time a pane is made or its text
     changes, ~5–15 ms for the guides of the views, and every session makes the same panes on
     the server's event loop.
@@ -21,8 +23,8 @@ from collections import OrderedDict
 
 import panel as pn
 
-__all__ = ["ALERT_COLOURS", "BUTTON_WRAP", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "Markdown",
-           "alert_html", "status_html"]
+__all__ = ["ALERT_COLOURS", "BUTTON_WRAP", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "DataFrame",
+           "HTML", "Markdown", "alert_html", "status_html"]
 
 #: Layout of the views (CSS, shared with the diagnosis view): a wrapping flex row of a fixed
 #: input column, a main column that takes the rest, and the "For the class" panel, which
@@ -64,7 +66,31 @@ _cache: OrderedDict = OrderedDict()
 _lock = threading.Lock()
 
 
-class Markdown(pn.pane.Markdown):
+class LocalStylesheets:
+    """Mixin for Panel's HTML-type panes: their stylesheets are never rewritten to the CDN.
+
+    Why: when the text of such a pane changes while its bokeh model is not attached to the
+    document (a pane in a tab not shown, ``dynamic=True``), Panel 1.9 recomputes the model's
+    properties with ``doc=None`` (``HTMLBasePane._update``: ``model.document``), and without a
+    document it resolves the pane's stylesheets (``loading.css``, ``markdown.css``,
+    ``dataframe.css``, the theme's) to cdn.holoviz.org; the browser requested them from there
+    when the tab was opened. Measured: 30 such updates in one session (load, two tabs opened).
+    Falling back to the current document, whose ``dist_url`` is this server's, keeps them local.
+    """
+
+    def _get_properties(self, doc):
+        return super()._get_properties(doc if doc is not None else pn.state.curdoc)
+
+
+class HTML(LocalStylesheets, pn.pane.HTML):
+    """:class:`panel.pane.HTML` with its stylesheets on this server (:class:`LocalStylesheets`)."""
+
+
+class DataFrame(LocalStylesheets, pn.pane.DataFrame):
+    """:class:`panel.pane.DataFrame` with its stylesheets on this server (:class:`LocalStylesheets`)."""
+
+
+class Markdown(LocalStylesheets, pn.pane.Markdown):
     """:class:`panel.pane.Markdown` with the HTML of each text cached (LRU, process-wide)."""
 
     def _transform_object(self, obj) -> dict:

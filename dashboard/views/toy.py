@@ -15,14 +15,14 @@ import panel as pn
 import param
 
 from dashboard.outputs import exports
-from dashboard.outputs.toy import compare_table, readouts
+from dashboard.outputs.toy import compare_table, judge, readouts
 from dashboard.plots.corner import CornerPlot
 from dashboard.plots.timeseries import TimeSeriesPlot
 from dashboard.plots.toy import SweepPlot
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
-from dashboard.views.panes import Markdown
-from dashboard.views.texts import TOY_GUIDE
+from dashboard.views.panes import HTML, DataFrame, Markdown, alert_html
+from dashboard.views.texts import TOY_GLOSSARY, TOY_GUIDE, TOY_STEPS
 
 __all__ = ["ToyView"]
 
@@ -34,12 +34,16 @@ _STAGE_TEXT = {
     "final": "Posterior (MCMC) shown.",
     "error": "Could not run this scenario.",
 }
+#: (key, label, format, glossary entry of the tooltip). No colour thresholds: whether a value is
+#: good news depends on the others (:func:`dashboard.outputs.toy.judge` says it in words beside them).
 _READOUTS = (
-    ("coverage_pct", "Held-out coverage, 95 % band (%)", "{value:.1f} %", [(85.0, "#d62728"), (101.0, "#2ca02c")]),
-    ("rmse_du", "Held-out RMSE (du)", "{value:.3f}", None),
-    ("frequency_sd_mHz", "Posterior sd of f (mHz)", "{value:.2f}", None),
+    ("coverage_pct", "Held-out coverage of the 95 % band (%)", "{value:.1f}", "coverage"),
+    ("rmse_du", "Held-out RMSE (du)", "{value:.3f}", "RMSE"),
+    ("frequency_sd_mHz", "Posterior sd of f (mHz)", "{value:.2f}", "posterior"),
     ("noise_sd_du", "Estimated noise sd (du)", "{value:.3f}", None),
 )
+_NOISE_TIP = ("the noise sd the calibration estimates; compare it with the true noise sd (the Noise sd input): "
+              "far above it, the model is absorbing missing physics as noise")
 
 
 class ToyView(pn.viewable.Viewer):
@@ -124,7 +128,7 @@ class ToyView(pn.viewable.Viewer):
         self._centre.append(pn.pane.Bokeh(self._timeseries.figure, sizing_mode="stretch_width", height=390))
 
     def _build_controls(self) -> None:
-        self._left.append(self._controls())
+        self._left.extend([self._controls(), self._presets()])
 
     def _build_side(self) -> None:
         self._left.extend([self._compare_buttons(), self._downloads()])
@@ -143,7 +147,7 @@ class ToyView(pn.viewable.Viewer):
         self._tabs = pn.Tabs(
             ("Window sweep", self._sweep_tab),
             ("Posterior: marginals and pairs", self._posterior_tab),
-            ("Compare table", pn.pane.DataFrame(pn.bind(compare_table, toy.param.result, toy.param.pinned),
+            ("Compare table", DataFrame(pn.bind(compare_table, toy.param.result, toy.param.pinned),
                                                 sizing_mode="stretch_width", escape=True)),
             dynamic=True,
             sizing_mode="stretch_width",
@@ -224,7 +228,7 @@ class ToyView(pn.viewable.Viewer):
                 return round(100 * fraction)
             return 0
 
-        status = pn.pane.HTML(pn.bind(status_html, toy.param.stage, toy.param.status, toy.param.requested,
+        status = HTML(pn.bind(status_html, toy.param.stage, toy.param.status, toy.param.requested,
                                       toy.param.shown), sizing_mode="stretch_width", margin=(5, 10, 0, 10))
         bar = pn.indicators.Progress(label="MCMC progress (%)", value=pn.bind(bar_value, toy.param.stage, toy.param.progress),
                                      max=100, sizing_mode="stretch_width", height=14, margin=(0, 10),
@@ -233,15 +237,42 @@ class ToyView(pn.viewable.Viewer):
                               visible=pn.bind(bool, toy.param.error), sizing_mode="stretch_width", css_classes=["beam-error"])
         return pn.Column(status, bar, alert, sizing_mode="stretch_width")
 
-    def _readouts(self) -> pn.Row:
-        values = pn.bind(readouts, self._toy.param.result)
+    def _readouts(self) -> pn.Column:
+        toy = self._toy
+        values = pn.bind(readouts, toy.param.result)
         items = []
-        for key, label, fmt, colors in _READOUTS:
+        for key, label, fmt, term in _READOUTS:
             value = pn.bind(lambda v, k=key: v[k] if math.isfinite(v[k]) else float("nan"), values)
-            items.append(pn.indicators.Number(label=label, value=value, format=fmt, colors=colors, font_size="24pt",
-                                              title_size="10pt", nan_format="–", margin=(0, 12),
-                                              css_classes=[f"beam-readout-{key.replace('_', '-')}"]))
-        return pn.Row(*items, sizing_mode="stretch_width")
+            number = pn.indicators.Number(label=label, value=value, format=fmt, font_size="24pt", title_size="10pt",
+                                          nan_format="–", margin=(0, 0, 0, 12),
+                                          css_classes=[f"beam-readout-{key.replace('_', '-')}"])
+            tip = TOY_GLOSSARY[term] if term else _NOISE_TIP
+            items.append(pn.Row(number, pn.widgets.TooltipIcon(value=f"{term or 'noise sd'}: {tip}", margin=(4, 8))))
+
+        def verdict_html(result, pinned):
+            kind, lines = judge(result, pinned)
+            return alert_html(kind, "<br>".join(lines))
+
+        verdict = HTML(pn.bind(verdict_html, toy.param.result, toy.param.pinned), sizing_mode="stretch_width",
+                               margin=(0, 10), css_classes=["beam-verdict"])
+        return pn.Column(pn.Row(*items, sizing_mode="stretch_width"), verdict, sizing_mode="stretch_width")
+
+    def _presets(self) -> pn.Card:
+        """One button per preset of the "Try this" steps: it sets the inputs of the step at once."""
+        toy = self._toy
+        rows = []
+        for k, (title, _, presets) in enumerate(TOY_STEPS, start=1):
+            if not presets:
+                continue
+            buttons = []
+            for label, settings in presets:
+                button = pn.widgets.Button(label=f"{k}. {label}", button_type="light", sizing_mode="stretch_width",
+                                           margin=(2, 4), description=f"Step {k} ({title}): sets the inputs of the step",
+                                           css_classes=["beam-preset"])
+                button.on_click(lambda event, s=dict(settings): toy.param.update(**s))
+                buttons.append(button)
+            rows.append(pn.Row(*buttons, sizing_mode="stretch_width", margin=0))
+        return pn.Card(*rows, title="Try this (steps of the guide)", collapsible=False, sizing_mode="stretch_width")
 
     def _compare_buttons(self) -> pn.Card:
         toy = self._toy

@@ -15,7 +15,9 @@ from dashboard.jobs import toy as toy_jobs
 from dashboard.outputs import exports
 from dashboard.outputs.toy import (
     PARAMETER_LABELS,
+    change_words,
     compare_table,
+    judge,
     readouts,
     result_label,
     user_message,
@@ -146,3 +148,40 @@ def test_student_words():
     assert evidence_words(5.0).startswith("+5.0 nats: odds about 150 : 1")  # e^5 = 148.4
     assert "10¹⁰⁰" in evidence_words(4106.5) and "against" in evidence_words(-3.0)
     assert fmt_um(1379.2) == "1\u2009379" and fmt_um(57.34) == "57.3" and fmt_um(4.213) == "4.21"
+def test_changes_are_worded_with_the_sign_said_once():
+    assert change_words(96.7, 100.0) == "3.3 % lower"
+    assert change_words(1.1, 1.0) == "10.0 % higher"
+    assert change_words(-1.1, -1.0) == "10.0 % lower"  # relative to |old|: a more negative value is lower
+    assert change_words(1.0, 1.0) == "unchanged"
+    assert change_words(1.0, 0.0) == "" and change_words(math.nan, 1.0) == ""
+
+
+def test_verdict_judges_the_model_not_the_coverage_alone():
+    from beam.toy import run_toy
+
+    def verdict(**kw):
+        return judge(run_toy(ToyScenario(seed=7, **kw), mcmc=False))
+
+    kind, lines = verdict()  # the model is right
+    assert kind == "success", lines
+    assert "matches the true noise" in lines[0]
+    # a harmonic distortion: noise sd ~2.3x the truth, coverage still high because the bands are wide
+    kind, lines = verdict(discrepancy=0.3, kind="harmonic")
+    text = " ".join(lines)
+    assert kind != "success" and "absorbs a discrepancy as noise" in text
+    assert "high only because the bands are wide" in text
+    # the tone on a short window: noise absorbed, band too narrow, frequency biased
+    kind, lines = verdict(discrepancy=0.3, kind="tone", window_s=3.0)
+    assert kind == "danger" and "over-confident" in " ".join(lines)
+    assert judge(None)[0] == "secondary"
+
+
+def test_verdict_words_the_change_against_a_pinned_result():
+    from beam.toy import run_toy
+
+    old = run_toy(ToyScenario(seed=7), mcmc=False)
+    new = run_toy(ToyScenario(seed=7, window_s=8.0), mcmc=False)
+    _, lines = judge(new, old)
+    expected = change_words(readouts(new)["rmse_du"], readouts(old)["rmse_du"])
+    assert lines[-1].startswith("Against the pinned result: RMSE " + expected)
+    assert "-" not in lines[-1] and "+" not in lines[-1]

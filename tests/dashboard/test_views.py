@@ -199,3 +199,16 @@ def test_the_app_needs_no_holoviews():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=root, check=False)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip() == "False"
+
+
+def test_try_this_presets_set_the_inputs_of_their_step(session):
+    from dashboard.views.texts import TOY_STEPS
+
+    view = ToyView(session=session)
+    buttons = {b.label: b for b in view.layout.select(pn.widgets.Button) if "beam-preset" in b.css_classes}
+    expected = {f"{k}. {label}": settings for k, (_, _, presets) in enumerate(TOY_STEPS, start=1)
+                for label, settings in presets}
+    assert set(buttons) == set(expected)
+    for label, settings in expected.items():
+        buttons[label].clicks += 1
+        assert {name: getattr(session.toy, name) for name in settings} == settings, label
