@@ -32,7 +32,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from beam.calibration import DEFAULT_EFFECTS, DEFAULT_MODES, CalibrationResult, calibrate, calibration_preview
-from beam.effects import EFFECTS, parse_effects
+from beam.effects import CANDIDATE_EFFECTS, EFFECTS, parse_effects
 from beam.errors import BeamInputError
 from beam.measurement import Measurement
 
@@ -130,9 +130,10 @@ Explainer = Callable[[str, CalibrationResult, CalibrationResult], str]
 
 
 def candidate_effects(current: Iterable[str]) -> tuple[str, ...]:
-    """Catalogue effects not in the current model, in catalogue order."""
+    """Catalogue effects offered as candidates (:data:`beam.effects.CANDIDATE_EFFECTS`) not in the
+    current model, in catalogue order."""
     present = set(parse_effects(current))
-    return tuple(effect for effect in EFFECTS if effect not in present)
+    return tuple(effect for effect in CANDIDATE_EFFECTS if effect not in present)
 
 
 def rank_candidates(
