@@ -628,9 +628,12 @@ def read_measurement(path: str | os.PathLike[str]) -> Measurement:
         raise BeamInputError(f"{csv_path}: sidecar {toml_path.name} not found next to it (it holds the geometry)")
     if not csv_exists:
         raise BeamInputError(f"{toml_path}: data file {csv_path.name} not found next to it")
-    input_kind = INPUT_COLUMNS.get(_peek_input_column(csv_path), None)
-    sidecar = load_sidecar(toml_path, input_kind=input_kind)
-    table = read_measurement_table(csv_path, sensor_range=sidecar.sensor_range)
+    # the CSV's header first: it says which sidecar tables are required ([patch], [force])
+    text = read_text_file(csv_path, "measurement CSV", MAX_MEASUREMENT_BYTES)
+    lines = _lines(text)
+    input_column = next((c for c in _check_header(csv_path, lines[0]) if c in INPUT_COLUMNS), None) if lines else None
+    sidecar = load_sidecar(toml_path, input_kind=INPUT_COLUMNS.get(input_column))
+    table = _table_from_lines(csv_path, lines, sidecar.sensor_range)
     return Measurement(
         name=csv_path.stem, title=sidecar.title if sidecar.title is not None else csv_path.stem,
         geometry=sidecar.geometry, time_s=table.time_s, nominal=sidecar.nominal, csv_path=csv_path,
@@ -639,15 +642,12 @@ def read_measurement(path: str | os.PathLike[str]) -> Measurement:
     )
 
 
-def _peek_input_column(csv_path: Path) -> str | None:
-    """The input column of a CSV's header (checked in full), read before the sidecar so that the
-    sidecar's requirements (``[patch]`` with voltage_V, ``[force]`` with force_N) are known."""
-    text = read_text_file(csv_path, "measurement CSV", MAX_MEASUREMENT_BYTES)
-    first = text.replace("\r\n", "\n").replace("\r", "\n").split("\n", 1)[0]
-    if not text.strip():
-        return None  # the table reader names the empty file
-    columns = _check_header(csv_path, first)
-    return next((c for c in columns if c in INPUT_COLUMNS), None)
+def _lines(text: str) -> list[str]:
+    """The lines of a CSV's text (any line ending), trailing blank lines dropped."""
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    while lines and not lines[-1].strip():
+        lines.pop()
+    return lines
 
 
 def _exists(path: Path) -> bool:
@@ -797,9 +797,10 @@ def read_measurement_table(path: str | os.PathLike[str], sensor_range: float | N
     """
     path = Path(path)
     text = read_text_file(path, "measurement CSV", MAX_MEASUREMENT_BYTES)
-    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
-    while lines and not lines[-1].strip():
-        lines.pop()
+    return _table_from_lines(path, _lines(text), sensor_range)
+
+
+def _table_from_lines(path: Path, lines: list[str], sensor_range: float | None) -> MeasurementTable:
     if not lines:
         raise BeamInputError(f"{path}: empty file; expected the header ({HEADER_RULE}, e.g. {','.join(CSV_COLUMNS)}) and data rows")
     columns = _check_header(path, lines[0])
