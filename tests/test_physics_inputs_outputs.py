@@ -45,7 +45,7 @@ def parameters_for(input_kind: str | None, extra: dict) -> dict:
 
 def smooth_burst(rate_Hz: float, duration_s: float = 0.25, frequency_Hz: float = 20.0) -> tuple[np.ndarray, np.ndarray]:
     """A 20 Hz sine under a sin² envelope rising over 0.1 s: smooth at the sampling rate."""
-    t = np.arange(int(round(duration_s * rate_Hz))) / rate_Hz
+    t = np.arange(round(duration_s * rate_Hz)) / rate_Hz
     envelope = np.sin(0.5 * np.pi * np.clip(t / 0.1, 0.0, 1.0)) ** 2
     return t, np.sin(2 * np.pi * frequency_Hz * t) * envelope
 
