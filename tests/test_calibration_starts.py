@@ -10,9 +10,11 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from beam.calibration import calibration_preview  # noqa: E402
+from beam.calibration import (
+    calibration_preview,  # noqa: E402
+    prepare,  # noqa: E402
+)
 from beam.calibration.starts import design_points, starting_points  # noqa: E402
-from beam.calibration import prepare  # noqa: E402
 from tests.benchmarks.bench_starts import reference_log_posterior  # noqa: E402
 from tests.simulated_data import TRUE_BASE, simulated_measurement  # noqa: E402
 

@@ -2,13 +2,18 @@
 
 Property-based (hypothesis, derandomised, no example database, so CI sees the same inputs):
 
-* :func:`test_generated_csv` - a valid table with one mutation from :data:`CSV_MUTATIONS`
-  (missing/extra/renamed/reordered columns, no header, NaN/inf/1e309, text in a cell, time
-  repeated, swapped or irregular, empty, header only, one row, non-UTF-8 and NUL bytes,
-  UTF-16, trailing commas, wrong separators, blank line inside) or a tolerated variant (BOM,
-  CRLF and CR line endings, spaces, trailing blank lines, 1e308, subnormals). A bad file gives
-  one BeamInputError whose one line starts with the file and names the line; a good one reads
-  back the exact values.
+* :func:`test_generated_csv` - a valid table of any kind (input voltage_V, force_N or none;
+  output displacement_m, velocity_m_s or acceleration_m_s2; uniform or irregular time) with
+  one mutation from :data:`CSV_MUTATIONS`, each mutation drawn 12 times (missing/extra/renamed/
+  reordered columns, a second input or output, a column in another unit, no header,
+  NaN/inf/1e309, text in a cell, time repeated or swapped, a gap of more than 100 median steps,
+  an output clipped for more than half the record, empty, header only, one row, non-UTF-8 and
+  NUL bytes, UTF-16, trailing commas, wrong separators, blank line inside) or a tolerated
+  variant (BOM, CRLF and CR line endings, spaces, trailing blank lines, 1e308, subnormals,
+  irregular time, a dropped input: a free response). A bad file gives one BeamInputError whose
+  one line starts with the file and names the line; a good one reads back the exact values.
+* :func:`test_generated_sidecar_of_a_force_record` - ``[force]`` missing or bad, ``[sensor]
+  range`` bad or clipping the record, an optional patch.
 * :func:`test_generated_sidecar` / :func:`test_generated_config` - the same for TOML: missing
   or unknown keys and tables, wrong types (string, boolean, array, date, table, 400-digit
   integer), NaN/inf, negative or zero lengths and densities, values outside the model's range,
@@ -16,7 +21,8 @@ Property-based (hypothesis, derandomised, no example database, so CI sees the sa
 * :func:`test_arbitrary_content_raises_only_beam_input_error` - random bytes, random text and
   byte-flipped valid files fed to ``read_measurement``, ``read_sidecar`` and ``load_config``:
   nothing but BeamInputError may escape.
-* :func:`test_valid_files_round_trip_bit_exact` - write_measurement -> read_measurement.
+* :func:`test_valid_files_round_trip_bit_exact` - write_measurement -> read_measurement, every
+  kind of record, with or without a sensor range; the classic tuple form too.
 
 Decisions: CRLF and CR-only line endings and a UTF-8 byte-order mark are accepted (spreadsheet
 exports); a trailing comma is refused with a hint (it is an empty fourth cell).
@@ -38,7 +44,10 @@ from beam.errors import BeamInputError
 from beam.io.config import load_config
 from beam.io.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M
 from beam.io.measurement import (
+    ALL_COLUMNS,
     CSV_COLUMNS,
+    INPUT_COLUMNS,
+    OUTPUT_COLUMNS,
     measurement_csv_text,
     read_measurement,
     read_sidecar,
@@ -75,8 +84,9 @@ FUZZ = dict(
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 #: Generated inputs per test (the README section "Limits and robustness" gives the totals).
-CSV_EXAMPLES = 250
+CSV_EXAMPLES_PER_MUTATION = 12
 SIDECAR_EXAMPLES = 150
+FORCE_SIDECAR_EXAMPLES = 60
 CONFIG_EXAMPLES = 100
 JUNK_EXAMPLES = 500
 ROUND_TRIP_EXAMPLES = 60
@@ -88,7 +98,8 @@ class Expect:
 
     valid: bool
     fragments: list[str] = field(default_factory=list)
-    arrays: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    arrays: dict[str, np.ndarray] | None = None
+    uniform: bool | None = None
 
 
 def error(*fragments: str) -> Expect:
@@ -114,20 +125,58 @@ def _assert_one_line_error(call, path: Path, fragments: list[str]) -> str:
 
 finite_floats = st.floats(allow_nan=False, allow_infinity=False)
 
+#: A sidecar every kind of record reads with: a patch (voltage_V) and a force position (force_N).
+SIDECAR_ANY_INPUT = SIDECAR + "[force]\nposition_m = 0.3\n"
+
+
+@dataclass
+class Table:
+    """A valid record: the header and its columns (time first)."""
+
+    names: tuple[str, ...]
+    arrays: list[np.ndarray]
+
+    @property
+    def time_s(self) -> np.ndarray:
+        return self.arrays[0]
+
+    def mapping(self) -> dict[str, np.ndarray]:
+        return dict(zip(self.names, self.arrays))
+
+    def with_time(self, time_s: np.ndarray) -> Table:
+        return Table(self.names, [time_s] + self.arrays[1:])
+
 
 @st.composite
-def tables(draw, min_rows: int = 2, max_rows: int = 30) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Uniform time (any start, rates from 1 mHz to 1 GHz) and arbitrary finite values."""
+def tables(draw, min_rows: int = 2, max_rows: int = 30, kinds: bool = True) -> Table:
+    """Time (any start, rates from 1 mHz to 1 GHz, uniform or jittered by up to 40 % of a step) and
+    arbitrary finite values: an input (voltage_V, force_N or none) and an output (displacement_m,
+    velocity_m_s or acceleration_m_s2; distinct values, so that no run of equal samples looks
+    clipped). ``kinds=False`` gives the classic time_s,voltage_V,displacement_m on a uniform grid."""
     n = draw(st.integers(min_rows, max_rows))
     rate = draw(st.sampled_from([1000.0, 2048.0, 51200.0]) | st.floats(1e-3, 1e9))
     start = draw(st.sampled_from([0.0, 12.5]) | st.floats(-1e3, 1e3))
     time_s = start + np.arange(n) / rate
-    columns = [np.array(draw(st.lists(finite_floats, min_size=n, max_size=n))) for _ in range(2)]
-    return time_s, columns[0], columns[1]
+    if kinds and draw(st.booleans()):
+        jitter = np.array(draw(st.lists(st.floats(-0.2, 0.2), min_size=n, max_size=n)))
+        time_s = start + (np.arange(n) + jitter) / rate
+        assume(np.all(np.diff(time_s) > 0))
+    input_column = draw(st.sampled_from(["voltage_V", "force_N", None])) if kinds else "voltage_V"
+    output_column = draw(st.sampled_from(list(OUTPUT_COLUMNS))) if kinds else "displacement_m"
+    names = ("time_s",) + ((input_column,) if input_column else ()) + (output_column,)
+    arrays = [time_s]
+    if input_column:
+        arrays.append(np.array(draw(st.lists(finite_floats, min_size=n, max_size=n))))
+    arrays.append(np.array(draw(st.lists(finite_floats, min_size=n, max_size=n, unique=True))))
+    return Table(names, arrays)
 
 
-def _rows(time_s, voltage, displacement) -> list[list[str]]:
-    return [[repr(t), repr(v), repr(d)] for t, v, d in zip(time_s.tolist(), voltage.tolist(), displacement.tolist())]
+def _rows(table: Table) -> list[list[str]]:
+    return [[repr(value) for value in row] for row in zip(*(a.tolist() for a in table.arrays))]
+
+
+def _csv(table: Table) -> str:
+    return measurement_csv_text(*table.arrays, names=table.names)
 
 
 def _text(header: list[str] | None, rows: list[list[str]], separator: str = ",", newline: str = "\n") -> str:
@@ -135,16 +184,16 @@ def _text(header: list[str] | None, rows: list[list[str]], separator: str = ",",
     return newline.join(lines) + newline
 
 
-def _valid(table) -> Expect:
-    return Expect(True, arrays=table)
+def _valid(table: Table, uniform: bool | None = None) -> Expect:
+    return Expect(True, arrays=table.mapping(), uniform=uniform)
 
 
 def m_tolerated_formatting(draw, table):
     """BOM, CRLF or CR line endings, spaces around names and numbers, blank lines at the end."""
     newline = draw(st.sampled_from(["\n", "\r\n", "\r"]))
     pad = draw(st.sampled_from(["", " ", "  ", "\t"]))
-    header = [f"{pad}{name}{pad}" for name in CSV_COLUMNS]
-    rows = [[f"{pad}{cell}{pad}" for cell in row] for row in _rows(*table)]
+    header = [f"{pad}{name}{pad}" for name in table.names]
+    rows = [[f"{pad}{cell}{pad}" for cell in row] for row in _rows(table)]
     text = _text(header, rows, newline=newline) + draw(st.sampled_from(["", newline, newline * 3, " \n\n"]))
     bom = draw(st.sampled_from(["", "\ufeff"]))
     return (bom + text).encode("utf-8"), _valid(table)
@@ -152,68 +201,105 @@ def m_tolerated_formatting(draw, table):
 
 def m_extreme_finite_values(draw, table):
     """1e308, -1.7976931348623157e308, subnormals and signed zeros are finite: accepted exactly."""
-    time_s, voltage, displacement = (c.copy() for c in table)
+    arrays = [a.copy() for a in table.arrays]
     specials = [1e308, -1.7976931348623157e308, 5e-324, -0.0, 2.2250738585072014e-308]
-    for column in (voltage, displacement):
+    for column in arrays[1:]:
         column[draw(st.integers(0, column.size - 1))] = draw(st.sampled_from(specials))
-    return measurement_csv_text(time_s, voltage, displacement).encode(), _valid((time_s, voltage, displacement))
+    changed = Table(table.names, arrays)
+    return _csv(changed).encode(), _valid(changed)
 
 
 def m_number_only_python_reads(draw, table):
     """``1_000``, Arabic-Indic or full-width digits: Python's ``float`` reads them, so they are accepted."""
-    time_s, voltage, displacement = (c.copy() for c in table)
+    arrays = [a.copy() for a in table.arrays]
     token = draw(st.sampled_from(["1_000", "\u0661\u0662", "\uff13.5", "-2_5e-1_0"]))
-    row = draw(st.integers(0, time_s.size - 1))
-    voltage[row] = float(token)
-    rows = _rows(time_s, voltage, displacement)
+    row = draw(st.integers(0, table.time_s.size - 1))
+    arrays[1][row] = float(token)
+    changed = Table(table.names, arrays)
+    rows = _rows(changed)
     rows[row][1] = token
-    return _text(list(CSV_COLUMNS), rows).encode(), _valid((time_s, voltage, displacement))
+    return _text(list(table.names), rows).encode(), _valid(changed)
 
 
 def m_missing_column(draw, table):
-    dropped = draw(st.integers(0, 2))
-    keep = [i for i in range(3) if i != dropped]
-    header = [CSV_COLUMNS[i] for i in keep]
-    rows = [[row[i] for i in keep] for row in _rows(*table)]
-    return _text(header, rows).encode(), error("line 1", f"missing column {CSV_COLUMNS[dropped]}")
+    """Without time_s or without the output: an error; without the input: a valid free response."""
+    dropped = draw(st.integers(0, len(table.names) - 1))
+    keep = [i for i in range(len(table.names)) if i != dropped]
+    header = [table.names[i] for i in keep]
+    rows = [[row[i] for i in keep] for row in _rows(table)]
+    name = table.names[dropped]
+    if name in INPUT_COLUMNS:
+        return _text(header, rows).encode(), _valid(Table(tuple(header), [table.arrays[i] for i in keep]))
+    fragment = "missing column time_s" if name == "time_s" else "missing column: an output"
+    return _text(header, rows).encode(), error("line 1", fragment)
 
 
-extra_names = st.from_regex(r"[A-Za-z][A-Za-z0-9_]{0,12}", fullmatch=True).filter(lambda s: s not in CSV_COLUMNS)
+extra_names = st.from_regex(r"[A-Za-z][A-Za-z0-9_]{0,12}", fullmatch=True).filter(lambda s: s not in ALL_COLUMNS)
 
 
 def m_extra_column(draw, table):
     name = draw(extra_names)
-    position = draw(st.integers(0, 3))
-    header = list(CSV_COLUMNS)
+    position = draw(st.integers(0, len(table.names)))
+    header = list(table.names)
     header.insert(position, name)
-    rows = [row[:position] + ["1.0"] + row[position:] for row in _rows(*table)]
+    rows = [row[:position] + ["1.0"] + row[position:] for row in _rows(table)]
     return _text(header, rows).encode(), error("line 1", f"unexpected column {name!r}")
 
 
+def m_second_input_or_output(draw, table):
+    """A second input or output column (or the same one twice): one error naming both."""
+    extra = draw(st.sampled_from(list(INPUT_COLUMNS) + list(OUTPUT_COLUMNS)))
+    header = list(table.names)
+    position = 1 if extra in INPUT_COLUMNS else len(header)
+    header.insert(position, extra)
+    rows = [row[:position] + ["1.0"] + row[position:] for row in _rows(table)]
+    if extra in table.names:
+        fragment = f"column {extra} is repeated"
+    else:
+        kind = INPUT_COLUMNS if extra in INPUT_COLUMNS else OUTPUT_COLUMNS
+        same = [n for n in header if n in kind]
+        if len(same) > 1:
+            fragment = f"two {'input' if kind is INPUT_COLUMNS else 'output'} columns {' and '.join(same)}"
+        else:  # an input added to a free record: a valid header, but no data for it... it has 1.0s
+            changed = Table(tuple(header), table.arrays[:1] + [np.ones(table.time_s.size)] + table.arrays[1:])
+            return _text(header, rows).encode(), _valid(changed)
+    return _text(header, rows).encode(), error("line 1", fragment)
+
+
+def m_wrong_unit(draw, table):
+    """A data column in another unit (acceleration_g, force_kN, ...): refused with the name to use."""
+    index = draw(st.integers(1, len(table.names) - 1))
+    quantity = table.names[index].split("_")[0]
+    header = list(table.names)
+    header[index] = f"{quantity}_{draw(st.sampled_from(['g', 'mm', 'kN', 'mV', 'mm_s', 'um', 'in']))}"
+    return _text(header, _rows(table)).encode(), error("line 1", f"unexpected column {header[index]!r}", "is read in")
+
+
 def m_renamed_column(draw, table):
-    index = draw(st.integers(0, 2))
-    header = list(CSV_COLUMNS)
+    index = draw(st.integers(0, len(table.names) - 1))
+    header = list(table.names)
     header[index] = draw(extra_names)
-    return _text(header, _rows(*table)).encode(), error("line 1", "header must be exactly")
+    return _text(header, _rows(table)).encode(), error("line 1", "header must be exactly")
 
 
 def m_reordered_columns(draw, table):
-    order = draw(st.permutations([0, 1, 2]).filter(lambda p: list(p) != [0, 1, 2]))
-    header = [CSV_COLUMNS[i] for i in order]
-    rows = [[row[i] for i in order] for row in _rows(*table)]
+    count = len(table.names)
+    order = draw(st.permutations(list(range(count))).filter(lambda p: list(p) != list(range(count))))
+    header = [table.names[i] for i in order]
+    rows = [[row[i] for i in order] for row in _rows(table)]
     return _text(header, rows).encode(), error("line 1", "wrong order")
 
 
 def m_no_header(draw, table):
-    return _text(None, _rows(*table)).encode(), error("line 1", "header is missing")
+    return _text(None, _rows(table)).encode(), error("line 1", "header is missing")
 
 
 def m_non_finite_cell(draw, table):
-    rows = _rows(*table)
-    row, column = draw(st.integers(0, len(rows) - 1)), draw(st.integers(0, 2))
+    rows = _rows(table)
+    row, column = draw(st.integers(0, len(rows) - 1)), draw(st.integers(0, len(table.names) - 1))
     rows[row][column] = draw(st.sampled_from(["nan", "NaN", "-nan", "inf", "-inf", "Infinity", "1e309", "-1e400"]))
-    expect = error(f"line {row + 2}", f"{CSV_COLUMNS[column]} = ", "is not finite")
-    return _text(list(CSV_COLUMNS), rows).encode(), expect
+    expect = error(f"line {row + 2}", f"{table.names[column]} = ", "is not finite")
+    return _text(list(table.names), rows).encode(), expect
 
 
 def _is_float(text: str) -> bool:
@@ -230,35 +316,65 @@ junk_cells = st.text(
 
 
 def m_text_cell(draw, table):
-    rows = _rows(*table)
-    row, column = draw(st.integers(0, len(rows) - 1)), draw(st.integers(0, 2))
+    rows = _rows(table)
+    row, column = draw(st.integers(0, len(rows) - 1)), draw(st.integers(0, len(table.names) - 1))
     rows[row][column] = draw(junk_cells)
-    expect = error(f"line {row + 2}", f"{CSV_COLUMNS[column]} = ", "not a number")
-    return _text(list(CSV_COLUMNS), rows).encode(), expect
+    expect = error(f"line {row + 2}", f"{table.names[column]} = ", "not a number")
+    return _text(list(table.names), rows).encode(), expect
 
 
 def m_time_not_increasing(draw, table):
-    time_s = table[0].copy()
+    time_s = table.time_s.copy()
     k = draw(st.integers(1, time_s.size - 1))
     if draw(st.booleans()):
         time_s[k] = time_s[k - 1]  # a repeated sample
     else:
         time_s[k - 1], time_s[k] = time_s[k], time_s[k - 1]  # out of order
-    text = measurement_csv_text(time_s, table[1], table[2])
-    return text.encode(), error(f"line {k + 2}", "does not increase")
+    return _csv(table.with_time(time_s)).encode(), error(f"line {k + 2}", "does not increase")
+
+
+def _longer(table: Table, n: int = 8) -> Table:
+    """The table with at least ``n`` rows (a uniform grid, values 1, 2, ...) for time mutations."""
+    if table.time_s.size >= n:
+        return table
+    step = table.time_s[1] - table.time_s[0]
+    return Table(table.names, [table.time_s[0] + np.arange(n) * step] + [np.arange(1.0, n + 1) for _ in table.arrays[1:]])
 
 
 def m_irregular_time(draw, table):
-    time_s, voltage, displacement = table
-    if time_s.size < 4:
-        time_s = time_s[0] + np.arange(6) * (time_s[1] - time_s[0])
-        voltage, displacement = np.zeros(6), np.zeros(6)
+    """A stamp moved by 5-45 % of a step: accepted, read as given, not uniform."""
+    table = _longer(table)
+    time_s = table.time_s
     step = (time_s[-1] - time_s[0]) / (time_s.size - 1)
     k = draw(st.integers(1, time_s.size - 1))
     shifted = time_s.copy()
     shifted[k] += draw(st.sampled_from([-1.0, 1.0])) * draw(st.floats(0.05, 0.45)) * step
-    text = measurement_csv_text(shifted, voltage, displacement)
-    return text.encode(), error(f"line {k + 2}", "uniformly spaced")
+    assume(np.all(np.diff(shifted) > 0) and np.median(np.diff(table.time_s)) > 0)
+    uniform = bool(np.all(np.abs(np.diff(table.time_s) - step) <= 0.01 * step))  # the base grid was uniform
+    changed = table.with_time(shifted)
+    return _csv(changed).encode(), _valid(changed, uniform=False if uniform else None)
+
+
+def m_gap(draw, table):
+    """A step of more than 100 median steps: a hole in the record."""
+    table = _longer(table)
+    time_s = table.time_s.copy()
+    k = draw(st.integers(1, time_s.size - 1))
+    step = float(np.median(np.diff(time_s)))
+    time_s[k:] += draw(st.floats(100.5, 1e4)) * step
+    assume(np.isfinite(time_s).all() and np.all(np.diff(time_s) > 0))
+    return _csv(table.with_time(time_s)).encode(), error(f"line {k + 2}", "a hole in the record")
+
+
+def m_clipped(draw, table):
+    """An output saturated for more than half of the record (flat runs at its extremes): refused."""
+    table = _longer(table, 12)
+    n = table.time_s.size
+    level = draw(st.sampled_from([9.80665, 98.0665, 1e-3, 0.02]))
+    output = np.array([(-1.0) ** (k // 4) for k in range(n)]) * level  # runs of 4 at +-level
+    output[0] = output[-1] = 0.5 * level  # inside the record
+    changed = Table(table.names, table.arrays[:-1] + [output])
+    return _csv(changed).encode(), error("are clipped", "more than half")
 
 
 def m_empty(draw, table):
@@ -266,76 +382,76 @@ def m_empty(draw, table):
 
 
 def m_header_only(draw, table):
-    return (HEADER + draw(st.sampled_from(["", "\n", "\r\n", "\n\n  \n"]))).encode(), error("header only")
+    return (",".join(table.names) + draw(st.sampled_from(["", "\n", "\r\n", "\n\n  \n"]))).encode(), error("header only")
 
 
 def m_one_row(draw, table):
-    return _text(list(CSV_COLUMNS), _rows(*table)[:1]).encode(), error("line 2", "the only data row")
+    return _text(list(table.names), _rows(table)[:1]).encode(), error("line 2", "the only data row")
 
 
 def m_not_utf8(draw, table):
-    rows = _rows(*table)
+    rows = _rows(table)
     row = draw(st.integers(0, len(rows) - 1))
-    lines = [HEADER.encode()] + [",".join(r).encode() for r in rows]
+    lines = [",".join(table.names).encode()] + [",".join(r).encode() for r in rows]
     lines[row + 1] += b" " + draw(st.sampled_from([b"\xb5m", b"\xe9", b"\xff", b"\xc3", b"\x80"]))
     return b"\n".join(lines) + b"\n", error(f"line {row + 2}", "not UTF-8")
 
 
 def m_nul_byte(draw, table):
-    content = measurement_csv_text(*table).encode()
+    content = _csv(table).encode()
     position = draw(st.integers(0, len(content)))
     return content[:position] + b"\x00" + content[position:], error("binary content")
 
 
 def m_utf16(draw, table):
-    return measurement_csv_text(*table).encode("utf-16"), error("binary content")
+    return _csv(table).encode("utf-16"), error("binary content")
 
 
 def m_trailing_comma(draw, table):
-    rows = _rows(*table)
+    rows = _rows(table)
     if draw(st.booleans()):
-        text = _text(list(CSV_COLUMNS) + [""], [r + [""] for r in rows])
+        text = _text(list(table.names) + [""], [r + [""] for r in rows])
         return text.encode(), error("line 1", "trailing comma")
-    return _text(list(CSV_COLUMNS), [r + [""] for r in rows]).encode(), error("line 2", "trailing comma")
+    return _text(list(table.names), [r + [""] for r in rows]).encode(), error("line 2", "trailing comma")
 
 
 def m_other_separator(draw, table):
     separator = draw(st.sampled_from([";", "\t"]))
-    return _text(list(CSV_COLUMNS), _rows(*table), separator=separator).encode(), error("line 1", "separated by commas")
+    return _text(list(table.names), _rows(table), separator=separator).encode(), error("line 1", "separated by commas")
 
 
 def m_blank_line_inside(draw, table):
-    rows = _rows(*table)
+    rows = _rows(table)
     k = draw(st.integers(1, len(rows) - 1))
-    lines = [HEADER] + [",".join(r) for r in rows]
+    lines = [",".join(table.names)] + [",".join(r) for r in rows]
     lines.insert(k + 1, draw(st.sampled_from(["", " ", "\t"])))
     return ("\n".join(lines) + "\n").encode(), error(f"line {k + 2}", "empty row")
 
 
 def m_decimal_comma(draw, table):
-    rows = _rows(*table)
+    rows = _rows(table)
     row = draw(st.integers(0, len(rows) - 1))
     rows[row][1] = rows[row][1].replace(".", ",") if "." in rows[row][1] else rows[row][1] + ",5"
-    return _text(list(CSV_COLUMNS), rows).encode(), error(f"line {row + 2}", "4 cell(s)")
+    return _text(list(table.names), rows).encode(), error(f"line {row + 2}", f"{len(table.names) + 1} cell(s)")
 
 
 def m_time_span_overflows(draw, table):
-    time_s = np.linspace(-1.0, 1.0, table[0].size) * 1.7e308  # finite stamps, the span overflows
-    return measurement_csv_text(time_s, table[1], table[2]).encode(), error("time_s", "overflows")
+    time_s = np.linspace(-1.0, 1.0, table.time_s.size) * 1.7e308  # finite stamps, the span overflows
+    return _csv(table.with_time(time_s)).encode(), error("time_s", "overflows")
 
 
 CSV_MUTATIONS = [
     m_tolerated_formatting, m_extreme_finite_values, m_number_only_python_reads, m_missing_column, m_extra_column,
-    m_renamed_column,
-    m_reordered_columns, m_no_header, m_non_finite_cell, m_text_cell, m_time_not_increasing, m_irregular_time,
-    m_empty, m_header_only, m_one_row, m_not_utf8, m_nul_byte, m_utf16, m_trailing_comma, m_other_separator,
-    m_blank_line_inside, m_decimal_comma, m_time_span_overflows,
+    m_second_input_or_output, m_wrong_unit, m_renamed_column,
+    m_reordered_columns, m_no_header, m_non_finite_cell, m_text_cell, m_time_not_increasing, m_irregular_time, m_gap,
+    m_clipped, m_empty, m_header_only, m_one_row, m_not_utf8, m_nul_byte, m_utf16, m_trailing_comma,
+    m_other_separator, m_blank_line_inside, m_decimal_comma, m_time_span_overflows,
 ]
 
 
 @st.composite
-def csv_cases(draw) -> tuple[str, bytes, Expect]:
-    mutation = draw(st.sampled_from(CSV_MUTATIONS))
+def csv_cases(draw, mutation=None) -> tuple[str, bytes, Expect]:
+    mutation = draw(st.sampled_from(CSV_MUTATIONS)) if mutation is None else mutation
     content, expect = mutation(draw, draw(tables()))
     return mutation.__name__, content, expect
 
@@ -347,22 +463,32 @@ def _write(directory: Path, name: str, content: bytes | str) -> Path:
 
 
 def check_csv_case(directory: Path, content: bytes, expect: Expect) -> None:
-    """Read a generated CSV (with a valid sidecar) and check the outcome."""
+    """Read a generated CSV (with a sidecar that suits every input) and check the outcome."""
     csv_path = _write(directory, "run.csv", content)
-    _write(directory, "run.toml", SIDECAR)
+    _write(directory, "run.toml", SIDECAR_ANY_INPUT)
     if expect.valid:
         read = read_measurement(csv_path)
-        for column, expected in zip(CSV_COLUMNS, expect.arrays):
+        assert read.columns == tuple(expect.arrays)
+        for column, expected in expect.arrays.items():
             assert getattr(read, column).tobytes() == np.asarray(expected, dtype=float).tobytes(), column
+        if expect.uniform is not None:
+            assert read.uniform is expect.uniform
     else:
         _assert_one_line_error(lambda: read_measurement(csv_path), csv_path, expect.fragments)
 
 
-@settings(max_examples=CSV_EXAMPLES, **FUZZ)
-@given(case=csv_cases())
-def test_generated_csv(tmp_path, case):
-    _, content, expect = case
-    check_csv_case(tmp_path, content, expect)
+@pytest.mark.parametrize("mutation", CSV_MUTATIONS, ids=[m.__name__ for m in CSV_MUTATIONS])
+def test_generated_csv(tmp_path, mutation):
+    """Every mutation, on tables of every kind (input voltage_V, force_N or none; output
+    displacement_m, velocity_m_s or acceleration_m_s2; uniform or jittered time)."""
+
+    @settings(max_examples=CSV_EXAMPLES_PER_MUTATION, **FUZZ)
+    @given(case=csv_cases(mutation))
+    def check(case):
+        _, content, expect = case
+        check_csv_case(tmp_path, content, expect)
+
+    check()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -535,6 +661,76 @@ def test_generated_sidecar(tmp_path, case):
     else:
         _assert_one_line_error(lambda: read_sidecar(path), path, expect.fragments)
         _assert_one_line_error(lambda: read_measurement(path), path, expect.fragments)
+
+
+FORCE_SIDECAR = """title = "free strip"
+[beam]
+length_m = 0.5
+linear_density_kg_m = 0.27
+[force]
+position_m = 0.5
+[sensor]
+position_m = 0.44
+range = 98.0665
+"""
+FORCE_CSV = "time_s,force_N,acceleration_m_s2\n0,0,0.1\n0.00025,1,-0.2\n0.0006,0.5,0.3\n"
+
+
+def f_force_table(draw, text):
+    """[force] missing (a force_N record needs it), or its key missing, misspelt, mistyped, off the beam."""
+    choice = draw(st.sampled_from(["table", "key", "misspelt", "type", "outside", "negative"]))
+    if choice == "table":
+        return text.replace("[force]\nposition_m = 0.5\n", "").encode(), error("[force]: missing table (a force_N input")
+    if choice == "key":
+        return _set(text, "force", "position_m", None).encode(), error("[force] position_m: missing key")
+    if choice == "misspelt":
+        return text.replace("[force]\nposition_m", "[force]\nposition").encode(), error("[force] position: unknown key")
+    if choice == "type":
+        value, kind = draw(st.sampled_from(WRONG_TYPES))
+        return _set(text, "force", "position_m", value).encode(), error(f"[force] position_m: must be a number, got {kind}")
+    if choice == "outside":
+        value = draw(st.sampled_from(["0", "0.0", "0.51", "1e308"]))
+        return _set(text, "force", "position_m", value).encode(), error("[force]", "force position_m must lie in")
+    return _set(text, "force", "position_m", "-0.1").encode(), error("[force] position_m: must be >= 0")
+
+
+def f_sensor_range(draw, text):
+    """[sensor] range: not positive, not finite, not a number; or the record is clipped at it."""
+    value, fragment = draw(st.sampled_from([
+        ("0", "[sensor] range: must be > 0"), ("-98.0665", "[sensor] range: must be > 0"),
+        ("nan", "[sensor] range: must be finite"), ("inf", "[sensor] range: must be finite"),
+        ('"10 g"', "[sensor] range: must be a number"), ("true", "[sensor] range: must be a number"),
+        ("0.15", "are clipped (at the sensor's range 0.15 m/s²"),
+    ]))
+    return _set(text, "sensor", "range", value).encode(), error(fragment)
+
+
+def f_patch_optional(draw, text):
+    """A patch on a force-driven beam is allowed (it still adds mass and stiffness), and so is no range."""
+    text = text.replace("[sensor]", "[patch]\nstart_m = 0.0\nend_m = 0.05\n[sensor]")
+    if draw(st.booleans()):
+        text = _set(text, "sensor", "range", None)
+    return text.encode(), Expect(True)
+
+
+FORCE_SIDECAR_MUTATIONS = [f_force_table, f_sensor_range, f_patch_optional]
+
+
+@settings(max_examples=FORCE_SIDECAR_EXAMPLES, **FUZZ)
+@given(data=st.data())
+def test_generated_sidecar_of_a_force_record(tmp_path, data):
+    """The sidecar of a ``time_s,force_N,acceleration_m_s2`` record: [force] and [sensor] range."""
+    mutation = data.draw(st.sampled_from(FORCE_SIDECAR_MUTATIONS))
+    content, expect = mutation(data.draw, FORCE_SIDECAR)
+    path = _write(tmp_path, "run.toml", content)
+    csv_path = _write(tmp_path, "run.csv", FORCE_CSV)
+    if expect.valid:
+        read = read_measurement(path)
+        assert read.input_kind == "force" and read.geometry.force_position_m == 0.5 and read.geometry.has_patch
+    else:
+        fragments = expect.fragments
+        at = csv_path if any("clipped" in f for f in fragments) else path
+        _assert_one_line_error(lambda: read_measurement(path), at, fragments)
 
 
 CONFIG = SIDECAR + CONFIG_EXTRA
@@ -769,32 +965,56 @@ def test_a_fifo_or_device_is_refused_without_blocking(tmp_path):
 
 
 @st.composite
-def geometries(draw) -> BeamGeometry:
+def geometries(draw, patch: bool = True, force: bool = False) -> BeamGeometry:
     length = draw(st.floats(*LENGTH_RANGE_M))
     density = draw(st.floats(*LINEAR_DENSITY_RANGE_KG_M))
     a, b = sorted(draw(st.lists(st.floats(0.0, 1.0), min_size=2, max_size=2, unique=True)))
     assume(a * length < b * length)
     sensor = draw(st.floats(1e-6, 1.0))
-    return BeamGeometry(length, density, a * length, b * length, sensor * length)
+    start, end = (a * length, b * length) if patch else (None, None)
+    force_position = draw(st.floats(1e-6, 1.0)) * length if force else None
+    return BeamGeometry(length, density, start, end, sensor * length, force_position)
 
 
 nominal_values = st.dictionaries(
-    st.sampled_from(["bending_stiffness_Nm2", "patch_coupling_NmV", "air_damping_Ns_m2", "tip_mass_kg"]),
+    st.sampled_from(["bending_stiffness_Nm2", "patch_coupling_NmV", "air_damping_Ns_m2", "tip_mass_kg",
+                     "sensor_mass_kg", "damping_ratio_mode_1", "damping_ratio_mode_12"]),
     st.floats(min_value=5e-324, max_value=1.7976931348623157e308),
 )
 
 
 @settings(max_examples=ROUND_TRIP_EXAMPLES, **FUZZ)
-@given(table=tables(max_rows=50), geometry=geometries(), title=st.text(max_size=40), nominal=nominal_values)
-def test_valid_files_round_trip_bit_exact(tmp_path, table, geometry, title, nominal):
-    written = write_measurement(tmp_path / "rt", table, geometry=geometry, title=title, nominal=nominal)
+@given(table=tables(max_rows=50), data=st.data(), title=st.text(max_size=40), nominal=nominal_values,
+       sensor_range=st.none() | st.floats(1e-300, 1e300))
+def test_valid_files_round_trip_bit_exact(tmp_path, table, data, title, nominal, sensor_range):
+    needs_patch, needs_force = "voltage_V" in table.names, "force_N" in table.names
+    geometry = data.draw(geometries(patch=needs_patch or data.draw(st.booleans()),
+                                    force=needs_force or data.draw(st.booleans())))
+    output = table.arrays[-1]
+    if sensor_range is not None:  # keep clipping by the range below half of the record
+        assume(2 * np.count_nonzero(np.abs(output) >= (1 - 1e-3) * sensor_range) <= output.size)
+    written = write_measurement(tmp_path / "rt", table.mapping(), geometry=geometry, title=title, nominal=nominal,
+                                sensor_range=sensor_range)
     read = read_measurement(tmp_path / "rt.csv")
-    for column, expected in zip(CSV_COLUMNS, table):
+    assert read.columns == table.names
+    for column, expected in zip(table.names, table.arrays):
         assert getattr(read, column).tobytes() == expected.tobytes(), column
-    assert (read.title, read.geometry, read.nominal) == (title, geometry, nominal)
+    assert (read.title, read.geometry, read.nominal, read.sensor_range) == (title, geometry, nominal, sensor_range)
     assert read.sample_count == written.sample_count
+    np.testing.assert_array_equal(read.clipped, written.clipped)
     assert tomllib.loads((tmp_path / "rt.toml").read_text(encoding="utf-8"))["title"] == title
-    assert math.isfinite(read.rate_Hz) and read.sample_interval_s > 0
+    assert math.isfinite(read.rate_Hz) and read.median_interval_s > 0
+
+
+@settings(max_examples=ROUND_TRIP_EXAMPLES, **FUZZ)
+@given(table=tables(max_rows=50, kinds=False), geometry=geometries())
+def test_classic_records_round_trip_from_a_tuple(tmp_path, table, geometry):
+    """``write_measurement(prefix, (time_s, voltage_V, displacement_m))`` as before: uniform, exact."""
+    write_measurement(tmp_path / "rt", tuple(table.arrays), geometry=geometry)
+    read = read_measurement(tmp_path / "rt.csv")
+    assert read.columns == CSV_COLUMNS and read.uniform and read.sample_interval_s > 0
+    for column, expected in zip(CSV_COLUMNS, table.arrays):
+        assert getattr(read, column).tobytes() == expected.tobytes(), column
 
 
 def test_a_title_utf8_cannot_store_is_refused_before_writing(tmp_path):

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from simulated_data import GEOMETRY, TRUE_BASE
 
+from beam.errors import BeamInputError
 from beam.calibration.records import (
     check_calibration_record,
     decimate_displacement,
@@ -13,15 +14,11 @@ from beam.calibration.records import (
     decimate_voltage,
     decimation_factor,
 )
-from beam.errors import BeamInputError
-from beam.io.limits import (
-    MAX_CALIBRATION_SAMPLES,
-    MAX_MEASUREMENT_BYTES,
-    MAX_TOML_BYTES,
-)
+from beam.io.limits import MAX_CALIBRATION_SAMPLES, MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
 from beam.io.measurement import Measurement, read_measurement, write_measurement
 from beam.io.text import load_toml, read_text_file
 from beam.physics.excitation import Excitation
+from beam.physics.geometry import BeamGeometry
 from beam.physics.model import BeamModel
 
 SIDECAR = "[beam]\nlength_m = 0.4573\nlinear_density_kg_m = 0.093\n[patch]\nstart_m = 0.15\nend_m = 0.25\n" \
@@ -242,3 +239,50 @@ def test_degenerate_records_are_refused_with_one_line(record, window, fragment):
 def test_ordinary_records_pass_the_check(record):
     check_calibration_record(record)
     check_calibration_record(record, (0.1, 0.6))
+
+
+# ---------------------------------------------------------------------------------------------
+# the other kinds of record
+# ---------------------------------------------------------------------------------------------
+
+BARE = BeamGeometry(0.5, 0.27, None, None, 0.44, 0.5)
+
+
+def test_an_irregular_forced_record_decimates_without_a_filter():
+    """Irregular stamps: the output is subsampled as it is (the model evaluates it at the kept
+    stamps), the held force becomes its time-weighted block mean, which keeps its impulse."""
+    rng = np.random.default_rng(2)
+    n = 1003
+    t = np.concatenate([[0.0], np.cumsum(rng.uniform(0.2e-3, 0.3e-3, n - 1))])
+    force = rng.normal(size=n)
+    acceleration = np.sin(2 * np.pi * 6.05 * t) * 7.0
+    record = Measurement("f", "f", BARE, t, force_N=force, acceleration_m_s2=acceleration)
+    decimated, factor = decimate_measurement(record, max_samples=250)
+    assert factor == 5 and not record.uniform
+    np.testing.assert_array_equal(decimated.time_s, t[::5])
+    np.testing.assert_array_equal(decimated.acceleration_m_s2, acceleration[::5])
+    steps = np.append(np.diff(t), np.median(np.diff(t)))
+    coarse = np.append(np.diff(t[::5]), steps[-(n % 5 or 5):].sum())  # the last block holds what is left
+    impulse = np.add.reduceat(force * steps, np.arange(0, n, 5))
+    np.testing.assert_allclose(decimated.force_N * coarse, impulse, rtol=1e-12)
+    assert decimated.input_kind == "force" and decimated.output_kind == "acceleration"
+
+
+def test_a_uniform_free_record_decimates_its_output_through_the_filter():
+    t = np.arange(4000) / 4000.0
+    acceleration = np.exp(-t) * np.sin(2 * np.pi * 6.05 * t)
+    record = Measurement("a", "a", BARE, t, acceleration_m_s2=acceleration)
+    decimated, factor = decimate_measurement(record, max_samples=1000)
+    assert factor == 4 and decimated.is_free and decimated.input is None
+    np.testing.assert_array_equal(decimated.acceleration_m_s2, decimate_displacement(acceleration, 4))
+
+
+def test_the_record_check_for_the_other_kinds():
+    t = np.arange(100) / 1000.0
+    check_calibration_record(Measurement("free", "free", BARE, t, acceleration_m_s2=np.sin(40 * t)))
+    with pytest.raises(BeamInputError, match="acceleration_m_s2 is constant in the window"):
+        check_calibration_record(Measurement("flat", "flat", BARE, t, acceleration_m_s2=np.full(100, 0.44)))
+    with pytest.raises(BeamInputError, match="force_N is zero up to the end of the window"):
+        check_calibration_record(Measurement("idle", "idle", BARE, t, force_N=np.zeros(100), velocity_m_s=np.sin(40 * t)))
+    check_calibration_record(Measurement("hit", "hit", BARE, t, force_N=np.where(t < 0.01, 1.0, 0.0),
+                                         velocity_m_s=np.sin(40 * t)))

@@ -38,6 +38,15 @@ white-noise voltage         1.9 %                      271 % (9.2 %)
 filter before the block mean matters only for broadband voltage, whose content above the new
 Nyquist frequency a plain block mean folds back into the band.
 
+The same holds for every kind of record: the output (displacement, velocity or acceleration,
+all point samples) is treated as the displacement above, the input (voltage or point force, both
+held) as the voltage; a free response has no input. An **irregular** record (time stamps not on a
+uniform grid, :attr:`beam.io.measurement.Measurement.uniform`) cannot be filtered (a digital filter
+assumes a uniform grid): its output is subsampled without a filter (the models evaluate it exactly
+at the kept stamps; white noise keeps its sd) and its input becomes the time-weighted mean over
+each coarse interval [t_jq, t_(j+1)q), which keeps the impulse integral of u over the interval
+(the last sample is held for one median step).
+
 The anti-alias filter has 40 q + 1 taps (Hamming window) and its cutoff at 0.9 of the new
 Nyquist frequency: content up to 0.82 of the new Nyquist frequency is kept to within 1 % (0.3 %
 measured up to 0.8), and everything above the new Nyquist frequency is attenuated by at least 53 dB
@@ -120,6 +129,20 @@ def decimate_voltage(voltage_V: np.ndarray, factor: int) -> np.ndarray:
     return np.add.reduceat(filtered, starts) / counts
 
 
+def held_block_mean(values: np.ndarray, time_s: np.ndarray, factor: int) -> np.ndarray:
+    """Time-weighted mean of a held input over each block of ``factor`` irregular intervals.
+
+    Sample k is held over [t_k, t_k+1) (the last one for the median step); block j covers
+    samples jq .. (j+1)q - 1, i.e. the coarse interval [t_jq, t_(j+1)q).
+    """
+    u = np.asarray(values, dtype=float)
+    t = np.asarray(time_s, dtype=float)
+    steps = np.diff(t)
+    durations = np.append(steps, np.median(steps))
+    starts = np.arange(0, u.size, factor)
+    return np.add.reduceat(u * durations, starts) / np.add.reduceat(durations, starts)
+
+
 def decimate_measurement(
     measurement: Measurement, max_samples: int = MAX_CALIBRATION_SAMPLES
 ) -> tuple[Measurement, int]:
@@ -136,9 +159,10 @@ def decimate_measurement(
     -------
     measurement : Measurement
         The same object when it already fits (factor 1); otherwise a new measurement with the
-        time stamps ``time_s[::q]``, the anti-aliased displacement at those times and the
-        block-mean voltage (see the module notes), with the same name, title, geometry,
-        nominal values and file paths (which name where the samples came from).
+        time stamps ``time_s[::q]``, the anti-aliased output at those times and the
+        block-mean input (see the module notes; an irregular record: the output subsampled,
+        the time-weighted block-mean input), with the same name, title, geometry, nominal
+        values, sensor range and file paths (which name where the samples came from).
     factor : int
         The decimation factor q (1 when nothing was done).
 
@@ -150,12 +174,16 @@ def decimate_measurement(
     factor = decimation_factor(measurement.sample_count, max_samples)
     if factor == 1:
         return measurement, 1
-    decimated = replace(
-        measurement,
-        time_s=measurement.time_s[::factor].copy(),
-        voltage_V=decimate_voltage(measurement.voltage_V, factor),
-        displacement_m=decimate_displacement(measurement.displacement_m, factor),
-    )
+    changes: dict[str, np.ndarray] = {}
+    if measurement.uniform:
+        changes[measurement.output_column] = decimate_displacement(measurement.output, factor)
+        if measurement.input_column is not None:
+            changes[measurement.input_column] = decimate_voltage(measurement.input, factor)
+    else:
+        changes[measurement.output_column] = measurement.output[::factor].copy()
+        if measurement.input_column is not None:
+            changes[measurement.input_column] = held_block_mean(measurement.input, measurement.time_s, factor)
+    decimated = replace(measurement, time_s=measurement.time_s[::factor].copy(), **changes)
     return decimated, factor
 
 
@@ -172,27 +200,42 @@ def check_calibration_record(measurement: Measurement, window: tuple[float, floa
     Raises
     ------
     BeamInputError
-        The voltage exceeds :data:`MAX_ABS_VOLTAGE_V` or is zero up to the window's end (the
-        beam is never driven, the model predicts zero); the displacement in the window
-        exceeds the beam's length or varies by less than :data:`MIN_DISPLACEMENT_VARIATION_M`
-        (all zero, constant, or at the floating-point noise floor).
+        The voltage exceeds :data:`MAX_ABS_VOLTAGE_V`; the input (voltage or force) is zero up
+        to the window's end (the beam is never driven, the model predicts zero); the
+        displacement in the window exceeds the beam's length or varies by less than
+        :data:`MIN_DISPLACEMENT_VARIATION_M` (all zero, constant, or at the floating-point noise
+        floor); a velocity or acceleration that is constant in the window. A free response
+        has no input to check.
     """
     t = measurement.time_s
     start, end = (float(t[0]), float(t[-1])) if window is None else (float(window[0]), float(window[1]))
     where = f"measurement {measurement.name}"
-    driven = measurement.voltage_V[t <= end + 1e-12]
-    peak_voltage = float(np.max(np.abs(measurement.voltage_V)))
-    if peak_voltage > MAX_ABS_VOLTAGE_V:
-        raise BeamInputError(
-            f"{where}: |voltage_V| reaches {peak_voltage:.3g} V, above the {MAX_ABS_VOLTAGE_V:g} V a piezo patch "
-            "takes; is the column in volts?"
-        )
-    if not np.any(driven):
-        raise BeamInputError(
-            f"{where}: voltage_V is zero up to the end of the window ({end:g} s): the beam is never driven, "
-            "so the model (at rest at the first sample) predicts no motion to calibrate against"
-        )
-    inside = measurement.displacement_m[(t >= start - 1e-12) & (t <= end + 1e-12)]
+    column = measurement.input_column
+    if column is not None:
+        values = measurement.input
+        driven = values[t <= end + 1e-12]
+        if column == "voltage_V":
+            peak_voltage = float(np.max(np.abs(values)))
+            if peak_voltage > MAX_ABS_VOLTAGE_V:
+                raise BeamInputError(
+                    f"{where}: |voltage_V| reaches {peak_voltage:.3g} V, above the {MAX_ABS_VOLTAGE_V:g} V a piezo "
+                    "patch takes; is the column in volts?"
+                )
+        if not np.any(driven):
+            raise BeamInputError(
+                f"{where}: {column} is zero up to the end of the window ({end:g} s): the beam is never driven, "
+                "so the model (at rest at the first sample) predicts no motion to calibrate against"
+            )
+    inside_mask = (t >= start - 1e-12) & (t <= end + 1e-12)
+    if measurement.output_column != "displacement_m":
+        inside = measurement.output[inside_mask]
+        if inside.size == 0 or not float(np.std(inside)) > 0:
+            raise BeamInputError(
+                f"{where}: {measurement.output_column} is constant in the window {start:g}:{end:g} s: no motion was "
+                "recorded"
+            )
+        return
+    inside = measurement.displacement_m[inside_mask]
     length = measurement.geometry.length_m
     peak = float(np.max(np.abs(inside))) if inside.size else 0.0
     if peak > length:

@@ -7,7 +7,14 @@ import json
 import math
 import sys
 
-from beam.cli.arguments import HelpFormatter, effects_epilog, measurement_path, non_negative_int, positive_int, time_window
+from beam.cli.arguments import (
+    HelpFormatter,
+    effects_epilog,
+    measurement_path,
+    non_negative_int,
+    positive_int,
+    time_window,
+)
 
 LIKELIHOOD_CHOICES = ("iid", "ar1")
 

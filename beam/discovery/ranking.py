@@ -41,7 +41,7 @@ from beam.calibration import (
 )
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
-from beam.physics.effects import EFFECTS, parse_effects
+from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, parse_effects
 
 #: Evidence gain (nats) a candidate needs to count as a material improvement.
 MATERIAL_LOG_EVIDENCE = 5.0
@@ -139,9 +139,10 @@ Explainer = Callable[[str, CalibrationResult, CalibrationResult], str]
 
 
 def candidate_effects(current: Iterable[str]) -> tuple[str, ...]:
-    """Catalogue effects not in the current model, in catalogue order."""
+    """Catalogue effects offered as candidates (:data:`beam.physics.effects.CANDIDATE_EFFECTS`) not in the
+    current model, in catalogue order."""
     present = set(parse_effects(current))
-    return tuple(effect for effect in EFFECTS if effect not in present)
+    return tuple(effect for effect in CANDIDATE_EFFECTS if effect not in present)
 
 
 def rank_candidates(

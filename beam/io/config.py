@@ -40,6 +40,7 @@ from beam.io.measurement import (
     read_measurement_table,
     read_nominal,
     read_title,
+    time_grid_problem,
 )
 from beam.io.text import (
     TomlReader,
@@ -277,11 +278,18 @@ def _read_excitation(reader: TomlReader) -> Excitation | None:
         file_name = reader.string("excitation", table, "file")
         recording = (reader.path.parent / file_name) if not Path(file_name).is_absolute() else Path(file_name)
         try:
-            time_s, voltage_V, _ = read_measurement_table(recording)
+            table = read_measurement_table(recording)
         except BeamInputError as exc:  # name the config too: the recording is its reference
             raise reader.fail("[excitation] file", str(exc)) from None
+        if table.input_column != "voltage_V":
+            raise reader.fail("[excitation] file", f"{recording}: has no voltage_V column to replay")
+        problem = time_grid_problem(table.time_s)
+        if problem is not None:
+            where = "" if problem[0] is None else f"line {problem[0] + 2}: "
+            raise reader.fail("[excitation] file", f"{recording}: {where}{problem[1]} (a replayed voltage needs them)")
+        time_s = table.time_s
         step = float((time_s[-1] - time_s[0]) / (time_s.size - 1))
-        return Excitation.from_recording(voltage_V, step, file=str(recording))
+        return Excitation.from_recording(table.input, step, file=str(recording))
     values = {key: reader.number("excitation", table, key) for key in needed}
     try:
         return Excitation(kind, **values)

@@ -2,29 +2,64 @@
 
 ``NAME.csv``
     UTF-8 text (an optional byte-order mark is dropped; LF, CRLF or CR line endings), comma
-    separated, at most :data:`beam.io.limits.MAX_MEASUREMENT_BYTES` (64 MiB). The first line is
-    exactly ``time_s,voltage_V,displacement_m`` (spaces around names are tolerated, the order is
-    not negotiable); then one row per sample:
-    time (s), piezo voltage (V), displacement at the sensor (m). Numbers are anything Python's
-    ``float`` reads (``1e-3``, ``-0.5``); NaN and infinity (``1e309`` included) are rejected. A
-    trailing comma is an error (it makes an empty fourth cell). Blank lines are allowed only at
-    the end. At least two rows. Time must increase uniformly: every step within
-    ``UNIFORM_TIME_TOLERANCE`` (1 %) of the median step and every time stamp within 1 % of a step
-    of the grid ``t_0 + k dt`` with ``dt = (t_last - t_0) / (n - 1)``. This accepts time stamps
-    printed with a few significant digits and rejects a missing, repeated or out-of-order
-    sample. The sampling interval is at least :data:`MIN_SAMPLE_INTERVAL_S` (1e-12 s) and the
-    span of the time stamps must fit in a float. Time need not start at 0 and is kept as given;
-    models assume the beam is at rest at the first sample and the voltage is held over each
-    sample interval.
+    separated, at most :data:`beam.io.limits.MAX_MEASUREMENT_BYTES` (64 MiB). The first line is the
+    header (spaces around names are tolerated, the order is not negotiable):
+
+    * ``time_s``, then
+    * at most one input column: ``voltage_V`` (the piezo patch's voltage) or ``force_N`` (a
+      point force at ``[force] position_m``); none means a *free response*: nothing drives the
+      beam and it is already moving at the first sample;
+    * one output column, what the sensor at ``[sensor] position_m`` measures:
+      ``displacement_m``, ``velocity_m_s`` or ``acceleration_m_s2``.
+
+    So today's ``time_s,voltage_V,displacement_m`` (:data:`CSV_COLUMNS`) is one of nine
+    headers, e.g. ``time_s,force_N,acceleration_m_s2`` or ``time_s,acceleration_m_s2``. A
+    column in another unit (``acceleration_g``, ``force_kN``) is refused with the name to use.
+    Then one row per sample. Numbers are anything Python's ``float`` reads (``1e-3``,
+    ``-0.5``); NaN and infinity (``1e309`` included) are rejected. A trailing comma is an error
+    (it makes an empty extra cell). Blank lines are allowed only at the end. At least two rows.
+
+    Time stamps (s) must increase strictly; they may be irregular (a logger that stalls now and
+    then), with every step at most :data:`MAX_GAP_STEPS` (100) times the median step: a larger
+    gap is refused as a hole in the record. The median step is at least
+    :data:`MIN_SAMPLE_INTERVAL_S` (1e-12 s) and the span of the time stamps must fit in a
+    float. Time need not start at 0 and is kept as given.
+
+    *Uniform records.* When every step is within :data:`UNIFORM_TIME_TOLERANCE` (1 %) of the
+    median step and every stamp within 1 % of a step of the grid t_0 + k dt,
+    dt = (t_last - t_0) / (n - 1), the record is uniform (:attr:`Measurement.uniform`): its
+    :attr:`Measurement.sample_interval_s` is dt and the models step on that grid (this accepts
+    stamps printed with a few significant digits as the grid they stand for, exactly as before
+    this format grew). Otherwise the record is irregular and is evaluated at its own stamps
+    (:meth:`beam.physics.model.BeamModel.response_at`, :meth:`beam.physics.model.BeamModel.free_response`); it
+    has no single sampling interval. (The rule is the same for every header: the tolerance
+    decides which path a record takes, not whether it is read. Round trips need no tolerance:
+    :func:`write_measurement` writes every float exactly.)
+
+    Models of a driven record assume the beam is at rest at the first sample and the input is
+    held over each sample interval [t_k, t_k+1) (zero-order hold).
 
 ``NAME.toml``
     Optional ``title`` (string); ``[beam]`` ``length_m``, ``linear_density_kg_m``; ``[patch]``
-    ``start_m``, ``end_m``; ``[sensor]`` ``position_m``, with the length and density within
+    ``start_m``, ``end_m`` (required with ``voltage_V``, optional otherwise: a patch on the beam
+    still adds its mass and stiffness); ``[force]`` ``position_m`` (required with ``force_N``);
+    ``[sensor]`` ``position_m`` and optional ``range`` (the sensor's full scale, in the output
+    column's unit, e.g. 98.0665 for a ±10 g accelerometer), with the length and density within
     :data:`beam.io.limits.LENGTH_RANGE_M` (0.01-100 m) and
     :data:`beam.io.limits.LINEAR_DENSITY_RANGE_KG_M` (1e-3 to 1e4 kg/m), where the model is finite;
     optional ``[nominal]`` prior centres keyed by parameter names of
     :data:`beam.physics.effects.PARAMETER_SPECS` (positive finite). Unknown tables or keys are errors.
     At most :data:`beam.io.limits.MAX_TOML_BYTES` (1 MiB).
+
+Clipping
+    A saturated sensor reports its full scale while the beam moves further. Samples whose
+    magnitude reaches the ``[sensor] range`` (within :data:`CLIP_RANGE_FRACTION`, 0.1 %) and
+    samples in runs of at least :data:`MIN_CLIP_RUN` (3) consecutive equal values at the
+    record's maximum or minimum, neither at its start nor at its end (a saturated sensor repeats
+    its extreme; a flat start or end is a beam at rest or a held deflection), are marked clipped
+    (:attr:`Measurement.clipped`, :attr:`Measurement.clipped_count`), for a calibration to
+    leave out of the likelihood. A constant record has no extreme and nothing is marked. A
+    record with more than half of its samples clipped is refused.
 
 Errors are :class:`beam.errors.BeamInputError` with one line naming the file and the line
 (1-based, as an editor shows it) or key.
@@ -57,30 +92,70 @@ from beam.io.text import (
     read_text_file,
     short_repr,
 )
-from beam.physics.effects import PARAMETER_SPECS
+from beam.physics.effects import PARAMETER_SPECS, parameter_listing
 from beam.physics.geometry import BeamGeometry
 
-#: The CSV header, column by column.
+#: The classic CSV header (patch voltage in, displacement out), column by column.
 CSV_COLUMNS: tuple[str, str, str] = ("time_s", "voltage_V", "displacement_m")
 
-#: Largest allowed deviation of a time step from the record's step, as a fraction of the step.
+#: Input columns and the input kind each stands for.
+INPUT_COLUMNS: dict[str, str] = {"voltage_V": "voltage", "force_N": "force"}
+#: Output columns and the output kind each stands for.
+OUTPUT_COLUMNS: dict[str, str] = {
+    "displacement_m": "displacement", "velocity_m_s": "velocity", "acceleration_m_s2": "acceleration",
+}
+#: Every column a CSV may hold, in the order a header lists them.
+ALL_COLUMNS: tuple[str, ...] = ("time_s", *INPUT_COLUMNS, *OUTPUT_COLUMNS)
+#: Unit of each column (for labels).
+COLUMN_UNITS: dict[str, str] = {
+    "time_s": "s", "voltage_V": "V", "force_N": "N", "displacement_m": "m", "velocity_m_s": "m/s",
+    "acceleration_m_s2": "m/s²",
+}
+#: The header rule, as messages quote it.
+HEADER_RULE = "time_s[,voltage_V|force_N],displacement_m|velocity_m_s|acceleration_m_s2"
+
+#: Largest allowed deviation of a time step from the record's step, as a fraction of the step,
+#: for the record to count as uniform.
 UNIFORM_TIME_TOLERANCE = 1e-2
 
 #: Smallest sampling interval (s): a sampling rate of 1 THz. Smaller steps are mistaken units
 #: (or subnormal numbers whose reciprocal overflows).
 MIN_SAMPLE_INTERVAL_S = 1e-12
 
-#: Tables of the measurement sidecar (and of a simulation config, which extends it).
+#: Largest time step accepted, in median steps: a larger one is a hole in the record.
+MAX_GAP_STEPS = 100
+
+#: Shortest run of equal samples at the record's extreme counted as clipping.
+MIN_CLIP_RUN = 3
+#: Samples within this fraction of the sensor's range count as clipped.
+CLIP_RANGE_FRACTION = 1e-3
+
+#: Tables of a simulation config's geometry (a config drives its beam by the patch).
 GEOMETRY_TABLES: dict[str, tuple[str, ...]] = {
     "beam": ("length_m", "linear_density_kg_m"),
     "patch": ("start_m", "end_m"),
     "sensor": ("position_m",),
 }
+#: Tables of a measurement sidecar: the geometry plus the force's position and the sensor's range.
+SIDECAR_TABLES: dict[str, tuple[str, ...]] = {
+    "beam": ("length_m", "linear_density_kg_m"),
+    "patch": ("start_m", "end_m"),
+    "force": ("position_m",),
+    "sensor": ("position_m", "range"),
+}
+
+#: Data columns of a :class:`Measurement` (every input and output column).
+_DATA_COLUMNS: tuple[str, ...] = ALL_COLUMNS[1:]
 
 
 @dataclass(frozen=True, eq=False)
 class Measurement:
     """A measured (or simulated) record with the geometry the lab knows.
+
+    Give ``time_s``, at most one input column (``voltage_V`` or ``force_N``) and exactly one
+    output column (``displacement_m``, ``velocity_m_s`` or ``acceleration_m_s2``); the others
+    stay None. The general view is :attr:`input_kind` / :attr:`input` and :attr:`output_kind`
+    / :attr:`output`.
 
     Parameters
     ----------
@@ -89,61 +164,162 @@ class Measurement:
     title : str
         Human title (defaults to ``name`` in files without one).
     geometry : BeamGeometry
-        Beam, patch and sensor geometry.
+        Beam, patch (required with a voltage input), force position (required with a force
+        input) and sensor.
     time_s : numpy.ndarray
-        Sample times (s), uniformly spaced, increasing, at least two.
-    voltage_V : numpy.ndarray
+        Sample times (s), strictly increasing, at least two, possibly irregular (see the module
+        notes).
+    voltage_V : numpy.ndarray or None
         Piezo voltage (V), held over each sample interval.
-    displacement_m : numpy.ndarray
+    displacement_m : numpy.ndarray or None
         Displacement at the sensor (m).
     nominal : dict
         Prior centres keyed by parameter name (units in the names).
     csv_path, toml_path : Path or None
         Where it was read from or written to.
+    force_N : numpy.ndarray or None
+        Point force (N) at ``geometry.force_position_m``, held over each sample interval.
+    velocity_m_s, acceleration_m_s2 : numpy.ndarray or None
+        Velocity (m/s) or acceleration (m/s²) at the sensor.
+    sensor_range : float or None
+        The sensor's full scale in the output's unit (``[sensor] range``), for clipping.
 
     Raises
     ------
     BeamInputError
-        Arrays of different lengths, fewer than two samples, non-finite values or time that
-        is not uniformly increasing; unknown or non-positive nominal values.
+        No or two output columns, two input columns, arrays of different lengths, fewer than
+        two samples, non-finite values, time that does not increase or has a gap of more than
+        :data:`MAX_GAP_STEPS` median steps; an input without the geometry it needs; a record
+        more than half clipped; unknown or non-positive nominal values.
     """
 
     name: str
     title: str
     geometry: BeamGeometry
     time_s: np.ndarray = field(repr=False)
-    voltage_V: np.ndarray = field(repr=False)
-    displacement_m: np.ndarray = field(repr=False)
+    voltage_V: np.ndarray | None = field(default=None, repr=False)
+    displacement_m: np.ndarray | None = field(default=None, repr=False)
     nominal: dict[str, float] = field(default_factory=dict)
     csv_path: Path | None = None
     toml_path: Path | None = None
+    force_N: np.ndarray | None = field(default=None, repr=False)
+    velocity_m_s: np.ndarray | None = field(default=None, repr=False)
+    acceleration_m_s2: np.ndarray | None = field(default=None, repr=False)
+    sensor_range: float | None = None
+    uniform: bool = field(init=False, repr=False)
+    clipped: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         _check_label("name", self.name)
         _check_label(f"measurement {self.name}: title", self.title)
+        where = f"measurement {self.name}"
+        given = [c for c in _DATA_COLUMNS if getattr(self, c) is not None]
+        inputs = [c for c in given if c in INPUT_COLUMNS]
+        outputs = [c for c in given if c in OUTPUT_COLUMNS]
+        if len(inputs) > 1:
+            raise BeamInputError(f"{where}: two input columns ({', '.join(inputs)}); a record has at most one input")
+        if len(outputs) != 1:
+            detail = "none" if not outputs else ", ".join(outputs)
+            raise BeamInputError(
+                f"{where}: needs exactly one output column ({', '.join(OUTPUT_COLUMNS)}), got {detail}"
+            )
         columns = {}
-        for column in CSV_COLUMNS:
+        for column in ("time_s", *given):
             values = np.array(getattr(self, column), dtype=float)
             if values.ndim != 1:
-                raise BeamInputError(f"measurement {self.name}: {column} must be 1-D, got shape {values.shape}")
+                raise BeamInputError(f"{where}: {column} must be 1-D, got shape {values.shape}")
             bad = np.flatnonzero(~np.isfinite(values))
             if bad.size:
-                raise BeamInputError(
-                    f"measurement {self.name}: {column}[{bad[0]}] = {values[bad[0]]} is not finite"
-                )
+                raise BeamInputError(f"{where}: {column}[{bad[0]}] = {values[bad[0]]} is not finite")
             values.setflags(write=False)
             columns[column] = values
             object.__setattr__(self, column, values)
         lengths = {c: v.size for c, v in columns.items()}
         if len(set(lengths.values())) != 1:
-            raise BeamInputError(f"measurement {self.name}: columns differ in length: {lengths}")
-        problem = time_grid_problem(columns["time_s"])
+            raise BeamInputError(f"{where}: columns differ in length: {lengths}")
+        problem = time_stamp_problem(columns["time_s"])
         if problem is not None:
             index, message = problem
-            where = "" if index is None else f"sample {index}: "
-            raise BeamInputError(f"measurement {self.name}: {where}{message}")
-        object.__setattr__(self, "nominal", check_nominal(self.nominal, f"measurement {self.name}: nominal"))
+            at = "" if index is None else f"sample {index}: "
+            raise BeamInputError(f"{where}: {at}{message}")
+        if inputs == ["voltage_V"] and not self.geometry.has_patch:
+            raise BeamInputError(f"{where}: a voltage_V input needs the patch (the geometry has none)")
+        if inputs == ["force_N"] and self.geometry.force_position_m is None:
+            raise BeamInputError(f"{where}: a force_N input needs the force's position (geometry.force_position_m)")
+        if self.sensor_range is not None:
+            number = as_finite_float(self.sensor_range)
+            if number is None or number <= 0:
+                raise BeamInputError(f"{where}: sensor range must be a positive finite number, got {short_repr(self.sensor_range)}")
+            object.__setattr__(self, "sensor_range", number)
+        clipped = clipped_samples(columns[outputs[0]], self.sensor_range)
+        clipped.setflags(write=False)
+        problem = clipping_problem(clipped, outputs[0], self.sensor_range)
+        if problem is not None:
+            raise BeamInputError(f"{where}: {problem}")
+        object.__setattr__(self, "clipped", clipped)
+        object.__setattr__(self, "uniform", uniform_time_problem(columns["time_s"]) is None)
+        object.__setattr__(self, "nominal", check_nominal(self.nominal, f"{where}: nominal"))
 
+    # ------------------------------------------------------------------ columns
+    @property
+    def input_column(self) -> str | None:
+        """``"voltage_V"``, ``"force_N"`` or None (a free response)."""
+        return next((c for c in INPUT_COLUMNS if getattr(self, c) is not None), None)
+
+    @property
+    def input_kind(self) -> str | None:
+        """``"voltage"``, ``"force"`` or None (a free response: nothing drives the beam)."""
+        column = self.input_column
+        return None if column is None else INPUT_COLUMNS[column]
+
+    @property
+    def input(self) -> np.ndarray | None:
+        """The input samples (V or N), None for a free response."""
+        column = self.input_column
+        return None if column is None else getattr(self, column)
+
+    @property
+    def input_unit(self) -> str | None:
+        """``"V"``, ``"N"`` or None."""
+        column = self.input_column
+        return None if column is None else COLUMN_UNITS[column]
+
+    @property
+    def output_column(self) -> str:
+        """``"displacement_m"``, ``"velocity_m_s"`` or ``"acceleration_m_s2"``."""
+        return next(c for c in OUTPUT_COLUMNS if getattr(self, c) is not None)
+
+    @property
+    def output_kind(self) -> str:
+        """``"displacement"``, ``"velocity"`` or ``"acceleration"``."""
+        return OUTPUT_COLUMNS[self.output_column]
+
+    @property
+    def output(self) -> np.ndarray:
+        """The sensor's samples (m, m/s or m/s²)."""
+        return getattr(self, self.output_column)
+
+    @property
+    def output_unit(self) -> str:
+        """``"m"``, ``"m/s"`` or ``"m/s²"``."""
+        return COLUMN_UNITS[self.output_column]
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """The CSV header of this record, e.g. ``("time_s", "acceleration_m_s2")``."""
+        return ("time_s",) + ((self.input_column,) if self.input_column else ()) + (self.output_column,)
+
+    @property
+    def is_free(self) -> bool:
+        """True for a free response (no input column)."""
+        return self.input_column is None
+
+    @property
+    def clipped_count(self) -> int:
+        """Number of clipped samples (see the module notes)."""
+        return int(np.count_nonzero(self.clipped))
+
+    # ------------------------------------------------------------------ time
     @property
     def sample_count(self) -> int:
         """Number of samples n."""
@@ -151,18 +327,45 @@ class Measurement:
 
     @property
     def sample_interval_s(self) -> float:
-        """Sampling interval dt = (t_last - t_0) / (n - 1) (s)."""
+        """Sampling interval dt = (t_last - t_0) / (n - 1) (s) of a uniform record.
+
+        Raises BeamInputError for an irregular record, which has none (use :attr:`time_s`, or
+        :attr:`median_interval_s` for a typical step).
+        """
+        if not self.uniform:
+            raise BeamInputError(
+                f"measurement {self.name}: the time stamps are irregular (steps from {self.min_interval_s:.6g} to "
+                f"{self.max_interval_s:.6g} s): there is no single sampling interval; this use needs a uniform record"
+            )
         return float((self.time_s[-1] - self.time_s[0]) / (self.time_s.size - 1))
 
     @property
+    def median_interval_s(self) -> float:
+        """Median time step (s)."""
+        return float(np.median(np.diff(self.time_s)))
+
+    @property
+    def min_interval_s(self) -> float:
+        """Smallest time step (s)."""
+        return float(np.min(np.diff(self.time_s)))
+
+    @property
+    def max_interval_s(self) -> float:
+        """Largest time step (s)."""
+        return float(np.max(np.diff(self.time_s)))
+
+    @property
     def rate_Hz(self) -> float:
-        """Sampling rate 1 / dt (Hz)."""
-        return 1.0 / self.sample_interval_s
+        """Sampling rate 1 / dt (Hz); for an irregular record 1 / median step."""
+        return 1.0 / (self.sample_interval_s if self.uniform else self.median_interval_s)
 
     @property
     def duration_s(self) -> float:
-        """Time covered by the record, n dt (s): the last sample is held for one interval too."""
-        return self.sample_count * self.sample_interval_s
+        """Time covered by the record, n dt (s): the last sample is held for one interval too
+        (for an irregular record: t_last - t_0 plus one median step)."""
+        if self.uniform:
+            return self.sample_count * self.sample_interval_s
+        return float(self.time_s[-1] - self.time_s[0]) + self.median_interval_s
 
 
 def _check_label(what: str, value: Any) -> None:
@@ -195,7 +398,7 @@ def check_nominal(nominal: Mapping[str, Any], where: str) -> dict[str, float]:
         if name not in PARAMETER_SPECS:
             raise BeamInputError(
                 f"{where} {name}: unknown parameter{did_you_mean(name, PARAMETER_SPECS)}; "
-                f"known parameters: {', '.join(PARAMETER_SPECS)}"
+                f"known parameters: {parameter_listing()}"
             )
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise BeamInputError(f"{where} {name}: must be a number, got {short_repr(value)}")
@@ -206,8 +409,8 @@ def check_nominal(nominal: Mapping[str, Any], where: str) -> dict[str, float]:
     return checked
 
 
-def time_grid_problem(time_s: np.ndarray) -> tuple[int | None, str] | None:
-    """Why ``time_s`` is not a uniform increasing grid, or None if it is.
+def time_stamp_problem(time_s: np.ndarray) -> tuple[int | None, str] | None:
+    """Why ``time_s`` cannot be a record's time stamps, or None if it can (see the module notes).
 
     Parameters
     ----------
@@ -218,7 +421,9 @@ def time_grid_problem(time_s: np.ndarray) -> tuple[int | None, str] | None:
     -------
     tuple or None
         ``(index, message)`` with the 0-based index of the first offending sample (None when
-        the whole record is at fault), or None when the grid is fine.
+        the whole record is at fault), or None when the stamps are fine: at least two, strictly
+        increasing, a finite span, a median step of at least :data:`MIN_SAMPLE_INTERVAL_S` and
+        no step longer than :data:`MAX_GAP_STEPS` median steps.
     """
     n = time_s.size
     if n < 2:
@@ -230,26 +435,44 @@ def time_grid_problem(time_s: np.ndarray) -> tuple[int | None, str] | None:
         k = int(not_increasing[0]) + 1
         return k, f"time_s = {float(time_s[k])!r} does not increase (previous time_s = {float(time_s[k - 1])!r})"
     span = float(time_s[-1]) - float(time_s[0])
-    step = span / (n - 1)
     if not (math.isfinite(span) and np.all(np.isfinite(steps))):
         return None, (
             f"time_s runs from {float(time_s[0])!r} to {float(time_s[-1])!r}: the span overflows a float; "
             "give times in seconds"
         )
-    if step < MIN_SAMPLE_INTERVAL_S or not math.isfinite(1.0 / step):
+    typical_step = float(np.median(steps))
+    if typical_step < MIN_SAMPLE_INTERVAL_S or not math.isfinite(1.0 / typical_step):
         return None, (
-            f"the sampling interval {step!r} s is too small (at least {MIN_SAMPLE_INTERVAL_S:g} s, "
+            f"the sampling interval {typical_step!r} s is too small (at least {MIN_SAMPLE_INTERVAL_S:g} s, "
             f"a sampling rate of at most {1 / MIN_SAMPLE_INTERVAL_S:g} Hz); give times in seconds"
         )
+    gaps = np.flatnonzero(steps > MAX_GAP_STEPS * typical_step)
+    if gaps.size:
+        k = int(gaps[0]) + 1
+        return k, (
+            f"time step {steps[k - 1]:.9g} s (from time_s = {float(time_s[k - 1])!r} to {float(time_s[k])!r}) is "
+            f"{steps[k - 1] / typical_step:.3g} times the record's median step {typical_step:.9g} s, more than the "
+            f"{MAX_GAP_STEPS} allowed: a hole in the record; split it there"
+        )
+    return None
+
+
+def uniform_time_problem(time_s: np.ndarray) -> tuple[int, str] | None:
+    """Why valid stamps ``time_s`` are not a uniform grid, or None if they are (tolerance 1 %).
+
+    Every step within :data:`UNIFORM_TIME_TOLERANCE` of the median step and every stamp within
+    that fraction of a step of t_0 + k dt, dt = (t_last - t_0) / (n - 1).
+    """
+    n = time_s.size
+    steps = np.diff(time_s)
+    step = (float(time_s[-1]) - float(time_s[0])) / (n - 1)
     typical_step = float(np.median(steps))
-    tolerance = UNIFORM_TIME_TOLERANCE * typical_step
-    irregular = np.flatnonzero(np.abs(steps - typical_step) > tolerance)
+    irregular = np.flatnonzero(np.abs(steps - typical_step) > UNIFORM_TIME_TOLERANCE * typical_step)
     if irregular.size:
         k = int(irregular[0]) + 1
         return k, (
             f"time step {steps[k - 1]:.9g} s (from time_s = {float(time_s[k - 1])!r} to {float(time_s[k])!r}) "
-            f"differs from "
-            f"the record's step {typical_step:.9g} s; samples must be uniformly spaced "
+            f"differs from the record's step {typical_step:.9g} s; samples must be uniformly spaced "
             f"(tolerance {UNIFORM_TIME_TOLERANCE:g} of a step)"
         )
     drift = np.abs(time_s - (time_s[0] + np.arange(n) * step))
@@ -263,9 +486,115 @@ def time_grid_problem(time_s: np.ndarray) -> tuple[int | None, str] | None:
     return None
 
 
+def time_grid_problem(time_s: np.ndarray) -> tuple[int | None, str] | None:
+    """Why ``time_s`` is not a valid *uniform* grid (stamps first, then uniformity), or None.
+
+    For uses that need a uniform record (a voltage replayed by a simulation config).
+    """
+    return time_stamp_problem(time_s) or uniform_time_problem(time_s)
+
+
+def clipped_samples(output: np.ndarray, sensor_range: float | None = None) -> np.ndarray:
+    """Boolean mask of clipped output samples (see the module notes).
+
+    Parameters
+    ----------
+    output : (n,) array
+        The sensor's samples.
+    sensor_range : float, optional
+        Full scale of the sensor in the output's unit; samples with
+        |y| >= (1 - :data:`CLIP_RANGE_FRACTION`) range are clipped.
+
+    Returns
+    -------
+    (n,) bool array
+        Samples at the range, and samples in runs of at least :data:`MIN_CLIP_RUN` equal
+        values at the record's maximum or minimum inside the record (a flat stretch that
+        starts or ends the record is a beam at rest or a held deflection, not clipping;
+        nothing for a constant record).
+    """
+    values = np.asarray(output, dtype=float)
+    mask = np.zeros(values.size, dtype=bool)
+    if sensor_range is not None:
+        mask |= np.abs(values) >= (1.0 - CLIP_RANGE_FRACTION) * float(sensor_range)
+    if values.size == 0:
+        return mask
+    high, low = float(values.max()), float(values.min())
+    if high == low:
+        return mask
+    for extreme in (high, low):
+        at = np.concatenate([[False], values == extreme, [False]])
+        edges = np.flatnonzero(np.diff(at.astype(np.int8)))
+        for start, stop in zip(edges[0::2], edges[1::2]):
+            if stop - start >= MIN_CLIP_RUN and start > 0 and stop < values.size:
+                mask[start:stop] = True
+    return mask
+
+
+def clipping_problem(clipped: np.ndarray, column: str, sensor_range: float | None) -> str | None:
+    """Why a record with this clipping mask cannot be used (more than half clipped), or None."""
+    count, n = int(np.count_nonzero(clipped)), clipped.size
+    if 2 * count <= n:
+        return None
+    source = f"at the sensor's range {sensor_range:g} {COLUMN_UNITS[column]} or " if sensor_range is not None else ""
+    return (
+        f"{count} of {n} samples of {column} are clipped ({source}in runs of {MIN_CLIP_RUN} or more equal samples at "
+        "the record's extreme), more than half: the sensor was saturated; record with a larger range"
+    )
+
+
 # ---------------------------------------------------------------------------------------------
 # reading
 # ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MeasurementTable:
+    """The columns of a measurement CSV, as read by :func:`read_measurement_table`.
+
+    Attributes
+    ----------
+    columns : tuple of str
+        The header, e.g. ``("time_s", "force_N", "acceleration_m_s2")``.
+    time_s : numpy.ndarray
+        Time stamps (s).
+    input_column : str or None
+        ``"voltage_V"``, ``"force_N"`` or None.
+    input : numpy.ndarray or None
+        The input samples.
+    output_column : str
+        The output column's name.
+    output : numpy.ndarray
+        The output samples.
+    uniform : bool
+        Whether the stamps form a uniform grid (module notes).
+    """
+
+    columns: tuple[str, ...]
+    time_s: np.ndarray
+    input_column: str | None
+    input: np.ndarray | None
+    output_column: str
+    output: np.ndarray
+    uniform: bool
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Column name to array (time, input if any, output)."""
+        out = {"time_s": self.time_s}
+        if self.input_column is not None:
+            out[self.input_column] = self.input
+        out[self.output_column] = self.output
+        return out
+
+
+@dataclass(frozen=True)
+class Sidecar:
+    """What a measurement sidecar holds (:func:`load_sidecar`)."""
+
+    title: str | None
+    geometry: BeamGeometry
+    nominal: dict[str, float]
+    sensor_range: float | None = None
 
 
 def measurement_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
@@ -310,13 +639,26 @@ def read_measurement(path: str | os.PathLike[str]) -> Measurement:
         raise BeamInputError(f"{csv_path}: sidecar {toml_path.name} not found next to it (it holds the geometry)")
     if not csv_exists:
         raise BeamInputError(f"{toml_path}: data file {csv_path.name} not found next to it")
-    title, geometry, nominal = read_sidecar(toml_path)
-    time_s, voltage_V, displacement_m = read_measurement_table(csv_path)
+    # the CSV's header first: it says which sidecar tables are required ([patch], [force])
+    text = read_text_file(csv_path, "measurement CSV", MAX_MEASUREMENT_BYTES)
+    lines = _lines(text)
+    input_column = next((c for c in _check_header(csv_path, lines[0]) if c in INPUT_COLUMNS), None) if lines else None
+    sidecar = load_sidecar(toml_path, input_kind=INPUT_COLUMNS.get(input_column))
+    table = _table_from_lines(csv_path, lines, sidecar.sensor_range)
     return Measurement(
-        name=csv_path.stem, title=title if title is not None else csv_path.stem, geometry=geometry,
-        time_s=time_s, voltage_V=voltage_V, displacement_m=displacement_m, nominal=nominal,
-        csv_path=csv_path, toml_path=toml_path,
+        name=csv_path.stem, title=sidecar.title if sidecar.title is not None else csv_path.stem,
+        geometry=sidecar.geometry, time_s=table.time_s, nominal=sidecar.nominal, csv_path=csv_path,
+        toml_path=toml_path, sensor_range=sidecar.sensor_range,
+        **{name: values for name, values in table.arrays().items() if name != "time_s"},
     )
+
+
+def _lines(text: str) -> list[str]:
+    """The lines of a CSV's text (any line ending), trailing blank lines dropped."""
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    while lines and not lines[-1].strip():
+        lines.pop()
+    return lines
 
 
 def _exists(path: Path) -> bool:
@@ -328,8 +670,18 @@ def _exists(path: Path) -> bool:
         raise BeamInputError(f"{path}: cannot open: {reason}") from None
 
 
-def read_sidecar(path: str | os.PathLike[str]) -> tuple[str | None, BeamGeometry, dict[str, float]]:
+def read_sidecar(
+    path: str | os.PathLike[str], input_kind: str | None = "voltage"
+) -> tuple[str | None, BeamGeometry, dict[str, float]]:
     """Title, geometry and nominal values from a measurement ``NAME.toml``.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The sidecar.
+    input_kind : {"voltage", "force", None}
+        The record's input: ``[patch]`` is required for a voltage, ``[force] position_m`` for a
+        force (default: voltage, the classic record).
 
     Returns
     -------
@@ -339,9 +691,19 @@ def read_sidecar(path: str | os.PathLike[str]) -> tuple[str | None, BeamGeometry
     nominal : dict
         ``[nominal]`` values (empty when absent).
     """
+    sidecar = load_sidecar(path, input_kind=input_kind)
+    return sidecar.title, sidecar.geometry, sidecar.nominal
+
+
+def load_sidecar(path: str | os.PathLike[str], input_kind: str | None = "voltage") -> Sidecar:
+    """Everything a measurement sidecar holds, including ``[sensor] range`` (see :func:`read_sidecar`)."""
     reader = TomlReader(load_toml(path, "sidecar"), path)
-    reader.check_top_level(tables=(*GEOMETRY_TABLES, "nominal"), keys=("title",))
-    return read_title(reader), read_geometry(reader), read_nominal(reader)
+    reader.check_top_level(tables=(*SIDECAR_TABLES, "nominal"), keys=("title",))
+    title = read_title(reader)
+    geometry = read_geometry(reader, tables=SIDECAR_TABLES, input_kind=input_kind)
+    sensor = reader.table("sensor")
+    sensor_range = reader.number("sensor", sensor, "range", required=False)
+    return Sidecar(title, geometry, read_nominal(reader), sensor_range)
 
 
 def read_title(reader: TomlReader) -> str | None:
@@ -349,16 +711,46 @@ def read_title(reader: TomlReader) -> str | None:
     return reader.string(None, reader.document, "title", required=False)
 
 
-def read_geometry(reader: TomlReader) -> BeamGeometry:
-    """``[beam]``, ``[patch]``, ``[sensor]`` of a sidecar or config as a :class:`BeamGeometry`."""
-    values = {}
-    for table_name, keys in GEOMETRY_TABLES.items():
-        table = reader.table(table_name)
+_INPUT_NEEDS = {"voltage": ("patch", "voltage_V"), "force": ("force", "force_N")}
+
+
+def read_geometry(
+    reader: TomlReader, tables: Mapping[str, tuple[str, ...]] = GEOMETRY_TABLES, input_kind: str | None = "voltage"
+) -> BeamGeometry:
+    """``[beam]``, ``[patch]``, ``[force]``, ``[sensor]`` of a sidecar or config as a :class:`BeamGeometry`.
+
+    Parameters
+    ----------
+    reader : TomlReader
+        The parsed file.
+    tables : mapping
+        Tables and the keys each may hold (:data:`GEOMETRY_TABLES` for a config,
+        :data:`SIDECAR_TABLES` for a sidecar); only ``position_m`` / ``start_m`` / ``end_m`` /
+        ``length_m`` / ``linear_density_kg_m`` are geometry (``[sensor] range`` is read by
+        :func:`load_sidecar`).
+    input_kind : {"voltage", "force", None}
+        Which tables are required besides ``[beam]`` and ``[sensor]``: ``[patch]`` for a
+        voltage, ``[force]`` for a force.
+    """
+    required = {"beam", "sensor"}
+    if input_kind in _INPUT_NEEDS:
+        required.add(_INPUT_NEEDS[input_kind][0])
+    values: dict[tuple[str, str], float | None] = {}
+    for table_name, keys in tables.items():
+        table = reader.table(table_name, required=False)
+        if table is None:
+            if table_name in required:
+                needed_by = next((col for tab, col in _INPUT_NEEDS.values() if tab == table_name), None)
+                reason = f" (a {needed_by} input needs it)" if needed_by else ""
+                raise reader.fail(f"[{table_name}]", f"missing table{reason}")
+            continue
         reader.check_keys(table_name, table, keys)
         for key in keys:
+            if key == "range":
+                continue
             values[(table_name, key)] = reader.number(table_name, table, key, positive=table_name == "beam")
     for (table_name, key), value in values.items():
-        if table_name in ("patch", "sensor") and value < 0:
+        if table_name in ("patch", "sensor", "force") and value < 0:
             raise reader.fail(f"[{table_name}] {key}", f"must be >= 0 (m from the clamp), got {value!r}")
     ranges = (("length_m", LENGTH_RANGE_M, "m"), ("linear_density_kg_m", LINEAR_DENSITY_RANGE_KG_M, "kg/m"))
     for key, (low, high), unit in ranges:
@@ -371,13 +763,14 @@ def read_geometry(reader: TomlReader) -> BeamGeometry:
         return BeamGeometry(
             length_m=values[("beam", "length_m")],
             linear_density_kg_m=values[("beam", "linear_density_kg_m")],
-            patch_start_m=values[("patch", "start_m")],
-            patch_end_m=values[("patch", "end_m")],
+            patch_start_m=values.get(("patch", "start_m")),
+            patch_end_m=values.get(("patch", "end_m")),
             sensor_position_m=values[("sensor", "position_m")],
+            force_position_m=values.get(("force", "position_m")),
         )
-    except BeamInputError as exc:  # the patch or sensor does not fit on the beam
+    except BeamInputError as exc:  # the patch, force or sensor does not fit on the beam
         message = str(exc)
-        table = "[patch]" if message.startswith("patch") else "[sensor]" if message.startswith("sensor") else "[beam]"
+        table = next((f"[{name}]" for name in ("patch", "sensor", "force") if message.startswith(name)), "[beam]")
         raise reader.fail(table, message) from None
 
 
@@ -387,35 +780,41 @@ def read_nominal(reader: TomlReader) -> dict[str, float]:
     return {} if table is None else check_nominal(table, f"{reader.path}: [nominal]")
 
 
-def read_measurement_table(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def read_measurement_table(path: str | os.PathLike[str], sensor_range: float | None = None) -> MeasurementTable:
     """Read and check the columns of a measurement CSV.
 
     Parameters
     ----------
     path : str or path-like
         The ``NAME.csv`` file.
+    sensor_range : float, optional
+        The sensor's full scale (``[sensor] range``), to refuse a record more than half clipped.
 
     Returns
     -------
-    time_s, voltage_V, displacement_m : numpy.ndarray
-        The three columns as float arrays (s, V, m).
+    MeasurementTable
+        The header, the time stamps, the input (if any) and the output, as float arrays.
 
     Raises
     ------
     BeamInputError
-        Missing, empty, binary, non-UTF-8 or too large (over 64 MiB) file; wrong header; a row
-        with the wrong number of cells, a cell that is not a number or not finite; fewer than two
-        rows; time not uniformly increasing, or a sampling interval that is not representable.
-        The message names the file and the 1-based line.
+        Missing, empty, binary, non-UTF-8 or too large (over 64 MiB) file; a header that breaks
+        the rule (unknown or misspelt column, a column in another unit, two inputs or two
+        outputs, no output, wrong order); a row with the wrong number of cells, a cell that is
+        not a number or not finite; fewer than two rows; time stamps that do not increase or
+        have a gap of more than :data:`MAX_GAP_STEPS` median steps; a sampling interval that is
+        not representable; more than half of the output clipped. The message names the file
+        and the 1-based line.
     """
     path = Path(path)
     text = read_text_file(path, "measurement CSV", MAX_MEASUREMENT_BYTES)
-    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
-    while lines and not lines[-1].strip():
-        lines.pop()
+    return _table_from_lines(path, _lines(text), sensor_range)
+
+
+def _table_from_lines(path: Path, lines: list[str], sensor_range: float | None) -> MeasurementTable:
     if not lines:
-        raise BeamInputError(f"{path}: empty file; expected the header {','.join(CSV_COLUMNS)} and data rows")
-    _check_header(path, lines[0])
+        raise BeamInputError(f"{path}: empty file; expected the header ({HEADER_RULE}, e.g. {','.join(CSV_COLUMNS)}) and data rows")
+    columns = _check_header(path, lines[0])
     rows = lines[1:]
     if not rows:
         raise BeamInputError(f"{path}: header only, no data rows")
@@ -423,54 +822,86 @@ def read_measurement_table(path: str | os.PathLike[str]) -> tuple[np.ndarray, np
         table = np.loadtxt(rows, delimiter=",", comments=None, dtype=float, ndmin=2)
     except ValueError:
         table = None
-    if table is None or table.shape != (len(rows), len(CSV_COLUMNS)):
-        table = _parse_rows(path, rows)  # the fast parser failed or skipped a blank line
+    if table is None or table.shape != (len(rows), len(columns)):
+        table = _parse_rows(path, rows, columns)  # the fast parser failed or skipped a blank line
     bad_rows, bad_columns = np.nonzero(~np.isfinite(table))
     if bad_rows.size:
         row, column = int(bad_rows[0]), int(bad_columns[0])
         raise BeamInputError(
-            f"{path}: line {row + 2}: {CSV_COLUMNS[column]} = {rows[row].split(',')[column].strip()!r} is not finite"
+            f"{path}: line {row + 2}: {columns[column]} = {rows[row].split(',')[column].strip()!r} is not finite"
         )
     if len(rows) == 1:
         raise BeamInputError(
             f"{path}: line 2: the only data row; need at least 2 samples to define the sampling interval"
         )
     time_s = np.ascontiguousarray(table[:, 0])
-    problem = time_grid_problem(time_s)
+    problem = time_stamp_problem(time_s)
     if problem is not None:
         index, message = problem
         where = "" if index is None else f"line {index + 2}: "
         raise BeamInputError(f"{path}: {where}{message}")
-    return time_s, np.ascontiguousarray(table[:, 1]), np.ascontiguousarray(table[:, 2])
+    output = np.ascontiguousarray(table[:, -1])
+    problem = clipping_problem(clipped_samples(output, sensor_range), columns[-1], sensor_range)
+    if problem is not None:
+        raise BeamInputError(f"{path}: {problem}")
+    has_input = len(columns) == 3
+    return MeasurementTable(
+        columns=columns, time_s=time_s, input_column=columns[1] if has_input else None,
+        input=np.ascontiguousarray(table[:, 1]) if has_input else None, output_column=columns[-1], output=output,
+        uniform=uniform_time_problem(time_s) is None,
+    )
 
 
-def _check_header(path: Path, header: str) -> None:
+_QUANTITIES = {"time": "time_s", "voltage": "voltage_V", "force": "force_N", "displacement": "displacement_m",
+               "velocity": "velocity_m_s", "acceleration": "acceleration_m_s2"}
+
+
+def _check_header(path: Path, header: str) -> tuple[str, ...]:
+    """The header's column names, or one error saying what breaks :data:`HEADER_RULE`."""
     names = [name.strip() for name in header.split(",")]
-    if tuple(names) == CSV_COLUMNS:
-        return
-    expected = ",".join(CSV_COLUMNS)
+    detail = _header_problem(header, names)
+    if detail is None:
+        return tuple(names)
     shown = header.strip()
     if len(shown) > 80:
         shown = shown[:77] + "..."
-    missing = [c for c in CSV_COLUMNS if c not in names]
-    extra = [n for n in names if n not in CSV_COLUMNS]
+    raise BeamInputError(f"{path}: line 1: header must be exactly {HEADER_RULE}, got {shown!r} ({detail})")
+
+
+def _header_problem(header: str, names: list[str]) -> str | None:
     if len(names) == 1 and any(separator in header for separator in (";", "\t")):
-        detail = "columns must be separated by commas"
-    elif tuple(names[:-1]) == CSV_COLUMNS and not names[-1]:
-        detail = "remove the trailing comma"
-    elif missing and extra and all(_looks_numeric(n) for n in names):
-        detail = "the first line holds numbers, the header is missing"
-    elif missing and not extra:
-        detail = f"missing column {', '.join(missing)}"
-    elif extra and not missing:
-        detail = f"unexpected column {', '.join(repr(e) for e in extra)}"
-    elif missing:
-        detail = f"unknown column {', '.join(repr(e) for e in extra)} in place of {', '.join(missing)}"
-    elif len(names) != len(set(names)):
-        detail = "a column is repeated"
-    else:
-        detail = "columns are in the wrong order"
-    raise BeamInputError(f"{path}: line 1: header must be exactly {expected!r}, got {shown!r} ({detail})")
+        return "columns must be separated by commas"
+    if len(names) > 1 and not names[-1] and all(names[:-1]):
+        return "remove the trailing comma"
+    unknown = [n for n in names if n not in ALL_COLUMNS]
+    if unknown and all(_looks_numeric(n) for n in names):
+        return "the first line holds numbers, the header is missing"
+    for name in unknown:
+        quantity = name.split("_", 1)[0].lower()
+        if quantity in _QUANTITIES and name != _QUANTITIES[quantity]:
+            right = _QUANTITIES[quantity]
+            return f"unexpected column {name!r}: {quantity} is read in {COLUMN_UNITS[right]} as {right}"
+    if unknown:
+        listed = ", ".join(repr(e) for e in unknown)
+        return f"unexpected column {listed}{did_you_mean(unknown[0], ALL_COLUMNS)}"
+    repeated = sorted({n for n in names if names.count(n) > 1}, key=names.index)
+    if repeated:
+        return f"column {repeated[0]} is repeated"
+    if "time_s" not in names:
+        return "missing column time_s"
+    if names[0] != "time_s":
+        return "time_s must be the first column (columns are in the wrong order)"
+    inputs = [n for n in names if n in INPUT_COLUMNS]
+    outputs = [n for n in names if n in OUTPUT_COLUMNS]
+    if len(inputs) > 1:
+        return f"two input columns {' and '.join(inputs)}; a record has at most one input"
+    if len(outputs) > 1:
+        return f"two output columns {' and '.join(outputs)}; a record has one output"
+    if not outputs:
+        return f"missing column: an output, one of {', '.join(OUTPUT_COLUMNS)}"
+    if names[-1] != outputs[0]:
+        return f"the input column {inputs[0]} must come before the output column {outputs[0]} (wrong order)"
+    return None
 
 
 def _looks_numeric(text: str) -> bool:
@@ -481,23 +912,24 @@ def _looks_numeric(text: str) -> bool:
     return True
 
 
-def _parse_rows(path: Path, rows: list[str]) -> np.ndarray:
+def _parse_rows(path: Path, rows: list[str], columns: tuple[str, ...]) -> np.ndarray:
     """Parse row by row with ``float`` and raise for the first bad row (the slow path).
 
     Used when :func:`numpy.loadtxt` refuses the rows: either a row is bad, or a cell holds a
     number that ``float`` reads and loadtxt does not (``1_000``, non-ASCII digits).
     """
-    table = np.empty((len(rows), len(CSV_COLUMNS)))
+    width = len(columns)
+    table = np.empty((len(rows), width))
     for offset, row in enumerate(rows):
         line = offset + 2
         if not row.strip():
             raise BeamInputError(f"{path}: line {line}: empty row (blank lines are only allowed at the end)")
         cells = row.split(",")
-        if len(cells) != len(CSV_COLUMNS):
-            hint = "; remove the trailing comma" if len(cells) == len(CSV_COLUMNS) + 1 and not cells[-1].strip() else ""
-            expected = f"expected {len(CSV_COLUMNS)} ({','.join(CSV_COLUMNS)})"
+        if len(cells) != width:
+            hint = "; remove the trailing comma" if len(cells) == width + 1 and not cells[-1].strip() else ""
+            expected = f"expected {width} ({','.join(columns)})"
             raise BeamInputError(f"{path}: line {line}: {len(cells)} cell(s), {expected}{hint}")
-        for index, (column, cell) in enumerate(zip(CSV_COLUMNS, cells)):
+        for index, (column, cell) in enumerate(zip(columns, cells)):
             text = cell.strip()
             try:
                 value = float(text)
@@ -515,20 +947,34 @@ def _parse_rows(path: Path, rows: list[str]) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 
 
-def measurement_csv_text(time_s: np.ndarray, voltage_V: np.ndarray, displacement_m: np.ndarray) -> str:
-    """The CSV text: header then rows with every float at full precision (shortest exact repr)."""
-    rows = (f"{t!r},{v!r},{d!r}" for t, v, d in zip(time_s.tolist(), voltage_V.tolist(), displacement_m.tolist()))
-    return ",".join(CSV_COLUMNS) + "\n" + "\n".join(rows) + "\n"
+def measurement_csv_text(time_s: np.ndarray, *columns: np.ndarray, names: tuple[str, ...] = CSV_COLUMNS) -> str:
+    """The CSV text: header then rows with every float at full precision (shortest exact repr).
+
+    ``measurement_csv_text(time_s, voltage_V, displacement_m)`` writes the classic header; give
+    ``names`` (time first) for the other kinds, e.g. ``names=("time_s", "acceleration_m_s2")``.
+    """
+    if len(names) != len(columns) + 1:
+        raise BeamInputError(f"measurement_csv_text: {len(columns) + 1} columns but {len(names)} names")
+    lists = [np.asarray(time_s, dtype=float).tolist()] + [np.asarray(c, dtype=float).tolist() for c in columns]
+    rows = (",".join(repr(value) for value in row) for row in zip(*lists))
+    return ",".join(names) + "\n" + "\n".join(rows) + "\n"
 
 
-def sidecar_document(title: str, geometry: BeamGeometry, nominal: Mapping[str, float]) -> dict[str, Any]:
-    """The sidecar TOML content (title, geometry and, if any, nominal values) as a document."""
+def sidecar_document(
+    title: str, geometry: BeamGeometry, nominal: Mapping[str, float], sensor_range: float | None = None
+) -> dict[str, Any]:
+    """The sidecar TOML content (title, geometry, sensor range and, if any, nominal values) as a document."""
     document: dict[str, Any] = {
         "title": title,
         "beam": {"length_m": float(geometry.length_m), "linear_density_kg_m": float(geometry.linear_density_kg_m)},
-        "patch": {"start_m": float(geometry.patch_start_m), "end_m": float(geometry.patch_end_m)},
-        "sensor": {"position_m": float(geometry.sensor_position_m)},
     }
+    if geometry.has_patch:
+        document["patch"] = {"start_m": float(geometry.patch_start_m), "end_m": float(geometry.patch_end_m)}
+    if geometry.force_position_m is not None:
+        document["force"] = {"position_m": float(geometry.force_position_m)}
+    document["sensor"] = {"position_m": float(geometry.sensor_position_m)}
+    if sensor_range is not None:
+        document["sensor"]["range"] = float(sensor_range)
     if nominal:
         document["nominal"] = {name: float(value) for name, value in nominal.items()}
     return document
@@ -536,12 +982,13 @@ def sidecar_document(title: str, geometry: BeamGeometry, nominal: Mapping[str, f
 
 def write_measurement(
     prefix: str | os.PathLike[str],
-    data: Measurement | tuple[np.ndarray, np.ndarray, np.ndarray] | Mapping[str, np.ndarray],
+    data: Measurement | tuple[np.ndarray, ...] | Mapping[str, np.ndarray],
     *,
     geometry: BeamGeometry | None = None,
     title: str | None = None,
     nominal: Mapping[str, float] | None = None,
     extra_files: Mapping[str | os.PathLike[str], str] | None = None,
+    sensor_range: float | None = None,
 ) -> Measurement:
     """Write ``PREFIX.csv`` and ``PREFIX.toml`` atomically (parent directories are created).
 
@@ -550,8 +997,10 @@ def write_measurement(
     prefix : str or path-like
         Output path without suffix (a ``.csv`` or ``.toml`` suffix is dropped).
     data : Measurement, tuple or mapping
-        A :class:`Measurement`, or the arrays ``(time_s, voltage_V, displacement_m)`` as a tuple
-        or as a mapping with those keys (a pandas DataFrame works).
+        A :class:`Measurement`; or the arrays ``(time_s, voltage_V, displacement_m)`` of the
+        classic record as a tuple; or a mapping (a pandas DataFrame works) holding ``time_s``,
+        at most one input column and one output column (see the module notes; other keys are
+        ignored).
     geometry : BeamGeometry, optional
         Required with arrays; overrides the measurement's otherwise.
     title : str, optional
@@ -560,6 +1009,8 @@ def write_measurement(
         ``[nominal]`` values; default the measurement's, else none.
     extra_files : mapping, optional
         More files (path to text) written in the same all-or-nothing step, e.g. a truth file.
+    sensor_range : float, optional
+        ``[sensor] range``; default the measurement's, else none.
 
     Returns
     -------
@@ -580,26 +1031,32 @@ def write_measurement(
             title=title if title is not None else data.title,
             geometry=geometry if geometry is not None else data.geometry,
             nominal=dict(nominal) if nominal is not None else data.nominal,
+            sensor_range=sensor_range if sensor_range is not None else data.sensor_range,
             csv_path=csv_path, toml_path=toml_path,
         )
     else:
         if geometry is None:
             raise BeamInputError("write_measurement: geometry is required when writing arrays")
         if isinstance(data, Mapping) or hasattr(data, "columns"):
-            missing = [c for c in CSV_COLUMNS if c not in data]
-            if missing:
-                raise BeamInputError(f"write_measurement: data has no column {', '.join(missing)}")
-            columns = [np.asarray(data[c], dtype=float) for c in CSV_COLUMNS]
+            present = [c for c in ALL_COLUMNS if c in data]
+            if "time_s" not in present:
+                raise BeamInputError("write_measurement: data has no column time_s")
+            if not any(c in OUTPUT_COLUMNS for c in present):
+                raise BeamInputError(f"write_measurement: data has no output column ({', '.join(OUTPUT_COLUMNS)})")
+            arrays = {c: np.asarray(data[c], dtype=float) for c in present}
         else:
             if len(data) != len(CSV_COLUMNS):
-                raise BeamInputError("write_measurement: expected arrays (time_s, voltage_V, displacement_m)")
-            columns = [np.asarray(c, dtype=float) for c in data]
+                raise BeamInputError(
+                    "write_measurement: expected arrays (time_s, voltage_V, displacement_m), or a mapping by column name"
+                )
+            arrays = dict(zip(CSV_COLUMNS, (np.asarray(c, dtype=float) for c in data)))
         measurement = Measurement(
             name=name, title=title if title is not None else name, geometry=geometry,
-            time_s=columns[0], voltage_V=columns[1], displacement_m=columns[2],
-            nominal=dict(nominal or {}), csv_path=csv_path, toml_path=toml_path,
+            nominal=dict(nominal or {}), csv_path=csv_path, toml_path=toml_path, sensor_range=sensor_range,
+            **arrays,
         )
-    csv_text = measurement_csv_text(measurement.time_s, measurement.voltage_V, measurement.displacement_m)
+    columns = measurement.columns
+    csv_text = measurement_csv_text(*(getattr(measurement, c) for c in columns), names=columns)
     if len(csv_text) > MAX_MEASUREMENT_BYTES:  # ASCII: characters are bytes
         raise BeamInputError(
             f"{csv_path}: {measurement.sample_count:,} samples make {len(csv_text) / 2**20:.1f} MiB of CSV, more than "
@@ -609,7 +1066,7 @@ def write_measurement(
     contents: dict[str | os.PathLike[str], str] = {
         csv_path: csv_text,
         toml_path: dump_toml(
-            sidecar_document(measurement.title, measurement.geometry, measurement.nominal),
+            sidecar_document(measurement.title, measurement.geometry, measurement.nominal, measurement.sensor_range),
             header_comment="Measurement sidecar: what the lab knows about the beam (geometry, sensor, "
             "nominal values).\nThe samples are in the CSV file of the same name.",
         ),

@@ -25,10 +25,15 @@ class GalerkinParts:
     mass_beam : (n, n)  ∫_0^L phi_i phi_j dx (m); times rho (mass) or gamma (air damping).
     mass_patch : (n, n)  ∫_patch phi_i phi_j dx; times the added density.
     mass_tip : (n, n)  phi_i(L) phi_j(L); times the tip mass.
+    mass_sensor : (n, n)  phi_i(x_obs) phi_j(x_obs); times the sensor's mass (a point mass at the
+        sensor, translation only: the board's rotary inertia is neglected).
     stiffness_beam : (n, n)  ∫_0^L phi_i'' phi_j'' dx (1/m³); times EI (stiffness) or cI (damping).
     stiffness_patch : (n, n)  ∫_patch phi_i'' phi_j'' dx; times the added EI or cI.
     stiffness_clamp : (n, n)  phi_i'(0) phi_j'(0); times the clamp's rotational stiffness.
-    patch_force : (n,)  ∫_patch phi_i'' dx = phi_i'(p_r) - phi_i'(p_l); times k_p V(t).
+    patch_force : (n,)  ∫_patch phi_i'' dx = phi_i'(p_r) - phi_i'(p_l); times k_p V(t) (zero
+        without a patch).
+    point_force : (n,)  phi_i(x_f): the generalised force of a unit point force at x_f (zero
+        without a force position); times F(t) (N).
     tip_values : (n,)  phi_i(L): tip displacement w(L) = tip_values @ q.
     sensor_values : (n,)  phi_i(x_obs): sensor displacement y = sensor_values @ q.
     """
@@ -37,10 +42,12 @@ class GalerkinParts:
     mass_beam: np.ndarray
     mass_patch: np.ndarray
     mass_tip: np.ndarray
+    mass_sensor: np.ndarray
     stiffness_beam: np.ndarray
     stiffness_patch: np.ndarray
     stiffness_clamp: np.ndarray
     patch_force: np.ndarray
+    point_force: np.ndarray
     tip_values: np.ndarray
     sensor_values: np.ndarray
 
@@ -53,9 +60,13 @@ def assemble_parts(geometry: BeamGeometry, intervals: int = 16, free_root_rotati
     """Assemble the Galerkin parts of ``geometry`` on ``intervals`` uniform intervals."""
     basis = ModifiedCubicBasis(geometry.length_m, intervals, free_root_rotation)
     nodes = np.linspace(0.0, geometry.length_m, basis.intervals + 1)
-    breaks = np.unique(np.concatenate([nodes, [geometry.patch_start_m, geometry.patch_end_m]]))
+    patch = [geometry.patch_start_m, geometry.patch_end_m] if geometry.has_patch else []
+    breaks = np.unique(np.concatenate([nodes, patch]))
     x, w = gauss_points(breaks)
-    on_patch = (x >= geometry.patch_start_m) & (x <= geometry.patch_end_m)
+    if geometry.has_patch:
+        on_patch = (x >= geometry.patch_start_m) & (x <= geometry.patch_end_m)
+    else:
+        on_patch = np.zeros(x.shape, dtype=bool)
     values = basis.evaluate(x, 0)
     curvatures = basis.evaluate(x, 2)
 
@@ -65,16 +76,27 @@ def assemble_parts(geometry: BeamGeometry, intervals: int = 16, free_root_rotati
 
     tip = basis.evaluate([geometry.length_m], 0)[0]
     root_slope = basis.evaluate([0.0], 1)[0]
-    patch_slopes = basis.evaluate([geometry.patch_start_m, geometry.patch_end_m], 1)
+    if geometry.has_patch:
+        patch_slopes = basis.evaluate([geometry.patch_start_m, geometry.patch_end_m], 1)
+        patch_force = patch_slopes[1] - patch_slopes[0]
+    else:
+        patch_force = np.zeros(basis.size)
+    sensor = basis.evaluate([geometry.sensor_position_m], 0)[0]
+    if geometry.force_position_m is not None:
+        point_force = basis.evaluate([geometry.force_position_m], 0)[0]
+    else:
+        point_force = np.zeros(basis.size)
     return GalerkinParts(
         basis=basis,
         mass_beam=gram(values, w),
         mass_patch=gram(values, w * on_patch),
         mass_tip=np.outer(tip, tip),
+        mass_sensor=np.outer(sensor, sensor),
         stiffness_beam=gram(curvatures, w),
         stiffness_patch=gram(curvatures, w * on_patch),
         stiffness_clamp=np.outer(root_slope, root_slope),
-        patch_force=patch_slopes[1] - patch_slopes[0],
+        patch_force=patch_force,
+        point_force=point_force,
         tip_values=tip,
-        sensor_values=basis.evaluate([geometry.sensor_position_m], 0)[0],
+        sensor_values=sensor,
     )

@@ -18,7 +18,38 @@ patch_stiffening    added density/stiffness on patch     patch_added_density_kg_
                                                          patch_added_stiffness_Nm2
                                                          (+ optional patch_added_kelvin_voigt_Nm2s)
 tip_cubic_spring    nonlinear tip force -k3 w(L)^3       tip_cubic_stiffness_N_m3
+sensor_mass         point mass at the sensor x_obs       sensor_mass_kg
+modal_damping       damping ratio per undamped mode      damping_ratio_mode_1, damping_ratio_mode_2,
+                                                         ... (one per retained mode)
 ==================  ===================================  =========================================
+
+Every parameter declares where its effect vanishes (:attr:`ParameterSpec.absent_at`, used by the
+missing-effect ranking to start a candidate "barely switched on"): all at the low end of their
+range except the clamp's stiffness (a rigid clamp is k_theta -> infinity).
+
+``sensor_mass``
+    A point mass m_s at the sensor's position x_obs, which always comes from the sidecar's
+    ``[sensor] position_m`` (the part ``mass_sensor`` is assembled from the geometry): an
+    accelerometer glued to the strip loads it where it measures. Translation only.
+``modal_damping``
+    Damping applied in the coordinates of the undamped modes (of the current M and K, sensor mass
+    and all): mode j gets the ratio zeta_j, so that alone it has the poles
+    lambda = -zeta_j omega_j ± i omega_j sqrt(1 - zeta_j²). It is a damping *model* that can
+    replace ``air_damping`` + ``kelvin_voigt`` (a free decay often fixes each mode's decay rate
+    better than any law in omega); with them it adds to their modal damping matrix. Its
+    parameters are a *per-mode family* (:attr:`Effect.per_mode`): ``damping_ratio_mode_j`` for
+    j = 1 .. :data:`MAX_DAMPED_MODES`, declared once in the catalogue; a model that retains m
+    modes needs the first m (:meth:`Effect.required_parameter_names_for`,
+    :func:`model_parameter_names` with ``modes``), and the catalogue marks only mode 1 required
+    (the effect is on when its first ratio is given). A mode without a given ratio gets no
+    damping from this effect. In the full Galerkin model (the reference) the same damping is the
+    matrix C = M Phi diag(2 zeta_j omega_j) Phi^T M over the modes with a ratio (mass-normalised
+    undamped shapes Phi), which leaves every other mode undamped by it.
+
+Effects flagged ``missing_effect_candidate=False`` are left out of the missing-effect ranking
+(:data:`CANDIDATE_EFFECTS`): ``modal_damping`` replaces a damping law rather than adding physics,
+and ``sensor_mass`` matters for a contact sensor (an accelerometer), which a displacement record
+from a laser does not have; the diagnosis decides when to offer them.
 """
 
 from __future__ import annotations
@@ -73,14 +104,18 @@ class Term:
     """One contribution ``value of parameter * part`` to the system.
 
     ``target`` is ``"mass"``, ``"damping"`` or ``"stiffness"`` (a matrix part), ``"force"`` (a
-    vector multiplying the voltage V(t)) or ``"tip_cubic"`` (the cubic tip force, vector part).
+    vector multiplying the input: the voltage V(t) or a point force F(t)), ``"tip_cubic"`` (the
+    cubic tip force, vector part) or ``"modal_damping"`` (2 zeta omega added to the damping of
+    the undamped mode ``mode``, 1-based; ``part`` is then ``"undamped_modes"``).
     ``part`` names an attribute of :class:`beam.physics.assembly.GalerkinParts`; ``parameter`` names the
-    parameter whose value is the coefficient (``linear_density_kg_m`` is the sidecar's rho).
+    parameter whose value is the coefficient (``linear_density_kg_m`` is the sidecar's rho,
+    ``unit`` the number 1, e.g. for a measured point force in N).
     """
 
     target: str
     part: str
     parameter: str
+    mode: int = 0
 
 
 @dataclass(frozen=True)
@@ -104,6 +139,13 @@ class Effect:
         True when the effect replaces the rigid clamp (the basis keeps the root rotation).
     nonlinear : bool
         True when the effect makes the equations of motion nonlinear.
+    per_mode : bool
+        True when ``parameters`` is a family with one parameter per undamped mode (mode 1
+        first); a model retaining m modes needs the first m of them.
+    needs_patch : bool
+        True when the effect acts on the piezo patch (the sidecar must have ``[patch]``).
+    missing_effect_candidate : bool
+        Whether the missing-effect ranking offers it (see the module notes).
     """
 
     id: str
@@ -113,14 +155,40 @@ class Effect:
     terms: tuple[Term, ...] = field(repr=False)
     frees_root_rotation: bool = False
     nonlinear: bool = False
+    per_mode: bool = False
+    needs_patch: bool = False
+    missing_effect_candidate: bool = True
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
+        """Every parameter it declares (for a per-mode family: all :data:`MAX_DAMPED_MODES`)."""
         return tuple(p.name for p in self.parameters)
 
     @property
     def required_parameter_names(self) -> tuple[str, ...]:
+        """Parameters that must be given when the effect is on (a per-mode family: mode 1's)."""
         return tuple(p.name for p in self.parameters if p.required)
+
+    def required_parameter_names_for(self, modes: int | None) -> tuple[str, ...]:
+        """Parameters to calibrate in a model that retains ``modes`` modes.
+
+        For a per-mode family the first ``modes`` (at most :data:`MAX_DAMPED_MODES`); for any
+        other effect its required parameters. ``modes=None`` is allowed only for the latter.
+        """
+        if not self.per_mode:
+            return self.required_parameter_names
+        if modes is None:
+            raise BeamInputError(
+                f"effect {self.id} has one parameter per retained mode; give the number of modes "
+                "(parameter_names_for(modes))"
+            )
+        if isinstance(modes, bool) or int(modes) != modes or not 1 <= modes:
+            raise BeamInputError(f"modes must be a positive integer, got {modes!r}")
+        if modes > len(self.parameters):
+            raise BeamInputError(
+                f"effect {self.id} declares parameters for at most {len(self.parameters)} modes, got modes = {modes}"
+            )
+        return tuple(p.name for p in self.parameters[: int(modes)])
 
 
 BASE_PARAMETERS: tuple[ParameterSpec, ...] = (
@@ -135,6 +203,52 @@ BASE_TERMS: tuple[Term, ...] = (
     Term("stiffness", "stiffness_beam", "bending_stiffness_Nm2"),
     Term("force", "patch_force", "patch_coupling_NmV"),
 )
+
+#: What drives the beam: the patch voltage (V), a point force at ``[force] position_m`` (N), or
+#: nothing (a free response from an initial state).
+INPUT_KINDS: tuple[str | None, ...] = ("voltage", "force", None)
+
+#: The force term of each input kind (None: no force term, the beam is not driven).
+INPUT_TERMS: dict[str | None, Term | None] = {
+    "voltage": Term("force", "patch_force", "patch_coupling_NmV"),
+    "force": Term("force", "point_force", "unit"),
+    None: None,
+}
+
+#: Most modes a per-mode family (``modal_damping``) declares parameters for.
+MAX_DAMPED_MODES = 20
+
+
+def base_parameters(input_kind: str | None = "voltage") -> tuple[ParameterSpec, ...]:
+    """Base parameters for an input kind: EI always, the patch coupling k_p for a voltage input."""
+    check_input_kind(input_kind)
+    return BASE_PARAMETERS if input_kind == "voltage" else BASE_PARAMETERS[:1]
+
+
+def check_input_kind(input_kind: str | None) -> None:
+    """Raise BeamInputError unless ``input_kind`` is ``"voltage"``, ``"force"`` or None."""
+    if input_kind not in INPUT_KINDS:
+        raise BeamInputError(f"input kind must be 'voltage', 'force' or None (a free response), got {input_kind!r}")
+
+
+def _modal_damping_effect() -> Effect:
+    specs = tuple(
+        ParameterSpec(
+            f"damping_ratio_mode_{j}", "1", f"ζ_{j}", f"damping ratio of undamped mode {j}", 1e-5, 0.3,
+            required=j == 1,
+        )
+        for j in range(1, MAX_DAMPED_MODES + 1)
+    )
+    terms = tuple(Term("modal_damping", "undamped_modes", spec.name, mode=j) for j, spec in enumerate(specs, start=1))
+    return Effect(
+        "modal_damping",
+        "Modal damping",
+        "a damping ratio per undamped mode, applied in modal coordinates: lambda = -zeta omega ± i omega sqrt(1 - zeta²)",
+        specs,
+        terms,
+        per_mode=True,
+        missing_effect_candidate=False,
+    )
 
 
 EFFECTS: dict[str, Effect] = {
@@ -188,6 +302,7 @@ EFFECTS: dict[str, Effect] = {
                 Term("stiffness", "stiffness_patch", "patch_added_stiffness_Nm2"),
                 Term("damping", "stiffness_patch", "patch_added_kelvin_voigt_Nm2s"),
             ),
+            needs_patch=True,
         ),
         Effect(
             "tip_cubic_spring",
@@ -197,8 +312,20 @@ EFFECTS: dict[str, Effect] = {
             (Term("tip_cubic", "tip_values", "tip_cubic_stiffness_N_m3"),),
             nonlinear=True,
         ),
+        Effect(
+            "sensor_mass",
+            "Sensor mass",
+            "point mass of the sensor at its position x_obs (from the sidecar; translation only)",
+            (ParameterSpec("sensor_mass_kg", "kg", "m_s", "point mass of the sensor at its position", 1e-7, 0.2),),
+            (Term("mass", "mass_sensor", "sensor_mass_kg"),),
+            missing_effect_candidate=False,
+        ),
+        _modal_damping_effect(),
     )
 }
+
+#: Effects the missing-effect ranking offers, in catalogue order.
+CANDIDATE_EFFECTS: tuple[str, ...] = tuple(e.id for e in EFFECTS.values() if e.missing_effect_candidate)
 
 #: Every public parameter name, base first.
 PARAMETER_SPECS: dict[str, ParameterSpec] = {
@@ -206,23 +333,35 @@ PARAMETER_SPECS: dict[str, ParameterSpec] = {
 }
 
 
+def parameter_listing() -> str:
+    """The known parameter names for a message, a per-mode family shortened to its first and last."""
+    names: list[str] = []
+    for name in PARAMETER_SPECS:
+        effect = _EFFECT_OF.get(name)
+        if effect is not None and EFFECTS[effect].per_mode:
+            family = EFFECTS[effect].parameter_names
+            if name == family[0]:
+                names.append(f"{family[0]} ... {family[-1]}")
+            continue
+        names.append(name)
+    return ", ".join(names)
+
+
 def parameter_spec(name: str) -> ParameterSpec:
     """The spec of a public parameter name; BeamInputError names the valid ones otherwise."""
     try:
         return PARAMETER_SPECS[name]
     except KeyError:
-        raise BeamInputError(
-            f"unknown parameter {name!r}; known parameters: {', '.join(PARAMETER_SPECS)}"
-        ) from None
+        raise BeamInputError(f"unknown parameter {name!r}; known parameters: {parameter_listing()}") from None
+
+
+_EFFECT_OF: dict[str, str] = {name: effect.id for effect in EFFECTS.values() for name in effect.parameter_names}
 
 
 def effect_of_parameter(name: str) -> str | None:
     """Effect id that declares ``name``, or None for a base parameter."""
     parameter_spec(name)
-    for effect in EFFECTS.values():
-        if name in effect.parameter_names:
-            return effect.id
-    return None
+    return _EFFECT_OF.get(name)
 
 
 def effects_switched_on(parameter_names: Iterable[str]) -> tuple[str, ...]:
@@ -241,9 +380,21 @@ def parse_effects(effects: str | Iterable[str]) -> tuple[str, ...]:
     return tuple(effect_id for effect_id in EFFECTS if effect_id in items)
 
 
-def model_parameter_names(effects: Iterable[str]) -> tuple[str, ...]:
-    """Required (calibrated) parameter names of the base model plus ``effects``."""
-    names = [p.name for p in BASE_PARAMETERS]
+def model_parameter_names(
+    effects: Iterable[str], modes: int | None = None, input_kind: str | None = "voltage"
+) -> tuple[str, ...]:
+    """Required (calibrated) parameter names of the base model plus ``effects``.
+
+    Parameters
+    ----------
+    effects : iterable of str or str
+        Effect ids.
+    modes : int, optional
+        Retained modes; needed when an effect has a per-mode family (``modal_damping``).
+    input_kind : {"voltage", "force", None}
+        What drives the beam: ``patch_coupling_NmV`` belongs to a voltage input only.
+    """
+    names = [p.name for p in base_parameters(input_kind)]
     for effect_id in parse_effects(effects):
-        names.extend(EFFECTS[effect_id].required_parameter_names)
+        names.extend(EFFECTS[effect_id].required_parameter_names_for(modes))
     return tuple(names)

@@ -1,4 +1,4 @@
-"""Geometry of the cantilever, its piezo patch and its displacement sensor."""
+"""Geometry of the cantilever, its piezo patch, its sensor and where a point force acts."""
 
 from __future__ import annotations
 
@@ -19,21 +19,34 @@ class BeamGeometry:
         Beam length L (m); clamped at x = 0, free at x = L.
     linear_density_kg_m : float
         Linear density rho of the bare beam (kg/m); fixed, never calibrated.
-    patch_start_m, patch_end_m : float
-        Ends p_l < p_r of the piezoelectric patch (m), inside [0, L].
+    patch_start_m, patch_end_m : float or None
+        Ends p_l < p_r of the piezoelectric patch (m), inside [0, L]; both None for a beam
+        without a patch (a record driven by a point force, or a free response).
     sensor_position_m : float
-        Where the displacement w(x_obs, t) is measured (m), in (0, L].
+        Where the sensor measures w(x_obs, t) (or its velocity or acceleration) (m), in (0, L].
+    force_position_m : float or None
+        Where a measured point force acts (m), in (0, L]; None when no point force drives the beam.
     """
 
     length_m: float
     linear_density_kg_m: float
-    patch_start_m: float
-    patch_end_m: float
+    patch_start_m: float | None
+    patch_end_m: float | None
     sensor_position_m: float
+    force_position_m: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("length_m", "linear_density_kg_m", "patch_start_m", "patch_end_m", "sensor_position_m"):
+        if (self.patch_start_m is None) != (self.patch_end_m is None):
+            raise BeamInputError(
+                f"patch needs both start_m and end_m (or neither, for a beam without a patch), got start_m = "
+                f"{self.patch_start_m}, end_m = {self.patch_end_m}"
+            )
+        optional = ("patch_start_m", "patch_end_m", "force_position_m")
+        for name in ("length_m", "linear_density_kg_m", "patch_start_m", "patch_end_m", "sensor_position_m",
+                     "force_position_m"):
             value = getattr(self, name)
+            if value is None and name in optional:
+                continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise BeamInputError(f"{name} must be a finite number, got {value!r}")
         for name, (low, high), unit in (("length_m", LENGTH_RANGE_M, "m"),
@@ -43,7 +56,7 @@ class BeamGeometry:
                 raise BeamInputError(f"{name} must be positive, got {value}")
             if not low <= value <= high:
                 raise BeamInputError(f"{name} must lie in [{low:g}, {high:g}] {unit} (where the model is finite), got {value:g}")
-        if not 0 <= self.patch_start_m < self.patch_end_m <= self.length_m:
+        if self.has_patch and not 0 <= self.patch_start_m < self.patch_end_m <= self.length_m:
             raise BeamInputError(
                 f"patch must satisfy 0 <= start_m < end_m <= length_m = {self.length_m}, "
                 f"got start_m = {self.patch_start_m}, end_m = {self.patch_end_m}"
@@ -53,6 +66,16 @@ class BeamGeometry:
                 f"sensor position_m must lie in (0, {self.length_m}] (on the beam, not at the clamp), "
                 f"got {self.sensor_position_m}"
             )
+        if self.force_position_m is not None and not 0 < self.force_position_m <= self.length_m:
+            raise BeamInputError(
+                f"force position_m must lie in (0, {self.length_m}] (on the beam, not at the clamp), "
+                f"got {self.force_position_m}"
+            )
+
+    @property
+    def has_patch(self) -> bool:
+        """Whether the beam carries a piezo patch (``[patch]`` in the sidecar)."""
+        return self.patch_start_m is not None
 
     @property
     def mass_kg(self) -> float:

@@ -3,7 +3,8 @@
 :func:`fingerprints` condenses the diagnostics — the modal table (identified against model
 modes, :func:`beam.residuals.compare_modes`), the backbone and decay of mode 1, the residual
 spectrum and whiteness — into a flat dict of numbers (NaN where an input is missing).
-:func:`effect_scores` turns them into one number per effect of :data:`beam.physics.effects.EFFECTS`
+:func:`effect_scores` turns them into one number per candidate effect
+(:data:`beam.physics.effects.CANDIDATE_EFFECTS`)
 (0: no sign; 1: at the threshold of notice; larger: stronger), and :func:`explain` into one
 sentence per effect that quotes the measured numbers.
 
@@ -36,7 +37,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import scipy.optimize
 
-from beam.physics.effects import EFFECTS
+from beam.physics.effects import CANDIDATE_EFFECTS
 from beam.residuals.envelope import Backbone, DecayLaw
 from beam.residuals.modal_id import ModeMatch
 from beam.residuals.spectra import ResidualSpectrum
@@ -198,7 +199,7 @@ def _get(fp: Mapping[str, float], key: str) -> float:
 
 
 def effect_scores(fp: Mapping[str, float]) -> dict[str, float]:
-    """One score per effect id of :data:`beam.physics.effects.EFFECTS`: 0 no sign, >= 1 worth noticing.
+    """One score per effect id of :data:`beam.physics.effects.CANDIDATE_EFFECTS`: 0 no sign, >= 1 worth noticing.
 
     Each score is the size of the effect's fingerprint divided by :data:`THRESHOLDS`; a lowering
     of all modes is split between ``clamp_compliance`` (the uniform share) and ``tip_mass``
@@ -223,7 +224,7 @@ def effect_scores(fp: Mapping[str, float]) -> dict[str, float]:
         "patch_stiffening": abs(nz(_get(fp, "mode2_out_of_line"))) / THRESHOLDS["patch_stiffening"],
         "tip_cubic_spring": max(shift, 0.0) / THRESHOLDS["tip_cubic_spring"] if significant else 0.0,
     }
-    return {effect_id: float(scores[effect_id]) for effect_id in EFFECTS}
+    return {effect_id: float(scores[effect_id]) for effect_id in CANDIDATE_EFFECTS}
 
 
 def _pct(value: float, signed: bool = True) -> str:
@@ -233,7 +234,7 @@ def _pct(value: float, signed: bool = True) -> str:
 
 
 def explain(fp: Mapping[str, float]) -> dict[str, str]:
-    """One sentence per effect id of :data:`beam.physics.effects.EFFECTS`, quoting the fingerprints.
+    """One sentence per effect id of :data:`beam.physics.effects.CANDIDATE_EFFECTS`, quoting the fingerprints.
 
     A sentence says what was measured and whether it points to the effect (its score from
     :func:`effect_scores` >= 1) or not, or that the data needed to judge is missing.
@@ -314,4 +315,4 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
         )
     else:
         out["tip_cubic_spring"] = "no backbone of the free decay was measured: a hardening spring cannot be judged"
-    return {effect_id: out[effect_id] for effect_id in EFFECTS}
+    return {effect_id: out[effect_id] for effect_id in CANDIDATE_EFFECTS}
