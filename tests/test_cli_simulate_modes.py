@@ -78,7 +78,7 @@ def test_simulate_writes_the_measurement_and_a_separate_truth_file(default_run):
         assert revealing not in sidecar.read_text()
 
     truth_document = tomllib.loads(truth.read_text())
-    assert truth_document["effects"] == ["air_damping", "kelvin_voigt", "patch_stiffening"]
+    assert truth_document["effects"] == ["air_damping", "kelvin_voigt", "patch_stiffening", "patch_damping"]
     assert truth_document["parameters"]["patch_added_stiffness_Nm2"] == 0.793
     assert truth_document["parameters"]["patch_added_kelvin_voigt_Nm2s"] == 1.255e-5
     assert (truth_document["modes"], truth_document["seed"], truth_document["noise_m"]) == ("all", 1, 1.2e-5)

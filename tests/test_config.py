@@ -64,7 +64,7 @@ def test_bundled_b1tapih_config():
         "kelvin_voigt_Nm2s": 0.649e-5, "patch_added_density_kg_m": 0.433, "patch_added_stiffness_Nm2": 0.793,
         "patch_added_kelvin_voigt_Nm2s": 1.255e-5,
     }
-    assert config.effects == ("air_damping", "kelvin_voigt", "patch_stiffening")
+    assert config.effects == ("air_damping", "kelvin_voigt", "patch_stiffening", "patch_damping")
     assert set(config.nominal) == {"bending_stiffness_Nm2", "patch_coupling_NmV", "air_damping_Ns_m2",
                                    "kelvin_voigt_Nm2s"}
     assert all(config.nominal[name] == config.parameters[name] for name in config.nominal)
@@ -138,9 +138,6 @@ BAD_CONFIGS = [
     ("incomplete effect", CONFIG.replace("[excitation]", "[excitation]").replace(
         "air_damping_Ns_m2 = 0.01\n", "air_damping_Ns_m2 = 0.01\npatch_added_density_kg_m = 0.4\n"),
      "[parameters] patch_added_stiffness_Nm2: missing; patch_added_density_kg_m switches on effect patch_stiffening"),
-    ("optional parameter alone", CONFIG.replace(
-        "air_damping_Ns_m2 = 0.01\n", "air_damping_Ns_m2 = 0.01\npatch_added_kelvin_voigt_Nm2s = 1e-5\n"),
-     "[parameters] patch_added_density_kg_m: missing"),
     ("unknown kind", CONFIG.replace('kind = "pulse"', 'kind = "step"'), "[excitation] kind: unknown kind 'step'"),
     ("no kind", CONFIG.replace('kind = "pulse"\n', ""), "[excitation] kind: missing key"),
     ("key of another kind", CONFIG.replace("width_s = 0.01", "width_s = 0.01\nfrequency_Hz = 5.0"),

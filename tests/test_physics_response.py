@@ -23,7 +23,7 @@ def chirp(n: int = 1500, amplitude: float = 10.0, start: float = 2.0, stop: floa
 CASES = {
     "proportional": (["air_damping", "kelvin_voigt"], DAMPING),
     "patch (non-proportional)": (
-        ["air_damping", "kelvin_voigt", "patch_stiffening"],
+        ["air_damping", "kelvin_voigt", "patch_stiffening", "patch_damping"],
         dict(DAMPING, patch_added_density_kg_m=0.433, patch_added_stiffness_Nm2=0.793, patch_added_kelvin_voigt_Nm2s=1.255e-5),
     ),
     "tip mass": (["air_damping", "kelvin_voigt", "tip_mass"], dict(DAMPING, tip_mass_kg=0.01)),

@@ -355,7 +355,8 @@ def _lm_kernel(a, g, diagonal, lam, pinned, cap, factors, steps, gains, clipped,
 
 
 def levenberg_marquardt(
-    problem: Problem, starts: np.ndarray, *, max_iterations: int = LM_MAX_ITERATIONS, tolerance: float = LM_TOLERANCE
+    problem: Problem, starts: np.ndarray, *, max_iterations: int = LM_MAX_ITERATIONS, tolerance: float = LM_TOLERANCE,
+    continuation: bool = True,
 ) -> LmResult:
     """Lock-step Levenberg–Marquardt from several starts (see the module notes).
 
@@ -370,6 +371,9 @@ def levenberg_marquardt(
     tolerance : float
         Decrease of the negative log posterior (nats) left by the Gauss–Newton model at which a
         start has converged.
+    continuation : bool
+        Whether a start still improving after ``max_iterations`` continues alone (trust region);
+        False for a screening of many starts by a few iterations.
 
     Returns
     -------
@@ -424,7 +428,7 @@ def levenberg_marquardt(
         radius[shrink] = np.maximum(0.5 * radius[shrink], LM_MIN_RADIUS)
         converged[rejected[lam[rejected] > 1e12]] = True  # no descent left at the Jacobian's accuracy
     _drop_worse_basins(lp, predicted, converged, dropped, settled=np.inf)  # no continuation for those
-    for i in np.flatnonzero(~converged & ~dropped & np.isfinite(lp)):  # still improving: trust region
+    for i in np.flatnonzero(~converged & ~dropped & np.isfinite(lp) & continuation):  # still improving: trust region
         x[i], z[i], lp[i], jac[i], converged[i] = _trust_region(objective, x[i], z[i], lo + margin, hi - margin)
     return LmResult(z=z, log_posterior=lp, converged=converged & ~dropped, dropped=dropped, iterations=iterations,
                     fd_steps=objective.fisher_steps(jac))

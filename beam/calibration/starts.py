@@ -22,6 +22,17 @@ local optimum (each cycle of phase error is a new basin). So:
    match of its own modal frequencies (one batched modal solve) and its k_p by least squares
    (the response is linear in k_p; one batched model call for the whole design); the
    :data:`DESIGN_KEPT` best, by residual RMS, are started.
+5. **Nested starts** (:func:`nested_starts`) — for each effect of the model that changes its mass,
+   stiffness or linearity (not a pure damping effect: those keep the modes, and dropping one
+   costs a sub-model fit for no new basin), the MAP of the model without it (found by this same strategy, recursively, to the lock-step search's coarse
+   tolerance, cached per record, window, modes, likelihood and effect set) with that effect
+   barely on. The model with the effect nests the model without it, so its MAP is then at least
+   as good as every smaller model's, whatever the effects: under a gross misfit (a tip mass
+   standing in for a missing patch) the residual RMS of a design point says little about where
+   its search ends (measured on lab_run_1, 20 % window: the basin 18 nats above the engine's
+   optimum was reached from design points ranked 37th-124th of 125 by RMS), and a superset of
+   the true model (tip mass + patch) started from the design alone ended 877 nats below the
+   patch-only optimum.
 
 :func:`starting_points` is the one start strategy of every calibration (CLI, dashboard,
 diagnosis candidates, ladder rungs): its starts depend only on the record, window, modes,
@@ -30,14 +41,17 @@ effects and likelihood.
 
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
 from collections.abc import Mapping
 
 import numpy as np
 from scipy.stats import qmc
 
 from beam.calibration.fit import internal_starts, levenberg_marquardt
-from beam.calibration.setup import BeamCalibrationSetup, build_problem, prior_centre
+from beam.calibration.setup import BeamCalibrationSetup, BeamForwardModel, build_problem, prior_centre
 from beam.inference import Problem
+from beam.physics.model import BeamModel
 
 #: Stiffness scale factors searched: a factor 5 either way of the prior centre.
 SCALE_GRID = np.exp(np.linspace(np.log(0.2), np.log(5.0), 1201))
@@ -244,33 +258,110 @@ def screened_design(problem: Problem, setup: BeamCalibrationSetup, keep: int = D
 
 def _batched_scales(setup: BeamCalibrationSetup, batch: Mapping[str, np.ndarray]) -> np.ndarray:
     """The best spectral scale factor of EI (see :func:`stiffness_scales`) of every design point,
-    from the undamped frequencies of its retained modes (one batched modal solve)."""
+    from the undamped frequencies of its retained modes (one batched modal solve).
+
+    The scaled frequency sqrt(s) f is a shift of log f by ½ log s, and :data:`SCALE_GRID` is
+    uniform in log s: the log power is interpolated once on a log-frequency grid of half that
+    step, and each point's score over the scale grid is a sum of shifted slices of it (a gather,
+    not an interpolation per point, scale and mode: 0.15 s per design of 512 points before)."""
     reduced, _, _ = setup.model.reduced_system({k: np.asarray(v) for k, v in batch.items()}, setup.modes)
     model_frequencies = np.sqrt(np.maximum(reduced["omega2"], 0.0)) / (2 * np.pi)  # (B, m)
     frequencies, power = window_spectrum(setup)
     nyquist = frequencies[-1]
     floor = power.max() * 1e-12 + 1e-300
     usable = (model_frequencies > 0) & (model_frequencies < 0.8 * nyquist)
-    scaled = np.sqrt(SCALE_GRID)[None, :, None] * model_frequencies[:, None, :]  # (B, S, m)
-    inside = (scaled < 0.95 * nyquist) & usable[:, None, :]
-    log_power = np.log(np.interp(scaled, frequencies, power) + floor)
-    score = np.where(inside, log_power, np.log(floor)).sum(axis=2)  # (B, S)
+    if not usable.any():
+        return np.ones(model_frequencies.shape[0])
+    step = 0.5 * np.log(SCALE_GRID[1] / SCALE_GRID[0])  # of log f per grid step of log s
+    half_span = 0.5 * np.log(SCALE_GRID[-1])  # log sqrt(5): the grid is symmetric about s = 1
+    log_f = np.log(np.where(usable, model_frequencies, 1.0))
+    lowest = log_f[usable].min() - half_span
+    size = int(np.ceil((log_f[usable].max() + half_span - lowest) / step)) + 2
+    grid = np.exp(lowest + step * np.arange(size))
+    log_power = np.where(grid < 0.95 * nyquist, np.log(np.interp(grid, frequencies, power) + floor), np.log(floor))
+    first = np.rint((log_f - half_span - lowest) / step).astype(int)  # (B, m): grid index at s = SCALE_GRID[0]
+    first = np.clip(first, 0, size - SCALE_GRID.size)
+    index = first[:, None, :] + np.arange(SCALE_GRID.size)[None, :, None]  # (B, S, m)
+    score = np.where(usable[:, None, :], log_power[index], np.log(floor)).sum(axis=2)  # (B, S)
     return SCALE_GRID[np.argmax(score, axis=1)]
+
+
+#: Sub-model optima kept by :func:`submodel_map` (least recently used dropped first).
+SUBMODEL_CACHE_SIZE = 256
+_SUBMODEL_CACHE: OrderedDict[tuple, dict[str, float]] = OrderedDict()
+
+
+def _record_key(setup: BeamCalibrationSetup) -> tuple:
+    """What a sub-model's optimum depends on besides its effects."""
+    m = setup.measurement
+    digest = hashlib.blake2b(np.ascontiguousarray(m.displacement_m).tobytes(), digest_size=16)
+    digest.update(np.ascontiguousarray(m.voltage_V).tobytes())
+    digest.update(repr((m.geometry, sorted(m.nominal.items()), m.sample_interval_s, float(m.time_s[0]))).encode())
+    return digest.hexdigest(), tuple(setup.window), setup.modes, setup.likelihood
+
+
+def submodel_map(setup: BeamCalibrationSetup, effects: tuple[str, ...]) -> dict[str, float]:
+    """Physical parameters (natural units) of the optimum of the model with ``effects`` on the
+    setup's record and window: the lock-step search from :func:`starting_points` of that model
+    (recursively nested), to its coarse tolerance, no Newton polish. Cached (see
+    :data:`SUBMODEL_CACHE_SIZE`), so the dashboard, the diagnosis and the ladder reuse it."""
+    key = _record_key(setup) + (tuple(effects),)
+    cached = _SUBMODEL_CACHE.get(key)
+    if cached is not None:
+        _SUBMODEL_CACHE.move_to_end(key)
+        return dict(cached)
+    model = BeamModel(setup.measurement.geometry, effects, setup.model.intervals)
+    sub = BeamCalibrationSetup(setup.measurement, setup.window, model.effects, setup.modes, setup.likelihood, model,
+                               BeamForwardModel(model, setup.measurement, setup.modes))
+    problem = build_problem(sub)
+    result = levenberg_marquardt(problem, internal_starts(problem, starting_points(problem, sub)))
+    values = problem.from_internal(result.z[result.best])
+    out = {name: float(v[0]) for name, v in values.items() if name not in problem.noise_names}
+    _SUBMODEL_CACHE[key] = out
+    while len(_SUBMODEL_CACHE) > SUBMODEL_CACHE_SIZE:
+        _SUBMODEL_CACHE.popitem(last=False)
+    return dict(out)
+
+
+def barely_on(problem: Problem, name: str) -> float:
+    """A parameter's value :data:`BARELY_ON` of its log prior range from the end where its
+    effect vanishes (natural units)."""
+    from beam.physics.effects import parameter_spec
+
+    low, high = _log_range(problem, name)
+    fraction = BARELY_ON if parameter_spec(name).absent_at == "low" else 1.0 - BARELY_ON
+    return float(np.exp(low + fraction * (high - low)))
+
+
+def nested_starts(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[str, float]]:
+    """For each effect of the model that is not pure damping, the optimum of the model without
+    it (:func:`submodel_map`) with that effect barely on (see the module notes)."""
+    from beam.physics.effects import EFFECTS
+
+    out = []
+    for effect in setup.effects:
+        if all(term.target == "damping" for term in EFFECTS[effect].terms):
+            continue
+        values = submodel_map(setup, tuple(e for e in setup.effects if e != effect))
+        guess = {name: values.get(name, barely_on(problem, name)) for name in setup.physical_names}
+        out.append(_clip_to_prior(problem, guess))
+    return out
 
 
 def starting_points(problem: Problem, setup: BeamCalibrationSetup,
                     warm: Mapping[str, float] | None = None) -> list[dict[str, float]]:
     """The start strategy of every beam calibration (natural units, physical parameters): the
-    short-window MAP (or a caller's ``warm`` start in its place), the spectral starts and the
-    screened design over the effects (see the module notes)."""
+    short-window MAP (or a caller's ``warm`` start in its place), the spectral starts, the
+    nested starts and the screened design over the effects (see the module notes)."""
     spectral = spectral_guesses(problem, setup)
+    nested = nested_starts(problem, setup)
     design = screened_design(problem, setup)
     if warm is not None:
-        return [dict(warm)] + spectral + design
+        return [dict(warm)] + nested + spectral + design
     short = _short_window_problem(setup)
     if short is None:
-        return spectral + design
+        return nested + spectral + design
     refined = levenberg_marquardt(short, internal_starts(short, spectral + design))
     values = short.from_internal(refined.z[refined.best])
     start = {name: float(v[0]) for name, v in values.items() if name not in short.noise_names}
-    return [start] + spectral + design
+    return [start] + nested + spectral + design

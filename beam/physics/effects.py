@@ -16,7 +16,7 @@ tip_mass            point mass at x = L                  tip_mass_kg
 clamp_compliance    rotational spring at the root        clamp_stiffness_Nm_rad
 patch_stiffening    added density/stiffness on patch     patch_added_density_kg_m,
                                                          patch_added_stiffness_Nm2
-                                                         (+ optional patch_added_kelvin_voigt_Nm2s)
+patch_damping       added strain-rate damping on patch   patch_added_kelvin_voigt_Nm2s
 tip_cubic_spring    nonlinear tip force -k3 w(L)^3       tip_cubic_stiffness_N_m3
 sensor_mass         point mass at the sensor x_obs       sensor_mass_kg
 modal_damping       damping ratio per undamped mode      damping_ratio_mode_1, damping_ratio_mode_2,
@@ -292,17 +292,23 @@ EFFECTS: dict[str, Effect] = {
             (
                 ParameterSpec("patch_added_density_kg_m", "kg/m", "Δρ", "density added by the patch", 1e-6, 5.0),
                 ParameterSpec("patch_added_stiffness_Nm2", "N m²", "ΔEI", "bending stiffness added by the patch", 1e-6, 10.0),
-                ParameterSpec(
-                    "patch_added_kelvin_voigt_Nm2s", "N m² s", "Δc_I", "strain-rate damping added by the patch",
-                    1e-9, 1e-3, required=False,
-                ),
             ),
             (
                 Term("mass", "mass_patch", "patch_added_density_kg_m"),
                 Term("stiffness", "stiffness_patch", "patch_added_stiffness_Nm2"),
-                Term("damping", "stiffness_patch", "patch_added_kelvin_voigt_Nm2s"),
             ),
             needs_patch=True,
+        ),
+        Effect(
+            # its own effect (it was an optional parameter of patch_stiffening, which no control
+            # could add): a record simulated with it is repaired only by a model that has it
+            "patch_damping",
+            "Patch damping",
+            "the bonded patch (its adhesive layer) adds strain-rate damping Δc_I w_xxt on [p_l, p_r]",
+            (ParameterSpec(
+                "patch_added_kelvin_voigt_Nm2s", "N m² s", "Δc_I", "strain-rate damping added by the patch", 1e-9, 1e-3,
+            ),),
+            (Term("damping", "stiffness_patch", "patch_added_kelvin_voigt_Nm2s"),),
         ),
         Effect(
             "tip_cubic_spring",

@@ -20,6 +20,9 @@ What each effect leaves behind (e_k = f_data,k / f_model,k − 1, frequency erro
   all omega² alike to first order); they separate only when r is a clear share of |ē|.
 * ``patch_stiffening`` — local mass and stiffness shift the modes unevenly: the error of
   mode 2 lies outside the range of modes 1 and 3 (for the beams here mode 2 falls most).
+* ``patch_damping`` — damping added on the patch alone damps each mode by its share of
+  curvature there, unevenly: the damping error of mode 2 (log of data / model) lies outside the
+  range of modes 1 and 3.
 * ``kelvin_voigt`` — strain-rate damping gives zeta ∝ omega: the measured zeta_k / zeta_1 grows
   with frequency faster than the model's.
 * ``air_damping`` — velocity damping gives zeta ∝ 1 / omega: the measured ratio falls faster.
@@ -54,6 +57,7 @@ THRESHOLDS: dict[str, float] = {
     "patch_stiffening": 0.01,  # mode 2 one percent out of line with modes 1 and 3
     "kelvin_voigt": math.log(1.5),  # zeta_k / zeta_1 grows 1.5 x more than the model's
     "air_damping": math.log(1.5),  # ... or falls 1.5 x more
+    "patch_damping": math.log(1.3),  # zeta_2 30 % out of line with modes 1 and 3
     "tip_cubic_spring": 0.005,  # mode-1 frequency 0.5 % higher at the largest amplitude
 }
 #: r / |ē| at which a lowering of the modes counts half as uniform (clamp), half as mode-1 (tip mass).
@@ -113,6 +117,7 @@ def fingerprints(
     -------
     dict of str to float
         ``frequency_error_mode{k}``, ``damping_error_mode{k}`` (data / model − 1, per mode);
+        ``damping_mode2_out_of_line`` (the same for log(1 + damping error));
         ``frequency_error_mean`` (ē over the matched modes); ``mode1_deficit`` (r, see the
         module notes); ``mode1_deficit_share`` (r / |ē|); ``mode2_out_of_line`` (distance of
         e_2 outside [min(e_1, e_3), max(e_1, e_3)], signed); ``damping_growth_data``,
@@ -150,6 +155,13 @@ def fingerprints(
         low, high = sorted((errors[1], errors[3]))
         out_of_line = min(errors[2] - low, 0.0) + max(errors[2] - high, 0.0)
     fp["mode2_out_of_line"] = out_of_line
+    log_damping = {k: math.log1p(fp.get(f"damping_error_mode{k}", NAN)) for k in (1, 2, 3)
+                   if math.isfinite(fp.get(f"damping_error_mode{k}", NAN)) and fp[f"damping_error_mode{k}"] > -1}
+    damping_out_of_line = NAN
+    if len(log_damping) == 3:
+        low, high = sorted((log_damping[1], log_damping[3]))
+        damping_out_of_line = min(log_damping[2] - low, 0.0) + max(log_damping[2] - high, 0.0)
+    fp["damping_mode2_out_of_line"] = damping_out_of_line
 
     damped = [r for r in rows if r.matched and r.damping_data > 0 and r.damping_model > 0]
     growth_data = growth_model = growth_mode = NAN
@@ -222,6 +234,7 @@ def effect_scores(fp: Mapping[str, float]) -> dict[str, float]:
         "tip_mass": max(deficit, 0.0) / THRESHOLDS["tip_mass"],
         "clamp_compliance": lowering * uniform / THRESHOLDS["clamp_compliance"],
         "patch_stiffening": abs(nz(_get(fp, "mode2_out_of_line"))) / THRESHOLDS["patch_stiffening"],
+        "patch_damping": abs(nz(_get(fp, "damping_mode2_out_of_line"))) / THRESHOLDS["patch_damping"],
         "tip_cubic_spring": max(shift, 0.0) / THRESHOLDS["tip_cubic_spring"] if significant else 0.0,
     }
     return {effect_id: float(scores[effect_id]) for effect_id in CANDIDATE_EFFECTS}
@@ -303,6 +316,17 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
         )
     else:
         out["patch_stiffening"] = f"modes 1, 2 and 3 must all be identified to judge patch stiffening ({errors_text})"
+
+    damping_out = _get(fp, "damping_mode2_out_of_line")
+    if math.isfinite(damping_out):
+        out["patch_damping"] = (
+            f"the damping of mode 2 is out of line with modes 1 and 3 by a factor {math.exp(damping_out):.2f}: "
+            "damping added on the patch region damps the modes unevenly"
+            if scores["patch_damping"] >= 1 else
+            "the damping errors change smoothly with mode number: no sign of damping added on the patch"
+        )
+    else:
+        out["patch_damping"] = "modes 1, 2 and 3 must all be identified with their damping to judge patch damping"
 
     shift, slope = _get(fp, "amplitude_frequency_shift"), _get(fp, "backbone_slope_Hz_per_m")
     if math.isfinite(shift):

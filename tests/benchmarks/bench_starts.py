@@ -89,9 +89,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--modes", type=int, default=4)
     parser.add_argument("--linear-only", action="store_true", help="leave out the tip cubic spring (slow)")
     parser.add_argument("--bundled-only", action="store_true")
+    parser.add_argument("--records", default="", help="comma-separated record names to keep (default all)")
     args = parser.parse_args(argv)
     rows = []
+    keep = {r for r in args.records.split(",") if r}
     for name, measurement in records(0 if args.bundled_only else args.random, args.linear_only):
+        if keep and name.split(":")[0] not in keep:
+            continue
         t = measurement.time_s
         for fraction in WINDOW_FRACTIONS:
             window = (float(t[0]), float(t[0] + fraction * (t[-1] - t[0])))
