@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 from simulated_data import GEOMETRY, TRUE_BASE
 
-from beam.errors import BeamInputError
 from beam.calibration.records import (
     check_calibration_record,
     decimate_displacement,
@@ -14,7 +13,12 @@ from beam.calibration.records import (
     decimate_voltage,
     decimation_factor,
 )
-from beam.io.limits import MAX_CALIBRATION_SAMPLES, MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
+from beam.errors import BeamInputError
+from beam.io.limits import (
+    MAX_CALIBRATION_SAMPLES,
+    MAX_MEASUREMENT_BYTES,
+    MAX_TOML_BYTES,
+)
 from beam.io.measurement import Measurement, read_measurement, write_measurement
 from beam.io.text import load_toml, read_text_file
 from beam.physics.excitation import Excitation
