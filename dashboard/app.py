@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 _ROOT = str(Path(__file__).resolve().parents[1])
@@ -37,6 +38,7 @@ from panel.io.state import set_curdoc
 from dashboard.jobs.beam import warm_worker
 from dashboard.jobs.warm import schedule_warm_up
 from dashboard.runtime import monitor, scheduler, server
+from dashboard.runtime.staging import held
 from dashboard.state.session import SessionState
 from dashboard.views.tabs import VIEWS
 
@@ -46,11 +48,15 @@ TITLE = "Beam discrepancy explorer"
 
 
 def session_dispatch(doc):
-    """A dispatch function that runs callbacks on ``doc``'s event loop (safe from any thread)."""
+    """A dispatch function that runs callbacks on ``doc``'s event loop (safe from any thread).
+
+    Each callback runs with the document held (:func:`dashboard.runtime.staging.held`): every
+    change it makes reaches the browser in the order it was made.
+    """
 
     def dispatch(fn):
         with set_curdoc(doc):
-            pn.state.execute(fn, schedule=True)
+            pn.state.execute(partial(held, doc, fn), schedule=True)
 
     return dispatch
 

@@ -10,7 +10,7 @@ see :mod:`dashboard.plots.corner`). Displacements in µm, PSDs in m²/Hz.
 from __future__ import annotations
 
 import numpy as np
-from bokeh.models import ColumnDataSource, Range1d, Span
+from bokeh.models import ColumnDataSource, FixedTicker, Range1d, Span
 from bokeh.plotting import figure
 
 from dashboard.outputs.beam import effect_title as _title
@@ -84,6 +84,10 @@ class DiagnosisPlots:
                            x_range=Range1d(-0.6, 3.6), y_axis_type="log",
                            y_range=Range1d(0.1, 10.0))
         self.ladder.css_classes = ["diag-ladder-plot"]  # found by the layout tests
+        # one tick per rung; the ticker is made once and its ticks change (assigning a list to
+        # ``xaxis.ticker`` would make a new bokeh model per ladder update)
+        self._ladder_ticks = FixedTicker(ticks=[0])
+        self.ladder.xaxis.ticker = self._ladder_ticks
         self.ladder.vbar(x="rung", top="rmse", bottom="bottom", width=0.6, source=s["ladder"], color=COLORS["mean"], alpha=0.7)
         self.ladder.text(x="rung", y="rmse", text="label", source=s["ladder"], text_font_size="8pt", text_align="center",
                          text_baseline="top", y_offset=4)
@@ -155,4 +159,4 @@ class DiagnosisPlots:
         self.ladder.y_range.update(start=bottom / 2, end=max(rmse, default=1.0) * 3)
         self.ladder.xaxis.major_label_overrides = {r["rung"]: "start" if r["rung"] == 0 else _title(r["added"])
                                                    for r in rungs}
-        self.ladder.xaxis.ticker = [r["rung"] for r in rungs] or [0]
+        self._ladder_ticks.ticks = [r["rung"] for r in rungs] or [0]

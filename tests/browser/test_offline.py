@@ -1,8 +1,11 @@
 """The app is fully offline and quiet: over ordinary use of the three tabs no request leaves the
-machine and the console shows no warning and no error (``pytest -m browser``)."""
+machine, the console shows no warning and no error, and the document's patches reach the browser
+in the order the server made them (``pytest -m browser``)."""
 
 from __future__ import annotations
 
+import json
+from itertools import pairwise
 from urllib.parse import urlparse
 
 import pytest
@@ -20,10 +23,28 @@ def _remote(url: str) -> bool:
     return parsed.hostname not in LOCAL_HOSTS
 
 
+def _message_id(frame) -> int | None:
+    """The server's id of a bokeh message from its header frame (bokeh's ids count up, ``p1234``), else None."""
+    if not isinstance(frame, str) or not frame.startswith("{") or '"msgid"' not in frame[:40]:
+        return None
+    try:
+        header = json.loads(frame)
+    except ValueError:
+        return None
+    msgid = header.get("msgid", "") if isinstance(header, dict) else ""
+    return int(msgid[1:]) if header.get("msgtype") == "PATCH-DOC" and msgid[1:].isdigit() else None
+
+
 def test_ordinary_use_requests_nothing_remote_and_logs_no_warning(browser_context, app_url):
     page = browser_context.new_page()
     requests: list[str] = []
     console: list[str] = []
+    # A model is defined in the first message that contains it: a message overtaken by a later one
+    # can leave a reference the browser does not know yet ("reference p... isn't known"), so the
+    # server's patches must arrive in the order it made them (see dashboard.runtime.staging.held).
+    patches: list[int] = []
+    page.on("websocket", lambda ws: ws.on("framereceived", lambda f: patches.append(n)
+                                          if (n := _message_id(f)) is not None else None))
     page.on("request", lambda r: requests.append(r.url))
     page.on("console", lambda m: console.append(f"console.{m.type}: {m.text}")
             if m.type in ("warning", "error") and "GPU stall due to ReadPixels" not in m.text else None)
@@ -54,3 +75,6 @@ def test_ordinary_use_requests_nothing_remote_and_logs_no_warning(browser_contex
     assert remote == [], f"requests that leave the machine: {remote}"
     assert requests, "no request was recorded at all"
     assert console == [], console
+    assert patches, "no patch of the document was seen"
+    late = [(earlier, later) for earlier, later in pairwise(patches) if later < earlier]
+    assert late == [], f"{len(late)} of {len(patches)} patches arrived after a later one (message ids): {late[:5]}"

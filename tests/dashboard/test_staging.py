@@ -8,16 +8,20 @@ import time
 from types import SimpleNamespace
 
 import pytest
+from bokeh.document import Document
 from tornado.ioloop import IOLoop
 
 from dashboard.runtime.staging import BuildQueue, run_steps
 
 
-class FakeDoc:
-    """What :class:`BuildQueue` uses of a served bokeh Document (next-tick callbacks, the session)."""
+class FakeDoc(Document):
+    """A bokeh Document as :class:`BuildQueue` sees a served one: a session context (no
+    connection), next-tick callbacks on the current loop; holding it is bokeh's own."""
 
     def __init__(self, *, runs_callbacks: bool = True) -> None:
-        self.session_context = SimpleNamespace(_session=SimpleNamespace(destroyed=False))
+        super().__init__()
+        context = SimpleNamespace(_session=SimpleNamespace(destroyed=False))
+        self._session_context = lambda: context
         self.runs_callbacks = runs_callbacks
 
     def add_next_tick_callback(self, callback) -> None:
@@ -133,3 +137,18 @@ def test_without_a_served_document_steps_run_at_once():
 def test_duty_must_be_a_share():
     with pytest.raises(ValueError):
         BuildQueue(duty=0.0)
+
+
+def test_each_step_runs_with_its_document_held_and_released_after():
+    """A step's changes are collected (policy ``collect``) and leave together: see :func:`staging.held`."""
+    seen: list = []
+
+    async def scenario():
+        queue, doc = BuildQueue(), FakeDoc()
+        queue.submit(doc, [lambda: seen.append(doc.callbacks.hold_value)] * 2)
+        await drain(queue)
+        return doc
+
+    doc = run(scenario)
+    assert seen == ["collect", "collect"]
+    assert doc.callbacks.hold_value is None
