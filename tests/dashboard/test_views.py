@@ -169,8 +169,8 @@ def test_diagnosis_view_shows_candidates_with_add_buttons(beam_session):
     assert session.wait(60)
     names = [b.label for b in view.candidates.select(pn.widgets.Button)]
     assert names[0] == "Add Patch stiffening" and len(names) == 4  # effect titles, not ids
-    assert len(view.plots.sources["residual"].data["r"]) == session.beam.measurement.time_s.size
-    assert len(view.plots.sources["ladder"].data["rung"]) == 1
+    assert len(view.plots.data["residual"]["r"]) == session.beam.measurement.time_s.size
+    assert len(view.plots.data["ladder"]) == 1
 
 
 def test_sweep_plots_show_the_rows_and_mark_the_window_of_the_final_result(session):
