@@ -22,7 +22,6 @@ import numpy as np
 from beam.cli.arguments import positive_int
 from beam.io.config import load_config
 
-
 #: Largest relative frequency change on the twice-finer mesh for a mode to count as resolved.
 RESOLVED_CHANGE = 1e-3
 #: The finest mesh (intervals) a model takes.

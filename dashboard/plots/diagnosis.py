@@ -26,8 +26,8 @@ __all__ = ["DiagnosisPlots"]
 
 UM = 1e6
 RED = "#d62728"
-_TOOLS = dict(default_tools=["pan", "wheel_zoom", "box_zoom", "reset", "save"], toolbar="above", height=270,
-              responsive=True, fontsize={"title": "11pt"})
+_TOOLS = {"default_tools": ["pan", "wheel_zoom", "box_zoom", "reset", "save"], "toolbar": "above", "height": 270,
+          "responsive": True, "fontsize": {"title": "11pt"}}
 
 
 def _empty_residual() -> dict:
