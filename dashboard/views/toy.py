@@ -303,6 +303,7 @@ class ToyView(pn.viewable.Viewer):
             return widget
 
         return pn.Card(
+            download("Summary for print (HTML)", "html", exports.summary_html),
             download("Summary (JSON)", "json", exports.summary_json),
             download("Predictive bands (CSV)", "csv", exports.bands_csv),
             download("Posterior (netCDF)", "nc", exports.posterior_netcdf, lambda r: r is not None and r.posterior is not None),
