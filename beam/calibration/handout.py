@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from beam.io.handout import Series, band_svg, handout_html
+from beam.io.handout import Series, band_svg, handout_html, micrometres
 from beam.physics.effects import EFFECTS, parameter_spec
 
 __all__ = ["calibration_handout"]
@@ -80,9 +80,9 @@ def calibration_handout(result, notes: Sequence[str] = ()) -> str:
     return handout_html(
         f"Beam calibration: {m.name}",
         f"window {lo:.3g}–{hi:.3g} s, {s.modes} modes, effects: {effects}, likelihood {s.likelihood}",
-        [("error on held-out data", f"{1e6 * result.rmse_prediction:.3g} µm"),
-         ("error in the window", f"{1e6 * result.rmse_calibration:.3g} µm"),
+        [("error on held-out data", micrometres(result.rmse_prediction)),
+         ("error in the window", micrometres(result.rmse_calibration)),
          ("held-out data in the 95 % band", f"{100 * result.coverage95_prediction:.1f} %"),
-         ("noise the model needs (sd)", f"{1e6 * noise:.3g} µm")],
+         ("noise the model needs (sd)", micrometres(noise))],
         tables=[("Parameters: posterior", ["parameter", "mean", "sd", "95 % interval"], rows)],
         figures=[figure], notes=[*notes, *generated])

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Series", "band_svg", "handout_html", "nice_ticks"]
+__all__ = ["Series", "band_svg", "handout_html", "micrometres", "nice_ticks"]
 
 #: Points drawn per series at most (a record has a few thousand; an SVG of more prints slowly).
 MAX_SVG_POINTS = 1500
@@ -57,15 +57,24 @@ class Series:
 
 
 def nice_ticks(lo: float, hi: float, count: int = 6) -> np.ndarray:
-    """About ``count`` round tick values (1, 2 or 5 × 10^k steps) covering ``[lo, hi]``."""
+    """About ``count`` round tick values (a 1, 2 or 5 × 10^k step, the nearest to the range / (count - 1)
+    in ratio) inside ``[lo, hi]``."""
     if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
         return np.array([lo]) if math.isfinite(lo) else np.array([0.0])
     raw = (hi - lo) / max(count - 1, 1)
     power = 10.0 ** math.floor(math.log10(raw))
-    step = next(m * power for m in (1.0, 2.0, 5.0, 10.0) if m * power >= raw)
+    step = power * min((1.0, 2.0, 5.0, 10.0), key=lambda m: abs(math.log(m * power / raw)))
     first = math.ceil(lo / step - 1e-9) * step
     ticks = np.arange(first, hi + 0.5 * step * 1e-6 + step * 1e-9, step)
     return ticks[(ticks >= lo - 1e-9 * step) & (ticks <= hi + 1e-9 * step)]
+
+
+def micrometres(value_m: float) -> str:
+    """A length in µm with sensible digits: ``"3.21 µm"``, ``"1273 µm"`` (never an exponent), ``"–"`` if not finite."""
+    if not math.isfinite(value_m):
+        return "–"
+    um = 1e6 * value_m
+    return f"{um:.0f} µm" if abs(um) >= 100 else f"{um:.3g} µm"
 
 
 def _fmt(value: float) -> str:
