@@ -50,4 +50,3 @@ def hide_on_click(plot, element) -> None:
         if legend.click_policy != "hide":
             legend.click_policy = "hide"
             legend.label_text_font_size = "8pt"
-

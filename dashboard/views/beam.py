@@ -174,8 +174,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
         self._plot.show_true_noise(_true_noise(d.answer))
 
     def _build_plot(self) -> None:
-        self._centre.append(pn.pane.HoloViews(self._plot.figure, sizing_mode="stretch_width", height=420,
-                                             backend="bokeh"))
+        self._centre.append(pn.pane.Bokeh(self._plot.figure, sizing_mode="stretch_width", height=420))
 
     def _build_inputs(self) -> None:
         self._left.extend([self._dataset_card(), self._controls()])

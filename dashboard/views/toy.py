@@ -125,8 +125,7 @@ class ToyView(pn.viewable.Viewer):
         toy.param.watch(lambda e: self._timeseries.update(toy.result, toy.pinned), ["result", "pinned"])
 
     def _build_plot(self) -> None:
-        self._centre.append(pn.pane.HoloViews(self._timeseries.figure, sizing_mode="stretch_width", height=390,
-                                             backend="bokeh"))
+        self._centre.append(pn.pane.Bokeh(self._timeseries.figure, sizing_mode="stretch_width", height=390))
 
     def _build_controls(self) -> None:
         self._left.extend([self._controls(), self._presets()])

@@ -56,7 +56,7 @@ READ_STATE_JS = """() => {
   }
   const band = doc.get_model_by_name('prediction-band');
   if (band) {
-    const y = band.data.upper || band.data.y;  // bokeh varea or HoloViews' polygon
+    const y = band.data.upper;
     out.band_n = y.length;
     let s = 0; for (let i = 0; i < y.length; i++) s += y[i] * (1 + (i % 7));
     out.band_sum = y.length ? s : null;
@@ -165,7 +165,7 @@ READ_STATUS_JS = """(css) => {
   }
   const band = doc.get_model_by_name('beam-prediction-band');
   if (band) {
-    const y = band.data.upper || band.data.y;  // bokeh varea or HoloViews' polygon
+    const y = band.data.upper;
     out.band_n = y.length;
     let s = 0; for (let i = 0; i < y.length; i++) s += y[i] * (1 + (i % 7));
     out.band_sum = y.length ? s : null;
