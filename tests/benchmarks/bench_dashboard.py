@@ -136,7 +136,8 @@ ACTION_WATCHER_JS = """(conditions) => {
 CAL_FINAL_NEW = ("s.cal.stage === 'final' && s.cal.preview === 0 && s.cal.shown === s.cal.requested && "
                  "s.cal.requested > base.cal.requested && s.cal.band_sum !== base.cal.band_sum")
 DIAG_FINAL_NEW = "s.diag.stage === 'final' && s.diag.shown === s.diag.requested && s.diag.requested > base.diag.requested"
-TRUE_NOISE_DRAWN = "(doc.get_model_by_name('beam-true-noise') || {data: {upper: []}}).data.upper.length > 0"
+TRUE_NOISE_DRAWN = ("(m => m !== null && Object.values(m.data).some(c => c.length > 0))"
+                    "(doc.get_model_by_name('beam-true-noise'))")
 
 
 def timed_action(page, act, timeout_ms: float = 120000, **conditions: str) -> dict[str, float]:
