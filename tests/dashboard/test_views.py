@@ -129,6 +129,15 @@ def test_beam_view_labels_carry_units_and_results_reach_the_plot(beam_session):
     assert view.plot.window.right == pytest.approx(1.05)
     view.result_tabs.active = 1  # the pair plot is built when its tab opens
     assert view.corner is not None and len(view.corner.sources[("bending_stiffness_Nm2", "current")].data["top"]) == 30
+    # the printable summary of the view: self-contained, with the judged read-outs in words
+    from dashboard.outputs import beam as bs
+
+    text = bs.summary_html(result).getvalue().decode("utf-8")
+    assert "://" not in text and "src=" not in text and "href=" not in text and "<script" not in text
+    for item in bs.judged_readouts(result):
+        if item["words"]:
+            assert f"{item['label']}: {item['value']} {item['unit']}" in text
+    assert "Air damping, Kelvin–Voigt damping" in text and text.count("<svg") == 1
 
 
 
@@ -171,6 +180,14 @@ def test_diagnosis_view_shows_candidates_with_add_buttons(beam_session):
     assert names[0] == "Add Patch stiffening" and len(names) == 4  # effect titles, not ids
     assert len(view.plots.data["residual"]["r"]) == session.beam.measurement.time_s.size
     assert len(view.plots.data["ladder"]) == 1
+    # the same diagnosis again (as each partial stage arrives, a new object): the plots are not re-sent
+    import copy
+
+    shown = view.plots.data["residual"]
+    view.plots.update(copy.copy(session.diagnosis.diagnosis))
+    assert view.plots.data["residual"] is shown
+    view.plots.update(None)
+    assert len(view.plots.data["residual"]["r"]) == 0
 
 
 def test_sweep_plots_show_the_rows_and_mark_the_window_of_the_final_result(session):
