@@ -97,7 +97,7 @@ def _thin(*arrays: np.ndarray) -> list[np.ndarray]:
 
 
 def band_svg(series: Sequence[Series], *, title: str, x_label: str, y_label: str,
-             window_s: tuple[float, float] | None = None, width_px: int = 720, height_px: int = 260) -> str:
+             window_s: tuple[float, float] | None = None, width_px: int = 720, height_px: int = 280) -> str:
     """An inline ``<svg>`` of time series and bands (drawn in the order given) with axes and a legend.
 
     Parameters
@@ -116,7 +116,16 @@ def band_svg(series: Sequence[Series], *, title: str, x_label: str, y_label: str
     str
         An ``<svg>`` element (no ``xmlns`` URL: inline SVG in HTML needs none).
     """
-    left, right, top, bottom = 62, 12, 26, 64
+    left, right, top = 62, 12, 26
+    # the legend: entries left to right, wrapped into rows under the axis label
+    widths = [26 + 6 * len(s.label) for s in series]
+    places, x, row = [], left, 0
+    for width in widths:
+        if x > left and x + width > width_px - right:
+            x, row = left, row + 1
+        places.append((x, row))
+        x += width
+    bottom = 50 + 16 * (row + 1)
     w, h = width_px - left - right, height_px - top - bottom
     xs = [np.asarray(s.time_s, float) for s in series if np.size(s.time_s)]
     ys = [np.asarray(a, float) for s in series for a in (s.value, s.upper) if a is not None and np.size(a)]
@@ -177,14 +186,13 @@ def band_svg(series: Sequence[Series], *, title: str, x_label: str, y_label: str
     out.append(f'<text x="{left + w / 2:.0f}" y="{top + h + 30}" text-anchor="middle">{html.escape(x_label)}</text>'
                f'<text transform="translate(14,{top + h / 2:.0f}) rotate(-90)" text-anchor="middle">'
                f'{html.escape(y_label)}</text>')
-    x, y = left, height_px - 10
-    for s in series:
+    for s, (x, row) in zip(series, places):
+        y = top + h + 46 + 16 * row
         dash = ' stroke-dasharray="3,2"' if s.style in ("dashed", "dots") else ""
         mark = (f'<rect x="{x}" y="{y - 8}" width="14" height="8" fill="{s.colour}" fill-opacity="{s.opacity}"/>'
                 if s.upper is not None else
                 f'<line x1="{x}" y1="{y - 4}" x2="{x + 14}" y2="{y - 4}" stroke="{s.colour}" stroke-width="2"{dash}/>')
         out.append(mark + f'<text x="{x + 18}" y="{y}">{html.escape(s.label)}</text>')
-        x += 26 + 6 * len(s.label)
     out.append("</svg>")
     return "".join(out)
 
