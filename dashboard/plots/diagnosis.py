@@ -31,8 +31,7 @@ _TOOLS = {"default_tools": ["pan", "wheel_zoom", "box_zoom", "reset", "save"], "
 
 
 def _empty_residual() -> dict:
-    return {"t": [], "r": [], "band_t": [], "lo": [], "hi": [], "out_t": [], "out_r": [], "intervals": [],
-            "noise_um": None}
+    return {"t": [], "r": [], "band_t": [], "lo": [], "hi": [], "out_t": [], "out_r": [], "intervals": []}
 
 
 def _overlay(layers: list, **opts):
@@ -51,7 +50,8 @@ class DiagnosisPlots:
     Attributes
     ----------
     pipes : dict of str to holoviews.streams.Pipe
-        ``residual``, ``spectrum``, ``acf``, ``backbone``, ``ladder``: their ``data`` is what is drawn.
+        ``residual``, ``true_noise``, ``spectrum``, ``acf``, ``backbone``, ``ladder``: their ``data`` is what
+        is drawn.
     residual, spectrum, acf, backbone, ladder : holoviews.DynamicMap
         What the ``pn.pane.HoloViews`` panes show.
     """
@@ -59,6 +59,7 @@ class DiagnosisPlots:
     def __init__(self) -> None:
         self.pipes = {
             "residual": hv.streams.Pipe(data=_empty_residual()),
+            "true_noise": hv.streams.Pipe(data={"noise_um": None}),
             "spectrum": hv.streams.Pipe(data={"f": [], "residual": [], "data": [], "modes": [], "ylim": (1e-20, 1.0)}),
             "acf": hv.streams.Pipe(data={"lag": [], "acf": [], "band": None}),
             "backbone": hv.streams.Pipe(data={"a": [], "f": [], "lo": [], "hi": [], "title": "Mode 1: frequency vs amplitude"}),
@@ -66,7 +67,10 @@ class DiagnosisPlots:
         }
         #: Titles are short (they are drawn on the canvas and would be cut, not wrapped, in a
         #: narrow column); the verdicts in words are HTML under the plots.
-        self.residual = hv.DynamicMap(self._residual, streams=[self.pipes["residual"]])
+        # the true noise lines in their own layer: Reveal sends two lines, not the record's residual
+        self.residual = (hv.DynamicMap(self._residual, streams=[self.pipes["residual"]])
+                         * hv.DynamicMap(self._true_noise, streams=[self.pipes["true_noise"]])).opts(
+            title="Residual: data − model mean", legend_position="top_right", hooks=[hide_on_click], **_TOOLS)
         self.spectrum = hv.DynamicMap(self._spectrum, streams=[self.pipes["spectrum"]])
         self.acf = hv.DynamicMap(self._acf, streams=[self.pipes["acf"]])
         self.backbone = hv.DynamicMap(self._backbone, streams=[self.pipes["backbone"]])
@@ -95,12 +99,14 @@ class DiagnosisPlots:
             color=COLORS["calibration"], hooks=[name_source("diag-residual")])
         outside = hv.Scatter({"t": data["out_t"], "r": data["out_r"]}, t, r, label="outside the band").opts(
             color=RED, size=3)
-        # after Reveal: ± 1.96 × the true noise sd (where a right model's residual stays)
+        return _overlay([intervals, band, line, outside])
+
+    @staticmethod
+    def _true_noise(data: dict):
+        """After Reveal: ± 1.96 × the true noise sd (where a right model's residual stays)."""
         half = None if data["noise_um"] is None else 1.959964 * data["noise_um"]
-        truth = [_hline(None if half is None else sign * half, color=COLORS["truth"], line_dash="dotted", line_width=2)
-                 for sign in (1.0, -1.0)]
-        return _overlay([intervals, band, line, outside, *truth]).opts(
-            title="Residual: data − model mean", legend_position="top_right", hooks=[hide_on_click], **_TOOLS)
+        return _overlay([_hline(None if half is None else sign * half, color=COLORS["truth"], line_dash="dotted",
+                                line_width=2) for sign in (1.0, -1.0)])
 
     @staticmethod
     def _spectrum(data: dict):
@@ -175,7 +181,7 @@ class DiagnosisPlots:
             return
         self._shown_key, self._cleared = key, diagnosis is None
         if diagnosis is None:
-            pipes["residual"].send({**_empty_residual(), "noise_um": pipes["residual"].data["noise_um"]})
+            pipes["residual"].send(_empty_residual())
             pipes["spectrum"].send({"f": [], "residual": [], "data": [], "modes": [], "ylim": (1e-20, 1.0)})
             pipes["acf"].send({"lag": [], "acf": [], "band": None})
             pipes["backbone"].send({"a": [], "f": [], "lo": [], "hi": [], "title": "Mode 1: frequency vs amplitude"})
@@ -188,8 +194,7 @@ class DiagnosisPlots:
             "t": band.time_s, "r": band.residual_m * UM,
             "band_t": b.time_s, "lo": (b.prediction_lower - b.mean) * UM, "hi": (b.prediction_upper - b.mean) * UM,
             "out_t": band.time_s[band.outside], "out_r": band.residual_m[band.outside] * UM,
-            "intervals": [(i.start_s, -top, i.end_s, top) for i in band.intervals],
-            "noise_um": pipes["residual"].data["noise_um"]})
+            "intervals": [(i.start_s, -top, i.end_s, top) for i in band.intervals]})
         sp = rep.spectrum
         keep = sp.frequency_Hz > 0
         positive = sp.data_psd_m2_Hz[keep]
@@ -211,8 +216,8 @@ class DiagnosisPlots:
     def show_true_noise(self, noise_m: float | None) -> None:
         """Mark ± 1.96 × the true noise sd on the residual plot (after Reveal; None hides the lines)."""
         noise_um = None if noise_m is None else float(noise_m) * UM
-        if noise_um != self.pipes["residual"].data["noise_um"]:
-            self.pipes["residual"].send({**self.pipes["residual"].data, "noise_um": noise_um})
+        if noise_um != self.pipes["true_noise"].data["noise_um"]:
+            self.pipes["true_noise"].send({"noise_um": noise_um})
 
     def update_ladder(self, rungs: list[dict]) -> None:
         """Show the error ladder rows (:func:`dashboard.state.beam.ladder_rung`)."""
