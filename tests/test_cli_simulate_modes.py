@@ -120,7 +120,7 @@ def test_modes_json_matches_the_model(tmp_path):
     result = run_beam("modes", ASSET, "--json", "--count", "4")
     assert result.returncode == 0, result.stderr
     document = json.loads(result.stdout)
-    assert set(document) == {"frequencies_Hz", "damping_ratios"}
+    assert set(document) == {"frequencies_Hz", "damping_ratios", "resolved", "refinement_change", "refined_intervals"}
     assert len(document["frequencies_Hz"]) == len(document["damping_ratios"]) == 4
     from beam.physics.model import BeamModel
 
@@ -139,12 +139,13 @@ def test_modes_table_of_a_uniform_beam(tmp_path):
     assert table.returncode == 0, table.stderr
     lines = table.stdout.splitlines()
     assert lines[0].startswith("uniform beam (effects: kelvin_voigt; 8 intervals)")
-    assert lines[1].split() == ["mode", "frequency", "(Hz)", "damping", "ratio"]
-    rows = [line.split() for line in lines[2:]]
+    assert lines[1].split() == ["mode", "frequency", "(Hz)", "damping", "ratio", "resolved"]
     from beam.physics.model import BeamModel
 
     config = load_config(config_path)
     frequencies, ratios = BeamModel(config.geometry, config.effects, 8).natural_modes(config.parameters)
+    rows = [line.split() for line in lines[2:2 + len(frequencies)]]
+    assert lines[2 + len(frequencies)].startswith("resolved: the frequency changes by less than 0.1 % on a mesh of 16")
     assert len(rows) == len(frequencies) > 4
     assert [int(row[0]) for row in rows] == list(range(1, len(rows) + 1))
     np.testing.assert_allclose([float(row[1]) for row in rows], frequencies, rtol=1e-5)  # 6 digits printed
@@ -153,6 +154,32 @@ def test_modes_table_of_a_uniform_beam(tmp_path):
     f1 = 1.875104068711961**2 / (2 * np.pi) * np.sqrt(0.5 / (0.1 * 0.5**4))
     assert float(rows[0][1]) == pytest.approx(f1, rel=1e-4)
     assert float(rows[0][2]) == pytest.approx(1e-5 * 2 * np.pi * f1 / (2 * 0.5), rel=1e-3)
+
+
+CANTILEVER_BETA_L = [1.875104068711961, 4.694091132974175, 7.854757438237613, 10.995540734875467]
+
+
+def test_modes_marks_the_modes_the_mesh_does_not_resolve(tmp_path):
+    """Against the closed form of a uniform cantilever: modes marked resolved are within 0.1 % of
+    it, modes marked not resolved are off by more (8 intervals resolve modes 1-3)."""
+    config_path = tmp_path / "uniform.toml"
+    config_path.write_text(UNIFORM_CONFIG)
+    result = run_beam("modes", config_path, "--json")
+    assert result.returncode == 0, result.stderr
+    document = json.loads(result.stdout)
+    assert document["refined_intervals"] == 16
+    frequencies = np.array(document["frequencies_Hz"])
+    n = frequencies.size
+    beta_l = np.array(CANTILEVER_BETA_L + [(2 * k - 1) * np.pi / 2 for k in range(5, n + 1)])  # (2k-1)pi/2 beyond
+    exact = beta_l**2 / (2 * np.pi) * np.sqrt(0.5 / (0.1 * 0.5**4))
+    error = np.abs(frequencies - exact) / exact
+    resolved = np.array(document["resolved"])
+    assert list(np.flatnonzero(resolved) + 1) == [1, 2, 3]
+    assert np.all(error[resolved] < 1e-3) and np.all(error[~resolved] > 1e-3)
+    table = run_beam("modes", config_path, "--count", "5")
+    marks = [line.split()[-1] for line in table.stdout.splitlines()[2:7]]
+    assert marks == ["yes", "yes", "yes", "NO", "NO"]
+    assert "NO: refine the mesh" in table.stdout.splitlines()[-1]
 
 
 BAD_INVOCATIONS = [

@@ -51,12 +51,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     parser.add_argument("--save", default=None, metavar="PREFIX",
                         help="also write PREFIX.nc (ArviZ InferenceData) and PREFIX.band.csv (predictive band)")
+    parser.add_argument("--report", default=None, metavar="FILE.html",
+                        help="also write a one-page printable summary (self-contained HTML: key numbers, the "
+                        "record with the model and its bands, the parameters)")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from beam.io.measurement import read_measurement
 
+    if args.report is not None and not str(args.report).lower().endswith((".html", ".htm")):
+        from beam.errors import BeamInputError
+
+        raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
     measurement = read_measurement(args.data)  # a bad file fails before the heavy imports
     from beam.calibration import calibrate
     result = calibrate(
@@ -66,6 +73,11 @@ def run(args: argparse.Namespace) -> int:
     summary = result.to_json()
     if args.save:
         summary["saved"] = [str(p) for p in result.save(args.save)]
+    if args.report:
+        from beam.calibration.handout import calibration_handout
+        from beam.io.text import atomic_write_texts
+
+        summary["report"] = str(atomic_write_texts({args.report: calibration_handout(result)})[0])
     if args.json:
         json.dump(summary, sys.stdout, allow_nan=False, default=_null_nan)
         sys.stdout.write("\n")
@@ -107,6 +119,7 @@ def format_summary(summary: dict) -> str:
         f"{'converged' if summary['converged'] else 'NOT converged'}; {summary['seconds']:.2f} s",
     ]
     lines += [f"warning: {w}" for w in summary["warnings"]]
+    lines += [f"written: {path}" for path in [*summary.get("saved", []), *([summary["report"]] if "report" in summary else [])]]
     return "\n".join(lines) + "\n"
 
 

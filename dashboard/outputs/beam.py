@@ -16,6 +16,7 @@ import threading
 import numpy as np
 import pandas as pd
 
+from beam.calibration.handout import calibration_handout
 from beam.errors import BeamInputError
 from beam.physics.effects import EFFECTS, parameter_spec
 from beam.residuals.noise import noise_floor
@@ -39,6 +40,7 @@ __all__ = [
     "readouts",
     "result_label",
     "summary",
+    "summary_html",
     "summary_json",
     "verdict_text",
 ]
@@ -185,6 +187,15 @@ def summary_json(result) -> io.BytesIO | None:
         return None
     text = json.dumps(_jsonable(result.to_json()), indent=1, allow_nan=False)
     return io.BytesIO(text.encode("utf-8"))
+
+
+def summary_html(result) -> io.BytesIO | None:
+    """A one-page printable summary (:func:`beam.calibration.handout.calibration_handout`, self-contained
+    HTML) with the read-outs judged in words as its first notes; None without a result."""
+    if result is None:
+        return None
+    notes = [f"{it['label']}: {it['value']} {it['unit']} — {it['words']}" for it in judged_readouts(result) if it["words"]]
+    return io.BytesIO(calibration_handout(result, notes).encode("utf-8"))
 
 
 def bands_csv(result) -> io.BytesIO | None:

@@ -15,7 +15,7 @@ import tempfile
 
 import numpy as np
 
-__all__ = ["CSV_COLUMNS", "bands_csv", "filename", "posterior_netcdf", "summary_json"]
+__all__ = ["CSV_COLUMNS", "bands_csv", "filename", "posterior_netcdf", "summary_html", "summary_json"]
 
 #: Columns of the band CSV (units in the names; du = data unit).
 CSV_COLUMNS = (
@@ -90,3 +90,37 @@ def posterior_netcdf(result) -> io.BytesIO | None:
             return io.BytesIO(fh.read())
     finally:
         os.unlink(path)
+
+
+def summary_html(result) -> io.BytesIO | None:
+    """A one-page printable summary (self-contained HTML, :func:`beam.io.handout.handout_html`): the
+    scenario, the read-outs judged in words, data / truth / bands drawn as inline SVG, and the
+    parameters against the truth. None without a result."""
+    if result is None:
+        return None
+    from beam.io.handout import Series, band_svg, handout_html
+    from dashboard.outputs.toy import compare_table, judge, readouts, result_label
+
+    d, b, r = result.data, result.bands, readouts(result)
+    stage = result.extra.get("stage", "final")
+    figure = band_svg([
+        Series("95 % prediction band", b.time_s, b.prediction_lower, b.prediction_upper, colour="#ff9896", opacity=0.6),
+        Series("95 % credible band", b.time_s, b.credible_lower, b.credible_upper, colour="#d62728", opacity=0.35),
+        Series("data (calibration)", d.time_s[d.calibration], d.data[d.calibration], colour="#1f77b4", style="dots"),
+        Series("data (held out)", d.time_s[d.held_out], d.data[d.held_out], colour="#7f7f7f", style="dots"),
+        Series("truth (noise-free)", d.time_s, d.truth, colour="#2ca02c", style="dashed"),
+        Series("posterior mean", b.time_s, b.mean, colour="#d62728")],
+        title="Data, truth and the calibrated model (calibration window shaded)", x_label="Time (s)",
+        y_label="Signal (du)", window_s=(0.0, float(result.scenario.window_s)))
+    table = compare_table(result)
+    rows = [[str(index), *map(str, row)] for index, row in zip(table.index, table.to_numpy())]
+    _, lines = judge(result)
+    text = handout_html(
+        "Toy periodic model: one calibration", f"{result_label(result)}; {'MCMC posterior' if stage == 'final' else stage}",
+        [("held-out RMSE", f"{r['rmse_du']:.3g} du"), ("held-out data in the 95 % band", f"{r['coverage_pct']:.0f} %"),
+         ("estimated noise sd", f"{r['noise_sd_du']:.3g} du (true {r['noise_sd_truth_du']:.3g} du)"),
+         ("sd of the frequency f", f"{r['frequency_sd_mHz']:.3g} mHz")],
+        tables=[("Parameters: posterior mean ± sd [95 % interval] and the truth", ["quantity", *map(str, table.columns)],
+                 rows)],
+        figures=[figure], notes=lines)
+    return io.BytesIO(text.encode("utf-8"))

@@ -1,9 +1,13 @@
 """Main plot of the beam calibration view: measurement, model mean and 95 % bands over the record.
 
-Plain bokeh updated in place (it receives every streamed result; see
-:mod:`dashboard.plots.timeseries` for the measured reasons). Displacements are drawn in mm. Data
-sources are named ``beam-prediction-band``, ``beam-mean``, ``beam-pinned-mean`` ... (unique in the
-document, so that browser tests can read them with ``get_model_by_name``).
+Plain bokeh updated in place: it receives every streamed result, and in the browser the
+HoloViews version (DynamicMaps fed by Pipes for the record, the result, the pinned result and
+the true noise) drew the beam preview in 0.82 and 0.92 s median (1.34, 1.39 s max) after a
+window move in two runs, against 0.49 and 0.55 s (0.68, 0.66 s max) for this module in runs
+just after them (target 0.5 s; table and conditions in :mod:`dashboard.plots.timeseries`).
+Displacements are drawn in mm. Data sources are named ``beam-prediction-band``, ``beam-mean``,
+``beam-pinned-mean`` ... (unique in the document, so that browser tests can read them with
+``get_model_by_name``).
 """
 
 from __future__ import annotations

@@ -1,162 +1,224 @@
-"""Plots of the diagnosis view (plain bokeh, updated in place when a diagnosis or a ladder rung arrives).
+"""Plots of the diagnosis view: HoloViews DynamicMaps fed by Pipes, sent when a diagnosis or a ladder rung arrives.
 
-:class:`DiagnosisPlots` holds five figures — residual over time with the 95 % band and the
+:class:`DiagnosisPlots` holds five plots — residual over time with the 95 % band and the
 exceedance intervals, residual and data spectra (Welch) with the model's modal lines, residual
 autocorrelation with its ±1.96/√n band, the backbone (instantaneous frequency against
-amplitude) of mode 1, and the error ladder — each to be shown in its own pane (no GridPlot:
-see :mod:`dashboard.plots.corner`). Displacements in µm, PSDs in m²/Hz.
+amplitude) of mode 1, and the error ladder — each a :class:`holoviews.DynamicMap` with its own
+:class:`holoviews.streams.Pipe`, shown in its own ``pn.pane.HoloViews`` (no ``hv.Layout``: a
+bokeh GridPlot beside another plot never lets the document go idle, see the dashboard README).
+They change a few times per session (a diagnosis, an added effect, Reveal), so the tens of
+milliseconds of a ``Pipe.send`` of a record's ~5,000 residual samples do not matter.
+Displacements in µm, PSDs in m²/Hz. The residual's data source is named ``diag-residual``, the
+ladder's ``diag-ladder``; the ladder figure carries the CSS class ``diag-ladder-plot``.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from bokeh.models import ColumnDataSource, FixedTicker, Range1d, Span
-from bokeh.plotting import figure
 
 from dashboard.outputs.beam import effect_title as _title
+from dashboard.plots.elements import css_class, hide_on_click, hv, name_source
 from dashboard.plots.timeseries import COLORS
 
 __all__ = ["DiagnosisPlots"]
 
 UM = 1e6
+RED = "#d62728"
+_TOOLS = {"default_tools": ["pan", "wheel_zoom", "box_zoom", "reset", "save"], "toolbar": "above", "height": 270,
+          "responsive": True, "fontsize": {"title": "11pt"}}
 
 
-def _fig(title: str, x: str, y: str, **kw):
-    fig = figure(height=270, sizing_mode="stretch_width", title=title, tools="pan,wheel_zoom,box_zoom,reset,save",
-                 toolbar_location="above", min_border_left=40, **kw)
-    fig.xaxis.axis_label, fig.yaxis.axis_label = x, y
-    fig.title.text_font_size = "11pt"
-    fig.xaxis.ticker.desired_num_ticks = 5
-    return fig
+def _empty_residual() -> dict:
+    return {"t": [], "r": [], "band_t": [], "lo": [], "hi": [], "out_t": [], "out_r": [], "intervals": []}
 
 
-def _empty(*cols) -> dict:
-    return {c: [] for c in cols}
+def _overlay(layers: list, **opts):
+    """The layers (each framewise: their ranges follow every new frame) overlaid with ``opts``."""
+    return hv.Overlay([layer.opts(framewise=True) for layer in layers]).opts(**opts)
+
+
+def _hline(y: float | None, **style):
+    """A horizontal line at ``y`` (transparent when ``y`` is None, so the layers stay the same)."""
+    return hv.HLine(math.nan if y is None else y).opts(line_alpha=0.0 if y is None else 1.0, **style)
 
 
 class DiagnosisPlots:
-    """The figures of the diagnosis view; :meth:`update` shows a diagnosis, :meth:`update_ladder` the ladder."""
+    """The plots of the diagnosis view; :meth:`update` shows a diagnosis, :meth:`update_ladder` the ladder.
+
+    Attributes
+    ----------
+    pipes : dict of str to holoviews.streams.Pipe
+        ``residual``, ``true_noise``, ``spectrum``, ``acf``, ``backbone``, ``ladder``: their ``data`` is what
+        is drawn.
+    residual, spectrum, acf, backbone, ladder : holoviews.DynamicMap
+        What the ``pn.pane.HoloViews`` panes show.
+    """
 
     def __init__(self) -> None:
-        s = self.sources = {
-            "residual": ColumnDataSource(_empty("t", "r"), name="diag-residual"),
-            "band": ColumnDataSource(_empty("t", "lo", "hi")),
-            "outside": ColumnDataSource(_empty("t", "r")),
-            "intervals": ColumnDataSource(_empty("left", "right", "bottom", "top")),
-            "psd": ColumnDataSource(_empty("f", "residual", "data")),
-            "modes": ColumnDataSource(_empty("f", "y0", "y1")),
-            "acf": ColumnDataSource(_empty("lag", "acf")),
-            "backbone": ColumnDataSource(_empty("a", "f", "lo", "hi")),
-            "ladder": ColumnDataSource(_empty("rung", "label", "rmse", "coverage", "bottom"), name="diag-ladder"),
+        self.pipes = {
+            "residual": hv.streams.Pipe(data=_empty_residual()),
+            "true_noise": hv.streams.Pipe(data={"noise_um": None}),
+            "spectrum": hv.streams.Pipe(data={"f": [], "residual": [], "data": [], "modes": [], "ylim": (1e-20, 1.0)}),
+            "acf": hv.streams.Pipe(data={"lag": [], "acf": [], "band": None}),
+            "backbone": hv.streams.Pipe(data={"a": [], "f": [], "lo": [], "hi": [], "title": "Mode 1: frequency vs amplitude"}),
+            "ladder": hv.streams.Pipe(data=[]),
         }
         #: Titles are short (they are drawn on the canvas and would be cut, not wrapped, in a
         #: narrow column); the verdicts in words are HTML under the plots.
-        self.residual = _fig("Residual: data − model mean", "Time (s)", "Residual (µm)")
-        self.residual.quad(left="left", right="right", bottom="bottom", top="top", source=s["intervals"],
-                           color="#d62728", alpha=0.12, legend_label="exceedance intervals")
-        self.residual.varea("t", "lo", "hi", source=s["band"], color=COLORS["prediction"], alpha=0.45,
-                            legend_label="95 % prediction band")
-        self.residual.line("t", "r", source=s["residual"], color=COLORS["calibration"], legend_label="residual")
-        self.residual.scatter("t", "r", source=s["outside"], color="#d62728", size=3, legend_label="outside the band")
-        # after Reveal: ± 1.96 × the true noise sd (where a right model's residual stays)
-        self.true_noise = [Span(dimension="width", location=0.0, line_dash="dotted", line_width=2,
-                                line_color=COLORS["truth"], visible=False) for _ in range(2)]
-        for span in self.true_noise:
-            self.residual.add_layout(span)
-        self.spectrum = _fig("Spectra of data and residual", "Frequency (Hz)",
-                             "PSD (m²/Hz)", y_axis_type="log", y_range=Range1d(1e-20, 1.0))
-        self.spectrum.line("f", "data", source=s["psd"], color="#7f7f7f", legend_label="data")
-        self.spectrum.line("f", "residual", source=s["psd"], color="#d62728", legend_label="residual")
-        self.spectrum.segment("f", "y0", "f", "y1", source=s["modes"], color=COLORS["truth"], line_dash="dashed",
-                              legend_label="model natural frequencies")
-        self.acf = _fig("Residual autocorrelation (window)", "Lag (s)", "Autocorrelation")
-        self.acf.vbar(x="lag", top="acf", width=0.0, source=s["acf"], line_color=COLORS["calibration"])
-        self.acf.scatter("lag", "acf", source=s["acf"], size=2, color=COLORS["calibration"])
-        self.acf_band = [Span(dimension="width", location=v, line_dash="dashed", line_color="#d62728") for v in (0.0, 0.0)]
-        for span in self.acf_band:
-            self.acf.add_layout(span)
-        self.backbone = _fig("Mode 1: frequency vs amplitude", "Amplitude (µm)",
-                             "Frequency (Hz)")
-        self.backbone.segment("a", "lo", "a", "hi", source=s["backbone"], color="#7f7f7f")
-        self.backbone.line("a", "f", source=s["backbone"], color=COLORS["mean"])
-        self.backbone.scatter("a", "f", source=s["backbone"], color=COLORS["mean"], size=6)
-        self.ladder = _fig("Held-out error per step", "Effect added", "Held-out error (µm)",
-                           x_range=Range1d(-0.6, 3.6), y_axis_type="log",
-                           y_range=Range1d(0.1, 10.0))
-        self.ladder.css_classes = ["diag-ladder-plot"]  # found by the layout tests
-        # one tick per rung; the ticker is made once and its ticks change (assigning a list to
-        # ``xaxis.ticker`` would make a new bokeh model per ladder update)
-        self._ladder_ticks = FixedTicker(ticks=[0])
-        self.ladder.xaxis.ticker = self._ladder_ticks
-        self.ladder.vbar(x="rung", top="rmse", bottom="bottom", width=0.6, source=s["ladder"], color=COLORS["mean"], alpha=0.7)
-        self.ladder.text(x="rung", y="rmse", text="label", source=s["ladder"], text_font_size="8pt", text_align="center",
-                         text_baseline="top", y_offset=4)
-        for fig in (self.residual, self.spectrum):
-            fig.legend.label_text_font_size = "8pt"
-            fig.legend.click_policy = "hide"
+        # the true noise lines in their own layer: Reveal sends two lines, not the record's residual
+        self.residual = (hv.DynamicMap(self._residual, streams=[self.pipes["residual"]])
+                         * hv.DynamicMap(self._true_noise, streams=[self.pipes["true_noise"]])).opts(
+            title="Residual: data − model mean", legend_position="top_right", hooks=[hide_on_click], **_TOOLS)
+        self.spectrum = hv.DynamicMap(self._spectrum, streams=[self.pipes["spectrum"]])
+        self.acf = hv.DynamicMap(self._acf, streams=[self.pipes["acf"]])
+        self.backbone = hv.DynamicMap(self._backbone, streams=[self.pipes["backbone"]])
+        self.ladder = hv.DynamicMap(self._ladder, streams=[self.pipes["ladder"]])
+        self._shown_key, self._cleared = None, False  # the diagnosis key on the plots; whether they are empty
 
     @property
     def figures(self) -> list:
-        """The five figures, in display order."""
+        """The five plots, in display order."""
         return [self.residual, self.spectrum, self.acf, self.backbone, self.ladder]
 
+    @property
+    def data(self) -> dict:
+        """What each plot draws (its pipe's data), by name."""
+        return {name: pipe.data for name, pipe in self.pipes.items()}
+
+    # -- elements ---------------------------------------------------------------------------------
+    @staticmethod
+    def _residual(data: dict):
+        t, r = hv.Dimension("t", label="Time (s)"), hv.Dimension("r", label="Residual (µm)")
+        intervals = hv.Rectangles(data["intervals"], kdims=["left", "bottom", "right", "top"],
+                                  label="exceedance intervals").opts(color=RED, alpha=0.12, line_alpha=0.0)
+        band = hv.Area({"t": data["band_t"], "lo": data["lo"], "hi": data["hi"]}, t, ["lo", "hi"],
+                       label="95 % prediction band").opts(color=COLORS["prediction"], alpha=0.45, line_alpha=0.0)
+        line = hv.Curve({"t": data["t"], "r": data["r"]}, t, r, label="residual").opts(
+            color=COLORS["calibration"], hooks=[name_source("diag-residual")])
+        outside = hv.Scatter({"t": data["out_t"], "r": data["out_r"]}, t, r, label="outside the band").opts(
+            color=RED, size=3)
+        return _overlay([intervals, band, line, outside])
+
+    @staticmethod
+    def _true_noise(data: dict):
+        """After Reveal: ± 1.96 × the true noise sd (where a right model's residual stays)."""
+        half = None if data["noise_um"] is None else 1.959964 * data["noise_um"]
+        return _overlay([_hline(None if half is None else sign * half, color=COLORS["truth"], line_dash="dotted",
+                                line_width=2) for sign in (1.0, -1.0)])
+
+    @staticmethod
+    def _spectrum(data: dict):
+        f, psd = hv.Dimension("f", label="Frequency (Hz)"), hv.Dimension("psd", label="PSD (m²/Hz)")
+        y0, y1 = data["ylim"]
+        # explicit range: a log axis over a data range with no positive value yet logs a console warning
+        lines = [hv.Curve({"f": data["f"], "psd": data[key]}, f, psd, label=key).opts(color=color, logy=True,
+                                                                                          ylim=(y0 / 2, y1 * 2))
+                 for key, color in (("data", "#7f7f7f"), ("residual", RED))]
+        fm = data["modes"]
+        modes = hv.Segments({"x0": fm, "y0": [y0] * len(fm), "x1": fm, "y1": [y1] * len(fm)},
+                            kdims=["x0", "y0", "x1", "y1"], label="model natural frequencies").opts(
+            color=COLORS["truth"], line_dash="dashed")
+        return _overlay([*lines, modes]).opts(title="Spectra of data and residual", logy=True,
+                                                legend_position="top_right", hooks=[hide_on_click], **_TOOLS)
+
+    @staticmethod
+    def _acf(data: dict):
+        lag, acf = hv.Dimension("lag", label="Lag (s)"), hv.Dimension("acf", label="Autocorrelation")
+        n = len(data["lag"])
+        stems = hv.Segments({"x0": data["lag"], "y0": [0.0] * n, "x1": data["lag"], "y1": data["acf"]},
+                            kdims=["x0", "y0", "x1", "y1"]).opts(color=COLORS["calibration"])
+        dots = hv.Scatter({"lag": data["lag"], "acf": data["acf"]}, lag, acf).opts(color=COLORS["calibration"], size=2)
+        band = [_hline(None if data["band"] is None else s * data["band"], color=RED, line_dash="dashed")
+                for s in (1.0, -1.0)]
+        return _overlay([stems, dots, *band]).opts(title="Residual autocorrelation (window)", show_legend=False,
+                                                     **_TOOLS)
+
+    @staticmethod
+    def _backbone(data: dict):
+        a, f = hv.Dimension("a", label="Amplitude (µm)"), hv.Dimension("f", label="Frequency (Hz)")
+        bars = hv.Segments({"x0": data["a"], "y0": data["lo"], "x1": data["a"], "y1": data["hi"]},
+                           kdims=["x0", "y0", "x1", "y1"]).opts(color="#7f7f7f")
+        frame = {"a": data["a"], "f": data["f"]}
+        return _overlay([bars, hv.Curve(frame, a, f).opts(color=COLORS["mean"]),
+                           hv.Scatter(frame, a, f).opts(color=COLORS["mean"], size=6)]).opts(
+            title=data["title"], show_legend=False, **_TOOLS)
+
+    @staticmethod
+    def _ladder(data: list[dict]):
+        rungs = data
+        rmse = [max(r["rmse_prediction_um"], 1e-3) for r in rungs]
+        x = [float(r["rung"]) for r in rungs]
+        bottom = min(rmse, default=1.0) / 4
+        top = max(rmse, default=1.0) * 3
+        step, error = hv.Dimension("rung", label="Effect added"), hv.Dimension("rmse", label="Held-out error (µm)")
+        bars = hv.Rectangles({"x0": [v - 0.3 for v in x], "y0": [bottom] * len(x), "x1": [v + 0.3 for v in x],
+                              "y1": rmse, "coverage": [r["coverage95_pct"] for r in rungs]},
+                             kdims=[hv.Dimension("x0", label=step.label), hv.Dimension("y0", label=error.label), "x1", "y1"],
+                             vdims=["coverage"]).opts(color=COLORS["mean"], alpha=0.7, logy=True,
+                                                      xlim=(-0.6, max(len(rungs), 4) - 0.4), ylim=(bottom / 2, top),
+                                                      hooks=[name_source("diag-ladder")])
+        labels = hv.Labels({"rung": x, "rmse": rmse, "label": [f"{r['rmse_prediction_um']:.3g} µm" for r in rungs]},
+                           [step, error], "label").opts(text_font_size="8pt", text_baseline="top")
+        ticks = [(v, "start" if r["rung"] == 0 else _title(r["added"])) for v, r in zip(x, rungs)] or [(0.0, "start")]
+        return _overlay([bars, labels]).opts(
+            title="Held-out error per step", logy=True, xticks=ticks, show_legend=False, hooks=[css_class("diag-ladder-plot")], **_TOOLS)
+
+    # -- updates ----------------------------------------------------------------------------------
     def update(self, diagnosis) -> None:
-        """Show a :class:`~dashboard.jobs.beam.Diagnosis` (None clears)."""
-        s = self.sources
+        """Show a :class:`~dashboard.jobs.beam.Diagnosis` (None clears).
+
+        A diagnosis arrives several times (its residual report first, then after every two ranked
+        candidates, then final; each a new object, unpickled from the worker) with the same
+        residual report, which depends only on the diagnosis key (dataset, window, effects, modes):
+        the plots are sent only when the key changes. Measured with ``BEAM_DASHBOARD_LAG_LOG`` under a load average of ~9, each
+        send of the four plots held the event loop 0.6–1.5 s.
+        """
+        pipes = self.pipes
+        key = None if diagnosis is None else diagnosis.key
+        if key == self._shown_key and (key is not None or self._cleared):
+            return
+        self._shown_key, self._cleared = key, diagnosis is None
         if diagnosis is None:
-            for name, src in s.items():
-                if name != "ladder":
-                    src.data = {k: [] for k in src.data}
+            pipes["residual"].send(_empty_residual())
+            pipes["spectrum"].send({"f": [], "residual": [], "data": [], "modes": [], "ylim": (1e-20, 1.0)})
+            pipes["acf"].send({"lag": [], "acf": [], "band": None})
+            pipes["backbone"].send({"a": [], "f": [], "lo": [], "hi": [], "title": "Mode 1: frequency vs amplitude"})
             return
         rep = diagnosis.residuals
         band = rep.band
         b = diagnosis.base.bands
-        s["residual"].data = {"t": band.time_s, "r": band.residual_m * UM}
-        s["band"].data = {"t": b.time_s, "lo": (b.prediction_lower - b.mean) * UM, "hi": (b.prediction_upper - b.mean) * UM}
-        s["outside"].data = {"t": band.time_s[band.outside], "r": band.residual_m[band.outside] * UM}
         top = float(np.max(np.abs(band.residual_m))) * UM if band.residual_m.size else 1.0
-        s["intervals"].data = {"left": [i.start_s for i in band.intervals], "right": [i.end_s for i in band.intervals],
-                               "bottom": [-top] * len(band.intervals), "top": [top] * len(band.intervals)}
+        pipes["residual"].send({
+            "t": band.time_s, "r": band.residual_m * UM,
+            "band_t": b.time_s, "lo": (b.prediction_lower - b.mean) * UM, "hi": (b.prediction_upper - b.mean) * UM,
+            "out_t": band.time_s[band.outside], "out_r": band.residual_m[band.outside] * UM,
+            "intervals": [(i.start_s, -top, i.end_s, top) for i in band.intervals]})
         sp = rep.spectrum
         keep = sp.frequency_Hz > 0
-        s["psd"].data = {"f": sp.frequency_Hz[keep], "residual": sp.residual_psd_m2_Hz[keep], "data": sp.data_psd_m2_Hz[keep]}
         positive = sp.data_psd_m2_Hz[keep]
         positive = positive[positive > 0]
-        y0, y1 = (float(positive.min()), float(positive.max())) if positive.size else (1e-20, 1.0)
-        # explicit range: a log axis over a data range with no positive value yet logs a console warning
-        self.spectrum.y_range.update(start=y0 / 2, end=y1 * 2)
-        fm = [float(f) for f in rep.model_frequencies_Hz if f < sp.frequency_Hz[-1]]
-        s["modes"].data = {"f": fm, "y0": [y0] * len(fm), "y1": [y1] * len(fm)}
+        ylim = (float(positive.min()), float(positive.max())) if positive.size else (1e-20, 1.0)
+        pipes["spectrum"].send({"f": sp.frequency_Hz[keep], "residual": sp.residual_psd_m2_Hz[keep],
+                                "data": sp.data_psd_m2_Hz[keep], "ylim": ylim,
+                                "modes": [float(f) for f in rep.model_frequencies_Hz if f < sp.frequency_Hz[-1]]})
         w = rep.whiteness
         lag = w.lag_s if np.all(np.isfinite(w.lag_s)) else w.lags.astype(float)
-        s["acf"].data = {"lag": lag, "acf": w.acf}
-        self.acf_band[0].location, self.acf_band[1].location = float(w.band), -float(w.band)
+        pipes["acf"].send({"lag": np.asarray(lag, float), "acf": np.asarray(w.acf, float), "band": float(w.band)})
         bb = rep.mode1.backbone if rep.mode1 is not None else None
         if bb is None:
-            s["backbone"].data = _empty("a", "f", "lo", "hi")
-            self.backbone.title.text = "Mode 1: no free decay on this record"
+            pipes["backbone"].send({"a": [], "f": [], "lo": [], "hi": [], "title": "Mode 1: no free decay on this record"})
         else:
-            s["backbone"].data = {"a": bb.amplitude_m * UM, "f": bb.frequency_Hz, "lo": bb.frequency_Hz - bb.frequency_std_Hz,
-                                  "hi": bb.frequency_Hz + bb.frequency_std_Hz}
-            self.backbone.title.text = "Mode 1: frequency vs amplitude"
+            pipes["backbone"].send({"a": bb.amplitude_m * UM, "f": bb.frequency_Hz, "lo": bb.frequency_Hz - bb.frequency_std_Hz,
+                                    "hi": bb.frequency_Hz + bb.frequency_std_Hz, "title": "Mode 1: frequency vs amplitude"})
 
     def show_true_noise(self, noise_m: float | None) -> None:
         """Mark ± 1.96 × the true noise sd on the residual plot (after Reveal; None hides the lines)."""
-        for span, sign in zip(self.true_noise, (1.0, -1.0)):
-            span.visible = noise_m is not None
-            span.location = sign * 1.959964 * (noise_m or 0.0) * UM
+        noise_um = None if noise_m is None else float(noise_m) * UM
+        if noise_um != self.pipes["true_noise"].data["noise_um"]:
+            self.pipes["true_noise"].send({"noise_um": noise_um})
 
     def update_ladder(self, rungs: list[dict]) -> None:
         """Show the error ladder rows (:func:`dashboard.state.beam.ladder_rung`)."""
-        rmse = [max(r["rmse_prediction_um"], 1e-3) for r in rungs]
-        bottom = min(rmse, default=1.0) / 4
-        self.sources["ladder"].data = {
-            "rung": [r["rung"] for r in rungs], "bottom": [bottom] * len(rungs),
-            "label": [f"{r['rmse_prediction_um']:.3g} µm" for r in rungs],
-            "rmse": rmse,
-            "coverage": [r["coverage95_pct"] for r in rungs]}
-        self.ladder.x_range.update(start=-0.6, end=max(len(rungs), 4) - 0.4)
-        self.ladder.y_range.update(start=bottom / 2, end=max(rmse, default=1.0) * 3)
-        self.ladder.xaxis.major_label_overrides = {r["rung"]: "start" if r["rung"] == 0 else _title(r["added"])
-                                                   for r in rungs}
-        self._ladder_ticks.ticks = [r["rung"] for r in rungs] or [0]
+        self.pipes["ladder"].send(list(rungs))

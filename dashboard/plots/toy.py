@@ -1,17 +1,17 @@
 """Window-sweep plots of the toy view: held-out coverage and RMSE against the calibration window.
 
-Plain bokeh updated in place, like :mod:`dashboard.plots.timeseries` (a few tens of
-milliseconds to build, about a millisecond to update; ``docs/decisions.md`` has the HoloViews
-measurements behind the choice).
+HoloViews: a :class:`holoviews.DynamicMap` per quantity, fed by a :class:`holoviews.streams.Pipe`
+(the sweep arrives once per scenario and the marker moves once per final result, so the few
+milliseconds of a ``Pipe.send`` do not matter). Shown with ``pn.pane.HoloViews``.
 
 Data sources are named ``sweep-coverage`` and ``sweep-rmse`` (columns ``window_s``, ``value``).
 """
 
 from __future__ import annotations
 
-from bokeh.models import ColumnDataSource, Range1d, Span
-from bokeh.plotting import figure
+import math
 
+from dashboard.plots.elements import hv, name_source
 from dashboard.plots.timeseries import COLORS
 
 __all__ = ["QUANTITIES", "SweepPlot"]
@@ -33,43 +33,57 @@ class SweepPlot:
         What to plot.
     height : int
         Figure height in pixels (the width follows the container).
+
+    Attributes
+    ----------
+    pipe : holoviews.streams.Pipe
+        Its data is the dict ``{"window_s": [...], "value": [...], "marker_s": float | None}``.
+    figure : holoviews.DynamicMap
+        What a ``pn.pane.HoloViews`` shows.
     """
 
     def __init__(self, quantity: str, height: int = 280) -> None:
         if quantity not in QUANTITIES:
             raise ValueError(f"unknown sweep quantity {quantity!r}; expected one of {', '.join(QUANTITIES)}")
         self.quantity = quantity
-        self._key, label, title, self._scale = QUANTITIES[quantity]
-        # explicit ranges (set by update): a DataRange1d over empty sources (the sweep of a new
-        # scenario is cleared while it is computed) logs "could not set initial ranges" in the browser
-        fig = figure(height=height, sizing_mode="stretch_width", title=title, toolbar_location=None, tools="",
-                     x_range=Range1d(0.0, 16.0), y_range=Range1d(0.0, 100.0 if quantity == "coverage" else 1.0))
-        fig.xaxis.axis_label = "Calibration window (s)"
-        fig.yaxis.axis_label = label
-        self.source = ColumnDataSource({"window_s": [], "value": []}, name=f"sweep-{quantity}")
-        fig.line("window_s", "value", source=self.source, color=COLORS["mean"], line_width=2)
-        fig.scatter("window_s", "value", source=self.source, color=COLORS["mean"], size=6)
-        #: The window of the latest final result (dashed).
-        self.marker = Span(dimension="height", location=0.0, line_color=COLORS["calibration"], line_dash="dashed",
-                           visible=False)
-        fig.add_layout(self.marker)
-        if quantity == "coverage":  # the nominal level
-            fig.add_layout(Span(dimension="width", location=95.0, line_color=COLORS["truth"], line_dash="dotted"))
-        self.figure = fig
+        self._key, self._label, self._title, self._scale = QUANTITIES[quantity]
+        self._height = height
+        self.pipe = hv.streams.Pipe(data={"window_s": [], "value": [], "marker_s": None})
+        self.figure = hv.DynamicMap(self._element, streams=[self.pipe])
+
+    @property
+    def data(self) -> dict:
+        """What is drawn: windows (s), values (% or du) and the marked window (s, or None)."""
+        return self.pipe.data
+
+    def _element(self, data: dict):
+        windows, values, marker = list(data["window_s"]), list(data["value"]), data["marker_s"]
+        everything = windows + ([marker] if marker is not None else [])
+        # explicit ranges: over an empty sweep (cleared while a new scenario's is computed) a
+        # data range logs "could not set initial ranges" in the browser
+        xlim = (min([0.0, *everything]), max(everything) + 1.0) if everything else (0.0, 16.0)
+        if self.quantity == "coverage":
+            ylim = (min([0.0, *values]), 102.0)
+        else:
+            ylim = (0.0, (1.1 * max(values) or 1.0) if values else 1.0)
+        frame = {"window_s": windows, "value": values}
+        kdims, vdims = [hv.Dimension("window_s", label="Calibration window (s)")], [hv.Dimension("value", label=self._label)]
+        curve = hv.Curve(frame, kdims, vdims).opts(color=COLORS["mean"], line_width=2,
+                                                   hooks=[name_source(f"sweep-{self.quantity}")],
+                                                   xlim=xlim, ylim=ylim, framewise=True)
+        dots = hv.Scatter(frame, kdims, vdims).opts(color=COLORS["mean"], size=6)
+        # the window of the latest final result (dashed; transparent when there is none)
+        mark = hv.VLine(marker if marker is not None else math.nan).opts(
+            color=COLORS["calibration"], line_dash="dashed", line_alpha=1.0 if marker is not None else 0.0)
+        layers = [curve, dots, mark]
+        if self.quantity == "coverage":  # the nominal level
+            layers.append(hv.HLine(95.0).opts(color=COLORS["truth"], line_dash="dotted"))
+        return hv.Overlay(layers).opts(
+            title=self._title, height=self._height, responsive=True, toolbar=None, default_tools=[], show_legend=False)
 
     def update(self, rows=None, window_s: float | None = None) -> None:
         """Show sweep ``rows`` (:func:`beam.toy.sweep_windows`; None: empty) and mark ``window_s``."""
         rows = rows or []
-        self.source.data = {"window_s": [r["window_s"] for r in rows],
-                            "value": [self._scale * r[self._key] for r in rows]}
-        values = self.source.data["value"]
-        windows = [r["window_s"] for r in rows] + ([window_s] if window_s is not None else [])
-        if windows:
-            self.figure.x_range.update(start=min(0.0, min(windows)), end=max(windows) + 1.0)
-        if self.quantity == "coverage":
-            self.figure.y_range.update(start=min([0.0] + values), end=102.0)
-        elif values:
-            self.figure.y_range.update(start=0.0, end=1.1 * max(values) or 1.0)
-        self.marker.visible = window_s is not None
-        if window_s is not None:
-            self.marker.location = float(window_s)
+        self.pipe.send({"window_s": [float(r["window_s"]) for r in rows],
+                        "value": [self._scale * float(r[self._key]) for r in rows],
+                        "marker_s": None if window_s is None else float(window_s)})

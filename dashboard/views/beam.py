@@ -360,6 +360,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
             return widget
 
         return pn.Card(
+            download("Summary for print (HTML)", "html", bs.summary_html),
             download("Summary (JSON)", "json", bs.summary_json),
             download("Predictive bands (CSV)", "csv", bs.bands_csv),
             download("Posterior (netCDF)", "nc", bs.posterior_netcdf, lambda r: r is not None and r.posterior is not None),

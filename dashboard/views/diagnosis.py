@@ -132,7 +132,7 @@ class DiagnosisView(pn.viewable.Viewer):
                    self._build_side])
 
     # -- the steps of the build ------------------------------------------------------------------
-    def _build_figures(self) -> None:  # the bokeh figures alone (shown by the following steps)
+    def _build_figures(self) -> None:  # the plots alone (shown by the following steps)
         d = self._diag
         self._plots = DiagnosisPlots()
         self._plots.update(d.diagnosis)
@@ -158,8 +158,8 @@ class DiagnosisView(pn.viewable.Viewer):
                            Markdown("### Candidate effects (best first)", margin=(0, 10)), self._candidates])
 
     @staticmethod
-    def _plot(fig, **kw) -> pn.pane.Bokeh:
-        return pn.pane.Bokeh(fig, sizing_mode="stretch_width", height=280, **kw)
+    def _plot(dmap, **kw) -> pn.pane.HoloViews:
+        return pn.pane.HoloViews(dmap, sizing_mode="stretch_width", height=280, backend="bokeh", **kw)
 
     @staticmethod
     def _pair(*items, basis_px: int = 380) -> pn.FlexBox:

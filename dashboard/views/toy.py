@@ -173,7 +173,8 @@ class ToyView(pn.viewable.Viewer):
         self._sweep_tab.append(self._sweep_row)
 
     def _show_sweep(self, index: int) -> None:
-        self._sweep_row.append(pn.pane.Bokeh(self._sweep_plots[index].figure, sizing_mode="stretch_width", height=290))
+        self._sweep_row.append(pn.pane.HoloViews(self._sweep_plots[index].figure, sizing_mode="stretch_width", height=290,
+                                                 backend="bokeh"))
 
     def _update_sweep(self, *_) -> None:
         toy = self._toy
@@ -302,6 +303,7 @@ class ToyView(pn.viewable.Viewer):
             return widget
 
         return pn.Card(
+            download("Summary for print (HTML)", "html", exports.summary_html),
             download("Summary (JSON)", "json", exports.summary_json),
             download("Predictive bands (CSV)", "csv", exports.bands_csv),
             download("Posterior (netCDF)", "nc", exports.posterior_netcdf, lambda r: r is not None and r.posterior is not None),

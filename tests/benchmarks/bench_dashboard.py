@@ -13,17 +13,27 @@ dashboard/app.py``, opens it in Debian's headless chromium and measures, *in the
   calibration window moved by one step (0.05 s) -> preview drawn (target 0.5 s) and -> final
   posterior drawn (target 5 s).
 
+* a teacher's script on the bundled record lab_run_1 (beam view, after its first posterior):
+  end of the window moved, modes 4 -> 5, "Tip mass" ticked, then unticked (its earlier result
+  comes from the cache), the Diagnosis tab opened (-> diagnosis complete, target 8 s), **Add** of
+  the top candidate (-> final posterior drawn, and -> the diagnosis re-run for the new model
+  complete), **Reveal** (-> the true noise drawn on the beam plot). Target per calibration
+  action: final posterior drawn <= 2 s median and <= 5 s max.
+
 "Drawn" means: the prediction band's data source holds the new result (and, for the final,
 the status says ``final`` for the latest request) at an animation frame, plus one frame.
 Every move goes to a window not seen before, so no cached result is involved. Also prints the
 server-side time from request to final (the status text).
 
-Options: ``--moves N`` (default 8) toy moves, ``--beam-moves N`` (default 5) beam moves.
+Options: ``--moves N`` (default 8) toy moves, ``--beam-moves N`` (default 5) beam moves,
+``--no-teacher`` skips the teacher's script, ``--teacher-only`` runs only it. The machine's load
+average (1 min) is printed before and after: the server shares its 2 cores with anything else.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import statistics
 import sys
@@ -92,6 +102,94 @@ BEAM_WATCHER_JS = """() => {
 }""".replace("READ_STATUS", READ_STATUS_JS)
 
 
+#: Times a user action (the first key press or pointer press after installing) until each of the
+#: named conditions (JS expressions over ``s`` = {cal, diag} statuses, ``base`` = the same at
+#: installation, ``doc`` = the Bokeh document) holds at an animation frame, plus one frame.
+ACTION_WATCHER_JS = """(conditions) => {
+  const read = () => ({cal: (READ_STATUS)('cal-status'), diag: (READ_STATUS)('diag-status')});
+  const base = read();
+  const tests = {};
+  for (const [name, expr] of Object.entries(conditions)) tests[name] = new Function('s', 'base', 'doc', 'return ' + expr + ';');
+  const b = window.__act = {t0: null, times: {}, done: false};
+  const start = () => { if (b.t0 === null) b.t0 = performance.now(); };
+  document.addEventListener('keydown', start, {capture: true, once: true});
+  document.addEventListener('pointerdown', start, {capture: true, once: true});
+  const frame = () => {
+    if (b.t0 !== null) {
+      const s = read();
+      const doc = Bokeh.documents[0];
+      for (const name of Object.keys(tests)) {
+        if (!(name in b.times) && tests[name](s, base, doc)) {
+          b.times[name] = null;
+          requestAnimationFrame(() => { b.times[name] = performance.now() - b.t0; });
+        }
+      }
+      if (Object.keys(b.times).length === Object.keys(tests).length) { b.done = true; return; }
+    }
+    requestAnimationFrame(frame);
+  };
+  requestAnimationFrame(frame);
+  return base;
+}""".replace("READ_STATUS", READ_STATUS_JS)
+
+#: The beam view shows the final posterior of a request newer than the one at installation, with new bands.
+CAL_FINAL_NEW = ("s.cal.stage === 'final' && s.cal.preview === 0 && s.cal.shown === s.cal.requested && "
+                 "s.cal.requested > base.cal.requested && s.cal.band_sum !== base.cal.band_sum")
+DIAG_FINAL_NEW = "s.diag.stage === 'final' && s.diag.shown === s.diag.requested && s.diag.requested > base.diag.requested"
+TRUE_NOISE_DRAWN = ("(m => m !== null && Object.values(m.data).some(c => c.length > 0))"
+                    "(doc.get_model_by_name('beam-true-noise'))")
+
+
+def timed_action(page, act, timeout_ms: float = 120000, **conditions: str) -> dict[str, float]:
+    """Seconds from ``act(page)`` (a key or pointer press) to each condition drawn."""
+    page.evaluate(ACTION_WATCHER_JS, conditions)
+    act(page)
+    page.wait_for_function("""() => window.__act.done && Object.values(window.__act.times).every(v => v !== null)""",
+                           timeout=timeout_ms, polling="raf")
+    times = page.evaluate("() => window.__act.times")
+    return {name: value / 1000.0 for name, value in times.items()}
+
+
+def bench_teacher(page) -> list[tuple[str, str, float]]:
+    """The teacher's script (module docstring): ``(action, what, seconds)`` rows."""
+    page.locator(".bk-tab", has_text="Beam calibration").first.click()
+    wait_for_status(page, BEAM_FINAL, timeout_ms=180000)
+    page.wait_for_timeout(1000)
+    rows = []
+
+    def key(selector, index=0, press="ArrowRight"):
+        def act(p):
+            p.locator(selector).nth(index).focus()
+            p.keyboard.press(press)
+        return act
+
+    def click(selector, **kw):
+        return lambda p: p.locator(selector, **kw).first.click()
+
+    tip_mass = ".beam-effects label"
+    for action, act in (("window end +0.05 s", key(".beam-cal-window .noUi-handle", 1)),
+                        ("modes 4 -> 5", key(".beam-modes .noUi-handle")),
+                        ("tick Tip mass", click(tip_mass, has_text="Tip mass")),
+                        ("untick Tip mass (cached)", click(tip_mass, has_text="Tip mass"))):
+        times = timed_action(page, act, final=CAL_FINAL_NEW)
+        rows.append((action, "final posterior drawn", times["final"]))
+        page.wait_for_timeout(500)
+    times = timed_action(page, click(".bk-tab", has_text="Diagnosis"), timeout_ms=240000,
+                         complete=DIAG_FINAL_NEW + " && s.diag.ladder_n === 1")
+    rows.append(("open Diagnosis", "diagnosis complete", times["complete"]))
+    page.wait_for_timeout(500)
+    add = page.locator(".diag-candidates button:not([disabled])").first
+    label = add.inner_text().strip()
+    times = timed_action(page, lambda p: add.click(), timeout_ms=240000, final=CAL_FINAL_NEW,
+                         rediagnosed=DIAG_FINAL_NEW + " && s.diag.ladder_n === 2")
+    rows.append((label, "final posterior drawn", times["final"]))
+    rows.append((label, "diagnosis re-run complete", times["rediagnosed"]))
+    page.wait_for_timeout(500)
+    times = timed_action(page, click(".diag-reveal button"), drawn=TRUE_NOISE_DRAWN)
+    rows.append(("Reveal", "true noise drawn", times["drawn"]))
+    return rows
+
+
 def bench_beam(page, moves: int) -> tuple[list[float], list[float]]:
     """Seconds from a key press on the window's end handle to the preview and to the final posterior drawn."""
     page.locator(".bk-tab", has_text="Beam calibration").first.click()
@@ -121,15 +219,25 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--moves", type=int, default=8, help="slider moves to time (each +0.5 s, from 5 s)")
     parser.add_argument("--beam-moves", type=int, default=5, help="beam window moves to time (each +0.05 s)")
+    parser.add_argument("--no-teacher", action="store_true", help="skip the teacher's script")
+    parser.add_argument("--teacher-only", action="store_true", help="run only the teacher's script")
     args = parser.parse_args(argv)
     if not 1 <= args.moves <= 19:
         parser.error("--moves must be between 1 and 19 (the window slider goes from 5 s to 15 s)")
 
     from playwright.sync_api import sync_playwright
 
+    load_before = os.getloadavg()[0]
     with serve_app() as url, sync_playwright() as p:
         context = launch(p, tempfile.mkdtemp(prefix="bench-chromium-"))
         page = context.new_page()
+        if args.teacher_only:
+            page.goto(url)
+            settle(page, timeout_ms=120000)
+            teacher = bench_teacher(page)
+            context.close()
+            _print_teacher(teacher, load_before)
+            return 0
         t0 = time.perf_counter()
         page.goto(url)
         page.wait_for_function(f"() => ({READ_STATE_JS})().band_n > 0", timeout=120000, polling="raf")
@@ -153,6 +261,12 @@ def main(argv: list[str] | None = None) -> int:
             state = settle(page, after_request=base["shown"])
         errors = state["stage"] != "final"
         beam_previews, beam_finals = bench_beam(page, args.beam_moves) if args.beam_moves else ([], [])
+        if not args.no_teacher:  # on a fresh page: a new session with lab_run_1 as it is on landing
+            page.close()
+            page = context.new_page()
+            page.goto(url)
+            settle(page, timeout_ms=120000)
+            teacher = bench_teacher(page)
         context.close()
 
     def row(name, values, target):
@@ -174,7 +288,21 @@ def main(argv: list[str] | None = None) -> int:
         row(f"beam: window end -> preview drawn ({args.beam_moves} moves)", beam_previews, 0.5)
         row("beam: window end -> final posterior drawn (4 modes)", beam_finals, 5.0)
     print(f"stage seen at the first redraw: {', '.join(sorted(set(stages)))}; last stage: {state['stage']}")
+    if not args.no_teacher:
+        _print_teacher(teacher, load_before)
     return 1 if errors else 0
+
+
+def _print_teacher(rows: list[tuple[str, str, float]], load_before: float) -> None:
+    print(f"\nteacher's script on lab_run_1 (browser, seconds; load average {load_before:.1f} before, "
+          f"{os.getloadavg()[0]:.1f} after, {os.cpu_count()} cores)")
+    for action, what, seconds in rows:
+        target = {"final posterior drawn": "<= 5 (max), 2 (median)", "diagnosis complete": "<= 8"}.get(what, "")
+        print(f"  {action:34s} -> {what:28s} {seconds:7.2f}  {target}")
+    finals = [s for _, what, s in rows if what == "final posterior drawn"]
+    if finals:
+        print(f"  final posterior drawn per calibration action: median {statistics.median(finals):.2f} s, "
+              f"max {max(finals):.2f} s (targets 2 s, 5 s)")
 
 
 if __name__ == "__main__":

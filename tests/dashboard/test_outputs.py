@@ -185,3 +185,20 @@ def test_verdict_words_the_change_against_a_pinned_result():
     expected = change_words(readouts(new)["rmse_du"], readouts(old)["rmse_du"])
     assert lines[-1].startswith("Against the pinned result: RMSE " + expected)
     assert "-" not in lines[-1] and "+" not in lines[-1]
+
+
+def test_printable_summary_is_self_contained_and_carries_the_numbers(results):
+    import re
+
+    _, final = results
+    text = exports.summary_html(final).getvalue().decode("utf-8")
+    assert re.findall(r"(?i)(\b[a-z][a-z0-9+.-]*://|[\"'(]//|\bsrc\s*=|\bhref\s*=|@import|url\((?!#)|<script|<link)",
+                      text) == []
+    r = readouts(final)
+    assert f"{r['rmse_du']:.3g} du" in text and f"{r['coverage_pct']:.0f} %" in text
+    assert f"{r['frequency_sd_mHz']:.3g} mHz" in text
+    assert text.count("<svg") == 1
+    for line in judge(final)[1]:  # the verdict in words
+        assert line.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;").replace(
+            "'", "&#x27;") in text
+    assert exports.summary_html(None) is None
