@@ -156,6 +156,12 @@ class CalibrationResult:
         residual = (self.setup.measurement.output - self.map_prediction())[self.held_out_mask]
         return float(np.sqrt(np.mean(residual**2)))
 
+    @property
+    def rmse_calibration_map(self) -> float:
+        """RMSE of the MAP prediction in the calibration window (output's unit; clipped samples out)."""
+        residual = (self.setup.measurement.output - self.map_prediction())[self.setup.fit_mask]
+        return float(np.sqrt(np.mean(residual**2)))
+
     def rmse_map(self, start_s: float, end_s: float) -> float:
         """RMSE of the MAP prediction over [start_s, end_s] (output's unit; clipped samples left out)."""
         m = self.setup.measurement

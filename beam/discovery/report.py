@@ -85,19 +85,86 @@ class Remaining:
         return bool(self.remaining_error_ratio > OUTSIDE_CATALOGUE_RATIO and not self.white)
 
 
+def uniform_view(measurement: Measurement, *series: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Time stamps and ``series`` on a uniform grid for the residual diagnostics (which need one).
+
+    A uniform record is returned as it is; an irregular one is linearly interpolated onto its
+    median step (the spectra, whiteness and modal identification are then approximations: the
+    calibration itself uses the recorded stamps).
+    """
+    t = measurement.time_s
+    if measurement.uniform:
+        return t, [np.asarray(s) for s in series]
+    step = measurement.median_interval_s
+    grid = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step)) + 1)
+    return grid, [np.interp(grid, t, np.asarray(s, dtype=float)) for s in series]
+
+
+def _offset(result: CalibrationResult) -> float:
+    """The sensor's offset profiled out of a free-response calibration (0 otherwise)."""
+    linear = result.linear_fit()
+    return 0.0 if linear is None else float(linear["output_offset"])
+
+
 def remaining_error(result: CalibrationResult, floor: dx.NoiseFloor) -> Remaining:
     """How far ``result`` (a rung's calibration) is from the noise ``floor``."""
     measurement = result.setup.measurement
-    window = result.setup.window_mask
-    residual = (measurement.displacement_m - result.map_prediction())[window]
-    white = dx.residual_whiteness(residual, sample_interval_s=measurement.sample_interval_s,
+    window = result.setup.fit_mask
+    residual = (measurement.output - result.map_prediction())[window]
+    white = dx.residual_whiteness(residual, sample_interval_s=measurement.rate_Hz ** -1,
                                   fitted_parameters=result.problem.ndim)
     ratio = float(result.rmse_prediction_map / floor.sd) if floor.sd > 0 else float("inf")
     return Remaining(floor, ratio, bool(white.white), float(white.p_value))
 
 
+#: Two materially improving candidates whose log evidences differ by less than this (nats) and
+#: whose held-out errors differ by less than INDISTINGUISHABLE_RMSE (relative) are named together:
+#: the data cannot tell them apart (2 log Bayes factor < 6: "positive" at most on the
+#: Kass–Raftery scale, short of "strong").
+INDISTINGUISHABLE_LOG_EVIDENCE = 3.0
+INDISTINGUISHABLE_RMSE = 0.1
+
+
+#: ... or whose calibrated models give the same frequencies of every mode the record shows (within
+#: SAME_FREQUENCY, relative) with calibration RMSEs within INDISTINGUISHABLE_RMSE_CALIBRATION: with
+#: as many modes visible as the repair has parameters, each candidate fits those frequencies
+#: exactly and the rest of the evidence difference is about how each absorbs misfit elsewhere
+#: (with residuals far above the noise, an i.i.d. evidence difference of hundreds of nats is not
+#: a measurement of where a mass sits).
+SAME_FREQUENCY = 0.002
+INDISTINGUISHABLE_RMSE_CALIBRATION = 0.25
+
+
+def _map_frequencies(result: CalibrationResult, count: int) -> np.ndarray:
+    values = {k: float(v) for k, v in result.laplace.map.values.items() if k in result.setup.physical_names}
+    return result.setup.model.natural_modes(values, count)[0]
+
+
+def indistinguishable(ranking: Ranking, visible_modes: int = 0) -> list[str]:
+    """Materially improving candidates the data cannot tell from the best one (see above).
+
+    ``visible_modes``: modes identified in the record (0: compare by evidence and held-out error only).
+    """
+    material = [c for c in ranking.candidates if c.material]
+    if len(material) < 2:
+        return []
+    best = material[0]
+    out = []
+    for c in material[1:]:
+        close = (best.delta_log_evidence - c.delta_log_evidence < INDISTINGUISHABLE_LOG_EVIDENCE
+                 and abs(c.rmse_prediction - best.rmse_prediction) <= INDISTINGUISHABLE_RMSE * best.rmse_prediction)
+        if not close and visible_modes > 0 and best.effect in ranking.results and c.effect in ranking.results:
+            a, b = ranking.results[best.effect], ranking.results[c.effect]
+            fa, fb = _map_frequencies(a, visible_modes), _map_frequencies(b, visible_modes)
+            close = bool(np.all(np.abs(fb - fa) <= SAME_FREQUENCY * fa)
+                         and b.rmse_calibration <= (1 + INDISTINGUISHABLE_RMSE_CALIBRATION) * a.rmse_calibration)
+        if close:
+            out.append(c.effect)
+    return out
+
+
 def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float, rmse_after_m: float,
-                     remaining: Remaining | None) -> str:
+                     remaining: Remaining | None, *, unit: str = "m", alternatives: Iterable[str] = ()) -> str:
     """The one-sentence verdict of a diagnosis (the command line's and the dashboard's).
 
     Parameters
@@ -110,11 +177,20 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
         Held-out RMSE (m) of the current model and with the missing effect (or of the last rung).
     remaining : Remaining or None
         Distance of the last rung from the noise floor (None: not estimated).
+    unit : str
+        The output's unit (the RMSE and the noise floor are in it).
+    alternatives : iterable of str
+        Candidates the data cannot tell from ``missing`` (:func:`indistinguishable`).
     """
+    alternatives = list(alternatives)
     floor = "" if remaining is None else (
-        f"{remaining.remaining_error_ratio:.1f}× the noise floor ({remaining.noise_floor.sd:.3g} m)")
+        f"{remaining.remaining_error_ratio:.1f}× the noise floor ({remaining.noise_floor.sd:.3g} {unit})")
     if missing is not None:
-        head = f"missing: {missing} (+{gain_nats:.0f} nats; held-out RMSE {rmse_before_m:.3g} -> {rmse_after_m:.3g} m)"
+        head = f"missing: {missing} (+{gain_nats:.0f} nats; held-out RMSE {rmse_before_m:.3g} -> {rmse_after_m:.3g} {unit})"
+        if alternatives:
+            head += (f"; the data cannot tell it from {' or '.join(alternatives)} (within "
+                     f"{INDISTINGUISHABLE_LOG_EVIDENCE:g} nats, held-out error within {100 * INDISTINGUISHABLE_RMSE:.0f} %): "
+                     "the same repair by another cause")
         if remaining is None:
             return head
         if remaining.outside_catalogue:
@@ -159,7 +235,14 @@ class DiagnosisReport:
         return verdict_sentence(
             self.missing, best.delta_log_evidence if best else float("nan"), self.base.rmse_prediction_map,
             last.result.rmse_prediction_map if last is not None and last.result is not None else float("nan"),
-            self.remaining)
+            self.remaining, unit=self.measurement.output_unit, alternatives=self.indistinguishable)
+
+    @property
+    def indistinguishable(self) -> list[str]:
+        """Candidates the data cannot tell from the missing one (:func:`indistinguishable`)."""
+        identified = self.residuals.identified
+        visible = 0 if identified is None else min(len(identified.frequency_Hz), self.base.setup.modes)
+        return indistinguishable(self.ranking, visible)
 
     @property
     def outside_catalogue(self) -> bool:
@@ -179,6 +262,9 @@ class DiagnosisReport:
             "coverage95_prediction_base": base.coverage95_prediction,
             "candidates": [c.to_json() for c in self.ranking.candidates],
             "missing": self.missing,
+            "indistinguishable": self.indistinguishable,
+            "output": self.measurement.output_kind,
+            "output_unit": self.measurement.output_unit,
             "verdict": self.verdict,
             "noise_floor": None if self.remaining is None else self.remaining.noise_floor.sd,
             "remaining_error_ratio": None if self.remaining is None else self.remaining.remaining_error_ratio,
@@ -198,26 +284,37 @@ class DiagnosisReport:
 def residual_report(result: CalibrationResult) -> ResidualReport:
     """Residual diagnostics of a calibrated model over its whole record."""
     measurement = result.setup.measurement
-    time_s, data, voltage = measurement.time_s, measurement.displacement_m, measurement.voltage_V
-    prediction = result.map_prediction()
-    bands = result.bands
     notes: list[str] = []
-    band = dx.band_residuals(time_s, data, bands.mean, bands.prediction_lower, bands.prediction_upper)
+    bands = result.bands
+    offset = _offset(result)
+    # the diagnostics need uniform stamps; the offset (a sensor bias) is no mode of the beam
+    time_s, (data, prediction, mean, lower, upper) = uniform_view(
+        measurement, measurement.output - offset, result.map_prediction() - offset, bands.mean - offset,
+        bands.prediction_lower - offset, bands.prediction_upper - offset)
+    voltage = None
+    if measurement.input is not None:
+        voltage = uniform_view(measurement, measurement.input)[1][0]
+    if not measurement.uniform:
+        notes.append(f"irregular time stamps: residual spectra and modal identification on the record interpolated "
+                     f"to its median step ({measurement.median_interval_s:.3g} s)")
+    band = dx.band_residuals(time_s, data, mean, lower, upper)
     map_values = {k: float(v) for k, v in result.laplace.map.values.items() if k in result.setup.physical_names}
     frequencies, ratios = result.setup.model.natural_modes(map_values, result.setup.modes)
     spectrum = dx.residual_spectrum(time_s, data, prediction, frequencies)
-    window = result.setup.window_mask
-    whiteness = dx.residual_whiteness((data - prediction)[window], sample_interval_s=measurement.sample_interval_s,
+    window = result.setup.fit_mask
+    whiteness = dx.residual_whiteness((measurement.output - result.map_prediction())[window],
+                                      sample_interval_s=1.0 / measurement.rate_Hz,
                                       fitted_parameters=result.problem.ndim)
     identified, comparison, mode1 = None, [], None
     try:
-        identified = dx.identify_modes(time_s, data, voltage)
+        identified = dx.identify_modes(time_s, data, voltage, start_s=float(time_s[0]) if measurement.is_free else None)
         comparison = dx.compare_modes(identified, frequencies, ratios)
     except BeamInputError as exc:
         notes.append(f"no modal identification: {exc}")
     if identified is not None and len(identified.frequency_Hz):
         try:
-            mode1 = dx.analyse_mode(time_s, data, float(identified.frequency_Hz[0]), voltage)
+            mode1 = dx.analyse_mode(time_s, data, float(identified.frequency_Hz[0]), voltage,
+                                    **({"start_s": float(time_s[0])} if measurement.is_free else {}))
         except BeamInputError as exc:
             notes.append(f"no envelope of mode 1: {exc}")
     fingerprints = dx.fingerprints(
@@ -265,7 +362,9 @@ def diagnose(
     ladder = error_ladder(measurement, ranking, mcmc=ladder_mcmc, seed=seed)
     remaining = None
     try:
-        floor = dx.noise_floor(measurement.time_s, measurement.displacement_m)
+        record = base_result.setup.measurement  # as calibrated (decimated when over-long)
+        grid, (output,) = uniform_view(record, record.output)
+        floor = dx.noise_floor(grid, output)
         remaining = remaining_error(ladder[-1].result, floor)
     except BeamInputError as exc:
         residuals.notes.append(f"no noise floor: {exc}")
