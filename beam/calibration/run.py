@@ -29,7 +29,7 @@ import numpy as np
 
 from beam.calibration.bands import fast_predictive_bands
 from beam.calibration.fit import fast_map
-from beam.calibration.free import projected_starting_points
+from beam.calibration.free_starts import projected_starting_points
 from beam.calibration.records import decimate_measurement
 from beam.calibration.setup import (
     DEFAULT_EFFECTS,

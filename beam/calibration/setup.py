@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from beam.calibration.free import ProjectedFreeModel
 from beam.calibration.records import check_calibration_record
 from beam.errors import BeamInputError
 from beam.inference import (
@@ -253,8 +254,6 @@ def make_setup(
             "tip_cubic_spring is computed for a driven record with uniform time stamps and a displacement output only"
         )
     if measurement.is_free:
-        from beam.calibration.free import ProjectedFreeModel
-
         mask = window_samples(measurement, window) & ~measurement.clipped
         forward = ProjectedFreeModel(model, int(modes), measurement.output_kind, measurement.time_s[mask],
                                      measurement.output[mask], likelihood)
@@ -291,11 +290,9 @@ def build_problem(setup: BeamCalibrationSetup, initial_guesses=None) -> Problem:
     mask = setup.fit_mask
     data = measurement.output[mask]
     forward = setup.forward
-    if setup.is_free:
-        from beam.calibration.free import ProjectedFreeModel
-
-        if not (forward.fit_time_s.size == data.size and np.array_equal(forward.fit_time_s, measurement.time_s[mask])):
-            forward = ProjectedFreeModel(setup.model, setup.modes, measurement.output_kind, measurement.time_s[mask],
+    if setup.is_free and not (forward.fit_time_s.size == data.size
+                              and np.array_equal(forward.fit_time_s, measurement.time_s[mask])):
+        forward = ProjectedFreeModel(setup.model, setup.modes, measurement.output_kind, measurement.time_s[mask],
                                          data, setup.likelihood)
     nominal = measurement.nominal
     parameters = [

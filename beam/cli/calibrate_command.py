@@ -103,8 +103,8 @@ def format_summary(summary: dict) -> str:
     for name, s in rows.items():
         lines.append(f"{name:32s} {s['mean']:12.5g} {s['sd']:11.3g} {s['q025']:12.5g} {s['q975']:12.5g}")
     if "output_offset" in summary:
-        lines.append(f"{'output_offset (' + unit + ')':32s} {summary['output_offset']:12.5g} {summary['output_offset_sd']:11.3g}"
-                     "   (profiled: the sensor's constant offset)")
+        lines.append(f"{'output_offset (' + unit + ')':32s} {summary['output_offset']:12.5g} "
+                     f"{summary['output_offset_sd']:11.3g}   (profiled: the sensor's constant offset)")
     lines += [
         "",
         f"RMSE, calibration window   {_in_unit(summary['rmse_calibration'], unit)}",

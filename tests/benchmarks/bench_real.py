@@ -20,17 +20,16 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import statistics  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import statistics
+import sys
+import time
+from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from beam.calibration import calibrate, calibration_preview  # noqa: E402
-
-from beam.io.measurement import read_measurement  # noqa: E402
+from beam.calibration import calibrate, calibration_preview
+from beam.io.measurement import read_measurement
 
 EFFECTS = "modal_damping,sensor_mass"
 
