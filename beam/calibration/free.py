@@ -380,3 +380,39 @@ class ProjectedFreeModel:
                 variance = sd * sd * np.sum(vectors[-1, :] ** 2 / (g + lam))
                 out[f"{OFFSET_NAME}_sd"] = float(math.sqrt(variance))
         return out
+
+
+#: Samples at the start of a record that tell whether the beam is still at rest.
+REST_LEAD_SAMPLES = 20
+#: A record starts at rest when its first REST_LEAD_SAMPLES vary by less than this fraction of
+#: its largest excursion from the median; the release is then the first sample that moves by more
+#: than REST_DEPARTURE of that excursion, moved back to where the motion left the lead-in's noise.
+REST_FRACTION = 0.05
+REST_DEPARTURE = 0.05
+#: Departure from the resting level, in noise sd of the lead-in, that counts as motion.
+REST_NOISE_SIGMAS = 8.0
+
+
+def release_index(output: np.ndarray) -> int:
+    """Index of the first sample of the free response in a record without input.
+
+    A free response starts moving at the first sample. A record that begins with the beam held
+    at rest (a quiet lead-in before the hand lets go, as two of the five strip records do,
+    ~0.3 s) is not a free response until the release: its first sample is found as described
+    at :data:`REST_FRACTION` (0 when the record moves from its first sample).
+    """
+    y = np.asarray(output, dtype=float)
+    if y.size < 4 * REST_LEAD_SAMPLES:
+        return 0
+    excursion = float(np.max(np.abs(y - np.median(y))))
+    lead = y[:REST_LEAD_SAMPLES]
+    if excursion <= 0 or np.ptp(lead) >= REST_FRACTION * excursion:
+        return 0
+    level = float(np.median(lead))
+    noise = max(float(np.std(np.diff(lead))) / np.sqrt(2.0), 1e-12 * excursion)
+    moving = np.flatnonzero(np.abs(y - level) > REST_DEPARTURE * excursion)
+    if moving.size == 0:
+        return 0
+    first = int(moving[0])
+    quiet = np.flatnonzero(np.abs(y[:first] - level) <= REST_NOISE_SIGMAS * noise)
+    return int(quiet[-1]) + 1 if quiet.size else first

@@ -165,7 +165,7 @@ class CalibrationResult:
     def rmse_map(self, start_s: float, end_s: float) -> float:
         """RMSE of the MAP prediction over [start_s, end_s] (output's unit; clipped samples left out)."""
         m = self.setup.measurement
-        mask = (m.time_s >= start_s - 1e-12) & (m.time_s <= end_s + 1e-12) & ~m.clipped
+        mask = (m.time_s >= start_s - 1e-12) & (m.time_s <= end_s + 1e-12) & self.setup.usable_mask
         if not mask.any():
             return math.nan
         residual = (m.output - self.map_prediction())[mask]
@@ -193,6 +193,7 @@ class CalibrationResult:
             "output_unit": m.output_unit,
             "input": m.input_kind,
             "clipped_samples": m.clipped_count,
+            **({"free_response_start_s": self.setup.free_start_s} if self.setup.is_free else {}),
             **({"output_offset": linear["output_offset"], "output_offset_sd": linear["output_offset_sd"]}
                if linear is not None and self.setup.measurement.output_kind != "displacement" else {}),
             "window_s": list(self.setup.window),

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from beam.calibration.free import ProjectedFreeModel
+from beam.calibration.free import ProjectedFreeModel, release_index
 from beam.calibration.records import check_calibration_record
 from beam.errors import BeamInputError
 from beam.inference import (
@@ -212,14 +212,30 @@ class BeamCalibrationSetup:
         return (t >= self.window[0] - 1e-12) & (t <= self.window[1] + 1e-12)
 
     @property
+    def usable_mask(self) -> np.ndarray:
+        """Samples the model is compared with: not clipped and, for a free response, from the
+        release on (:attr:`free_start_s`)."""
+        usable = ~self.measurement.clipped
+        if self.is_free:
+            usable = usable & (self.measurement.time_s >= self.free_start_s)
+        return usable
+
+    @property
+    def free_start_s(self) -> float:
+        """First sample of a free response (s): the record's start, or the release after a quiet
+        lead-in at rest (:func:`beam.calibration.free.release_index`)."""
+        return float(self.measurement.time_s[release_index(self.measurement.output)])
+
+    @property
     def fit_mask(self) -> np.ndarray:
-        """The window's samples that enter the likelihood: clipped samples left out."""
-        return self.window_mask & ~self.measurement.clipped
+        """The window's samples that enter the likelihood: clipped samples (and, for a free
+        response, those before the release) left out."""
+        return self.window_mask & self.usable_mask
 
     @property
     def held_out_mask(self) -> np.ndarray:
-        """Samples outside the window that are not clipped: where the prediction is scored."""
-        return ~self.window_mask & ~self.measurement.clipped
+        """Usable samples outside the window: where the prediction is scored."""
+        return ~self.window_mask & self.usable_mask
 
     @property
     def physical_names(self) -> tuple[str, ...]:
@@ -254,7 +270,13 @@ def make_setup(
             "tip_cubic_spring is computed for a driven record with uniform time stamps and a displacement output only"
         )
     if measurement.is_free:
-        mask = window_samples(measurement, window) & ~measurement.clipped
+        released = measurement.time_s >= measurement.time_s[release_index(measurement.output)]
+        mask = window_samples(measurement, window) & ~measurement.clipped & released
+        if np.count_nonzero(mask) < MIN_WINDOW_SAMPLES:
+            raise BeamInputError(
+                f"calibration window {window[0]:g}:{window[1]:g} s holds fewer than {MIN_WINDOW_SAMPLES} samples after "
+                f"the release of the beam at {measurement.time_s[np.argmax(released)]:g} s (a free response starts there)"
+            )
         forward = ProjectedFreeModel(model, int(modes), measurement.output_kind, measurement.time_s[mask],
                                      measurement.output[mask], likelihood)
     else:

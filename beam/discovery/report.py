@@ -85,19 +85,24 @@ class Remaining:
         return bool(self.remaining_error_ratio > OUTSIDE_CATALOGUE_RATIO and not self.white)
 
 
-def uniform_view(measurement: Measurement, *series: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
-    """Time stamps and ``series`` on a uniform grid for the residual diagnostics (which need one).
+def uniform_view(measurement: Measurement, *series: np.ndarray, start_s: float | None = None
+                 ) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Time stamps and ``series`` on a uniform grid for the residual diagnostics (which need one),
+    from ``start_s`` (default the first sample; a free response's release).
 
     A uniform record is returned as it is; an irregular one is linearly interpolated onto its
     median step (the spectra, whiteness and modal identification are then approximations: the
     calibration itself uses the recorded stamps).
     """
     t = measurement.time_s
+    first = 0 if start_s is None else int(np.searchsorted(t, start_s - 1e-12))
+    t = t[first:]
+    series = [np.asarray(s, dtype=float)[first:] for s in series]
     if measurement.uniform:
-        return t, [np.asarray(s) for s in series]
+        return t, series
     step = measurement.median_interval_s
     grid = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step)) + 1)
-    return grid, [np.interp(grid, t, np.asarray(s, dtype=float)) for s in series]
+    return grid, [np.interp(grid, t, s) for s in series]
 
 
 def _offset(result: CalibrationResult) -> float:
@@ -287,13 +292,16 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
     notes: list[str] = []
     bands = result.bands
     offset = _offset(result)
+    start = result.setup.free_start_s if result.setup.is_free else None
     # the diagnostics need uniform stamps; the offset (a sensor bias) is no mode of the beam
     time_s, (data, prediction, mean, lower, upper) = uniform_view(
         measurement, measurement.output - offset, result.map_prediction() - offset, bands.mean - offset,
-        bands.prediction_lower - offset, bands.prediction_upper - offset)
+        bands.prediction_lower - offset, bands.prediction_upper - offset, start_s=start)
     voltage = None
     if measurement.input is not None:
         voltage = uniform_view(measurement, measurement.input)[1][0]
+    if start is not None and start > measurement.time_s[0]:
+        notes.append(f"the beam is at rest until {start:.3g} s: the free response and its diagnostics start at the release")
     if not measurement.uniform:
         notes.append(f"irregular time stamps: residual spectra and modal identification on the record interpolated "
                      f"to its median step ({measurement.median_interval_s:.3g} s)")
@@ -363,7 +371,8 @@ def diagnose(
     remaining = None
     try:
         record = base_result.setup.measurement  # as calibrated (decimated when over-long)
-        grid, (output,) = uniform_view(record, record.output)
+        start = base_result.setup.free_start_s if base_result.setup.is_free else None
+        grid, (output,) = uniform_view(record, record.output, start_s=start)
         floor = dx.noise_floor(grid, output)
         remaining = remaining_error(ladder[-1].result, floor)
     except BeamInputError as exc:
