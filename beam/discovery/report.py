@@ -245,9 +245,13 @@ class DiagnosisReport:
     @property
     def indistinguishable(self) -> list[str]:
         """Candidates the data cannot tell from the missing one (:func:`indistinguishable`)."""
-        identified = self.residuals.identified
-        visible = 0 if identified is None else min(len(identified.frequency_Hz), self.base.setup.modes)
-        return indistinguishable(self.ranking, visible)
+        # the model's modes matched by an identified mode of the record, from mode 1 on
+        visible = 0
+        for row in self.residuals.comparison:
+            if row.frequency_data_Hz is None or not np.isfinite(row.frequency_data_Hz):
+                break
+            visible += 1
+        return indistinguishable(self.ranking, min(visible, self.base.setup.modes))
 
     @property
     def outside_catalogue(self) -> bool:
