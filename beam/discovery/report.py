@@ -145,6 +145,18 @@ def _map_frequencies(result: CalibrationResult, count: int) -> np.ndarray:
     return result.setup.model.natural_modes(values, count)[0]
 
 
+def same_modes(ranking: Ranking, effect: str, visible_modes: int) -> int:
+    """How many of the first ``visible_modes`` modes the fit with ``effect`` places where the best
+    material candidate's fit does (within :data:`SAME_FREQUENCY`), counted from mode 1."""
+    material = [c for c in ranking.candidates if c.material]
+    if not material or effect not in ranking.results or material[0].effect not in ranking.results:
+        return 0
+    fa = _map_frequencies(ranking.results[material[0].effect], visible_modes)
+    fb = _map_frequencies(ranking.results[effect], visible_modes)
+    same = np.abs(fb - fa) <= SAME_FREQUENCY * fa
+    return int(np.argmin(same)) if not same.all() else int(same.size)
+
+
 def indistinguishable(ranking: Ranking, visible_modes: int = 0) -> list[str]:
     """Materially improving candidates the data cannot tell from the best one (see above).
 
@@ -169,7 +181,8 @@ def indistinguishable(ranking: Ranking, visible_modes: int = 0) -> list[str]:
 
 
 def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float, rmse_after_m: float,
-                     remaining: Remaining | None, *, unit: str = "m", alternatives: Iterable[str] = ()) -> str:
+                     remaining: Remaining | None, *, unit: str = "m", alternatives: Iterable[str] = (),
+                     partly: Iterable[tuple[str, int]] = (), error_label: str = "held-out RMSE") -> str:
     """The one-sentence verdict of a diagnosis (the command line's and the dashboard's).
 
     Parameters
@@ -186,16 +199,24 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
         The output's unit (the RMSE and the noise floor are in it).
     alternatives : iterable of str
         Candidates the data cannot tell from ``missing`` (:func:`indistinguishable`).
+    partly : iterable of (str, int)
+        Material candidates whose fits place the first ``int`` (>= 2) modes where ``missing``'s
+        does, but not all the modes the record shows.
+    error_label : str
+        What the two RMSE are ("held-out RMSE"; a free decay's verdict quotes the calibration
+        window's, by which its candidates are judged).
     """
     alternatives = list(alternatives)
+    partly = list(partly)
     floor = "" if remaining is None else (
         f"{remaining.remaining_error_ratio:.1f}× the noise floor ({remaining.noise_floor.sd:.3g} {unit})")
     if missing is not None:
-        head = f"missing: {missing} (+{gain_nats:.0f} nats; held-out RMSE {rmse_before_m:.3g} -> {rmse_after_m:.3g} {unit})"
+        head = f"missing: {missing} (+{gain_nats:.0f} nats; {error_label} {rmse_before_m:.3g} -> {rmse_after_m:.3g} {unit})"
         if alternatives:
-            head += (f"; the data cannot tell it from {' or '.join(alternatives)} (within "
-                     f"{INDISTINGUISHABLE_LOG_EVIDENCE:g} nats, held-out error within {100 * INDISTINGUISHABLE_RMSE:.0f} %): "
-                     "the same repair by another cause")
+            head += (f"; the data cannot tell it from {' or '.join(alternatives)}: the same frequencies of the "
+                     "modes the record shows, the same repair by another cause")
+        for effect, count in partly:
+            head += (f"; {effect} places modes 1-{count} as well, only mode {count + 1} tells them apart")
         if remaining is None:
             return head
         if remaining.outside_catalogue:
@@ -237,21 +258,44 @@ class DiagnosisReport:
         """One sentence: what is missing, how far the last rung is from the noise, or that nothing in the catalogue is."""
         best = self.ranking.candidates[0] if self.ranking.candidates else None
         last = self.ladder[-1] if self.ladder else None
+        free = self.base.setup.is_free
+        def error(result: CalibrationResult) -> float:
+            return result.rmse_calibration_map if free else result.rmse_prediction_map
+
         return verdict_sentence(
-            self.missing, best.delta_log_evidence if best else float("nan"), self.base.rmse_prediction_map,
-            last.result.rmse_prediction_map if last is not None and last.result is not None else float("nan"),
-            self.remaining, unit=self.measurement.output_unit, alternatives=self.indistinguishable)
+            self.missing, best.delta_log_evidence if best else float("nan"), error(self.base),
+            error(last.result) if last is not None and last.result is not None else float("nan"),
+            self.remaining, unit=self.measurement.output_unit, alternatives=self.indistinguishable,
+            partly=self.partly_indistinguishable,
+            error_label="calibration-window RMSE" if free else "held-out RMSE")
 
     @property
-    def indistinguishable(self) -> list[str]:
-        """Candidates the data cannot tell from the missing one (:func:`indistinguishable`)."""
-        # the model's modes matched by an identified mode of the record, from mode 1 on
+    def visible_modes(self) -> int:
+        """The model's modes matched by an identified mode of the record, from mode 1 on."""
         visible = 0
         for row in self.residuals.comparison:
             if row.frequency_data_Hz is None or not np.isfinite(row.frequency_data_Hz):
                 break
             visible += 1
-        return indistinguishable(self.ranking, min(visible, self.base.setup.modes))
+        return min(visible, self.base.setup.modes)
+
+    @property
+    def partly_indistinguishable(self) -> list[tuple[str, int]]:
+        """Material candidates (not indistinguishable) whose fits place at least the first two modes
+        where the missing effect's fit does: which mode tells them apart."""
+        visible = self.visible_modes
+        out = []
+        for c in self.ranking.candidates[1:]:
+            if c.material and c.effect not in self.indistinguishable and visible > 2:
+                count = same_modes(self.ranking, c.effect, visible)
+                if 2 <= count < visible:
+                    out.append((c.effect, count))
+        return out
+
+    @property
+    def indistinguishable(self) -> list[str]:
+        """Candidates the data cannot tell from the missing one (:func:`indistinguishable`)."""
+        return indistinguishable(self.ranking, self.visible_modes)
 
     @property
     def outside_catalogue(self) -> bool:
