@@ -183,3 +183,25 @@ def test_driven_records_of_every_output_on_irregular_stamps():
         assert float(values["bending_stiffness_Nm2"]) == pytest.approx(2.2, rel=0.005)
         assert float(values["damping_ratio_mode_1"]) == pytest.approx(0.01, rel=0.05)
         assert result.rmse_prediction_map < 0.03 * np.std(clean)
+
+
+def test_candidates_fit_the_record():
+    """sensor_mass is offered for an accelerometer's record; patch effects need a patch; the cubic
+    tip spring needs a driven, uniform displacement record."""
+    from beam.discovery.ranking import candidate_effects
+
+    record = read_measurement(REAL / "adxl_50cm_114655.csv")
+    offered = candidate_effects(("modal_damping",), record)
+    assert "sensor_mass" in offered and "tip_mass" in offered
+    assert "patch_stiffening" not in offered and "tip_cubic_spring" not in offered
+    assert "sensor_mass" not in candidate_effects(("modal_damping",))  # without a record: the catalogue's
+
+
+def test_verdict_names_repairs_the_data_cannot_tell_apart():
+    from beam.discovery.report import verdict_sentence
+
+    both = verdict_sentence("sensor_mass", 3838.0, 1.12, 0.14, None, unit="m/s²", alternatives=["tip_mass"],
+                            error_label="calibration-window RMSE")
+    assert "cannot tell it from tip_mass" in both and "m/s²" in both and "calibration-window RMSE" in both
+    partly = verdict_sentence("sensor_mass", 3838.0, 1.12, 0.14, None, unit="m/s²", partly=[("tip_mass", 2)])
+    assert "tip_mass places modes 1-2 as well, only mode 3 tells them apart" in partly
