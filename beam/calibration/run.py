@@ -29,6 +29,7 @@ import numpy as np
 
 from beam.calibration.bands import fast_predictive_bands
 from beam.calibration.fit import fast_map
+from beam.calibration.free_starts import projected_starting_points
 from beam.calibration.records import decimate_measurement
 from beam.calibration.setup import (
     DEFAULT_EFFECTS,
@@ -60,6 +61,13 @@ BAND_DRAWS = 400
 BAND_COLUMNS = (
     "time_s,displacement_m,in_window,mean_m,credible_lower_m,credible_upper_m,prediction_lower_m,prediction_upper_m"
 )
+
+
+def band_columns(output_column: str = "displacement_m") -> str:
+    """Header of the band CSV for a record's output column (:data:`BAND_COLUMNS` for displacement)."""
+    suffix = output_column.split("_", 1)[1]
+    return (f"time_s,{output_column},in_window,mean_{suffix},credible_lower_{suffix},credible_upper_{suffix},"
+            f"prediction_lower_{suffix},prediction_upper_{suffix}")
 
 
 @dataclass
@@ -116,24 +124,26 @@ class CalibrationResult:
     # -- prediction -------------------------------------------------------------------------
     @property
     def held_out_mask(self) -> np.ndarray:
-        return ~self.setup.window_mask
+        """Samples outside the calibration window (clipped ones left out)."""
+        return self.setup.held_out_mask
 
     @property
     def rmse_calibration(self) -> float:
-        return self.bands.rmse(self.setup.measurement.displacement_m, self.setup.window_mask)
+        """RMSE of the band's mean in the calibration window (output's unit; clipped samples left out)."""
+        return self.bands.rmse(self.setup.measurement.output, self.setup.fit_mask)
 
     @property
     def rmse_prediction(self) -> float:
-        return self.bands.rmse(self.setup.measurement.displacement_m, self.held_out_mask) if self.held_out_mask.any() else math.nan
+        return self.bands.rmse(self.setup.measurement.output, self.held_out_mask) if self.held_out_mask.any() else math.nan
 
     @property
     def coverage95_prediction(self) -> float:
         if not self.held_out_mask.any():
             return math.nan
-        return self.bands.coverage(self.setup.measurement.displacement_m, self.held_out_mask)
+        return self.bands.coverage(self.setup.measurement.output, self.held_out_mask)
 
     def map_prediction(self) -> np.ndarray:
-        """The MAP model's displacement over the whole record (m): the point prediction."""
+        """The MAP model's output over the whole record (m, m/s or m/s²): the point prediction."""
         values = {name: np.atleast_1d(v) for name, v in self.laplace.map.values.items()}
         return self.problem.predict(values, self.setup.measurement.time_s)[0]
 
@@ -143,8 +153,30 @@ class CalibrationResult:
         (a parameter pressed against a bound spreads them)."""
         if not self.held_out_mask.any():
             return math.nan
-        residual = (self.setup.measurement.displacement_m - self.map_prediction())[self.held_out_mask]
+        residual = (self.setup.measurement.output - self.map_prediction())[self.held_out_mask]
         return float(np.sqrt(np.mean(residual**2)))
+
+    @property
+    def rmse_calibration_map(self) -> float:
+        """RMSE of the MAP prediction in the calibration window (output's unit; clipped samples out)."""
+        residual = (self.setup.measurement.output - self.map_prediction())[self.setup.fit_mask]
+        return float(np.sqrt(np.mean(residual**2)))
+
+    def rmse_map(self, start_s: float, end_s: float) -> float:
+        """RMSE of the MAP prediction over [start_s, end_s] (output's unit; clipped samples left out)."""
+        m = self.setup.measurement
+        mask = (m.time_s >= start_s - 1e-12) & (m.time_s <= end_s + 1e-12) & self.setup.usable_mask
+        if not mask.any():
+            return math.nan
+        residual = (m.output - self.map_prediction())[mask]
+        return float(np.sqrt(np.mean(residual**2)))
+
+    def linear_fit(self) -> dict | None:
+        """For a free response: the initial-state amplitudes and the sensor's offset (output's
+        unit, with its conditional sd) at the MAP, profiled out of the calibration; else None."""
+        if not self.setup.is_free:
+            return None
+        return self.problem.model.linear_fit(self.laplace.map.values)
 
     # -- output -----------------------------------------------------------------------------
     def to_json(self) -> dict:
@@ -153,8 +185,17 @@ class CalibrationResult:
         diagnostics = self.posterior.diagnostics if self.posterior is not None else None
         physical = {name: summary[name] for name in self.setup.physical_names}
         noise = {name: summary[name] for name in self.problem.noise_names if name in summary}
+        m = self.setup.measurement
+        linear = self.linear_fit()
         return {
-            "measurement": self.setup.measurement.name,
+            "measurement": m.name,
+            "output": m.output_kind,
+            "output_unit": m.output_unit,
+            "input": m.input_kind,
+            "clipped_samples": m.clipped_count,
+            **({"free_response_start_s": self.setup.free_start_s} if self.setup.is_free else {}),
+            **({"output_offset": linear["output_offset"], "output_offset_sd": linear["output_offset_sd"]}
+               if linear is not None and self.setup.measurement.output_kind != "displacement" else {}),
             "window_s": list(self.setup.window),
             "effects": list(self.setup.effects),
             "modes": self.setup.modes,
@@ -181,11 +222,11 @@ class CalibrationResult:
         """The predictive band over the record as CSV text (one row per sample, full precision)."""
         m, b = self.setup.measurement, self.bands
         columns = np.column_stack([
-            m.time_s, m.displacement_m, self.setup.window_mask.astype(float), b.mean,
+            m.time_s, m.output, self.setup.window_mask.astype(float), b.mean,
             b.credible_lower, b.credible_upper, b.prediction_lower, b.prediction_upper,
         ])
         buffer = io.StringIO()
-        np.savetxt(buffer, columns, fmt="%.17g", delimiter=",", comments="", header=BAND_COLUMNS)
+        np.savetxt(buffer, columns, fmt="%.17g", delimiter=",", comments="", header=band_columns(m.output_column))
         return buffer.getvalue()
 
     def save(self, prefix: str | Path) -> list[Path]:
@@ -229,7 +270,11 @@ def prepare(
     warm = None if start is None else checked_start(start, setup.physical_names)
 
     def starts(problem: Problem) -> list[dict[str, float]]:
-        chosen = starting_points(problem, setup, None if warm is None else clip_to_prior(problem, warm))
+        warm_start = None if warm is None else clip_to_prior(problem, warm)
+        if "patch_coupling_NmV" in setup.physical_names:
+            chosen = starting_points(problem, setup, warm_start)
+        else:  # free response (initial state profiled out) or point force: no coupling to solve for
+            chosen = projected_starting_points(problem, setup, warm_start)
         return chosen + (best_guesses(problem, extra) if extra else [])
 
     return setup, build_problem(setup, initial_guesses=starts)

@@ -12,6 +12,18 @@ coupling 0.7, masses 1.0, damping, clamp stiffness and the cubic spring 1.5 (a f
 Without a nominal value the prior is log-uniform over the catalogue's default range
 (:class:`beam.physics.effects.ParameterSpec`). The noise sd is log-uniform from 1e-4 to 2 times the RMS
 of the data in the window, and the AR(1) coefficient uniform on (-1, 1) (logit coordinate).
+The sensor's mass has the masses' 1.0, the modal damping ratios the dampings' 1.5; without
+nominal values they are log-uniform over 1e-7-0.2 kg and 1e-5-0.3.
+
+Records
+-------
+Every kind of record is calibrated: input voltage, point force or none; output displacement,
+velocity or acceleration (the data and the noise sd in the output's unit); uniform or irregular
+time stamps (:meth:`beam.physics.model.BeamModel.response` or
+:meth:`~beam.physics.model.BeamModel.response_at`). Clipped samples
+(:attr:`beam.io.measurement.Measurement.clipped`) are left out of the likelihood (and of the
+RMSE). A free response (no input) is fitted by variable projection: its unknown initial state
+and the sensor's offset are linear and profiled out (:mod:`beam.calibration.free`).
 """
 
 from __future__ import annotations
@@ -22,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from beam.calibration.free import ProjectedFreeModel, release_index
 from beam.calibration.records import check_calibration_record
 from beam.errors import BeamInputError
 from beam.inference import (
@@ -57,15 +70,25 @@ NOMINAL_LOG_SD: dict[str, float] = {
     "patch_added_stiffness_Nm2": 0.5,
     "patch_added_kelvin_voigt_Nm2s": 1.5,
     "tip_cubic_stiffness_N_m3": 1.5,
+    "sensor_mass_kg": 1.0,
 }
+#: sigma of log x for a damping ratio of the ``modal_damping`` family centred on a nominal value.
+MODAL_DAMPING_LOG_SD = 1.5
 _TRUNCATION_SIGMAS = 4.0
+
+
+def nominal_log_sd(name: str) -> float:
+    """sigma of log x of a parameter's prior around a nominal value (see the module notes)."""
+    if name.startswith("damping_ratio_mode_"):
+        return MODAL_DAMPING_LOG_SD
+    return NOMINAL_LOG_SD[name]
 
 
 def parameter_prior(name: str, nominal: Mapping[str, float]):
     """The prior of a physical parameter (see the module notes)."""
     spec = PARAMETER_SPECS[name]
     if name in nominal:
-        centre, sd = float(nominal[name]), NOMINAL_LOG_SD[name]
+        centre, sd = float(nominal[name]), nominal_log_sd(name)
         spread = math.exp(_TRUNCATION_SIGMAS * sd)
         return LogNormal(centre, sd, lower=centre / spread, upper=centre * spread)
     return LogUniform(spec.prior_low, spec.prior_high)
@@ -92,7 +115,7 @@ def resolve_window(measurement: Measurement, window: tuple[float, float] | None)
         start, end = (float(v) for v in window)
     if not (math.isfinite(start) and math.isfinite(end)) or not start < end:
         raise BeamInputError(f"calibration window must have start < end, got {start}:{end}")
-    if start < t[0] - 1e-9 or end > t[-1] + measurement.sample_interval_s + 1e-9:  # the record covers n dt
+    if start < t[0] - 1e-9 or end > t[0] + measurement.duration_s + 1e-9:  # the record covers n dt
         raise BeamInputError(
             f"calibration window {start:g}:{end:g} s lies outside the record ({t[0]:g} to {t[-1]:g} s)"
         )
@@ -104,11 +127,14 @@ def resolve_window(measurement: Measurement, window: tuple[float, float] | None)
 
 @dataclass
 class BeamForwardModel:
-    """Vectorised forward model of a measurement for :class:`beam.inference.Problem`.
+    """Vectorised forward model of a driven record for :class:`beam.inference.Problem`.
 
     The beam starts at rest at the first sample of the record and is driven by the record's
-    voltage; ``model(values, time_s)`` returns the displacement (m) at the requested samples,
-    which must lie on the record's time grid.
+    input (voltage or point force); ``model(values, time_s)`` returns the sensor's output
+    (displacement m, velocity m/s or acceleration m/s², as the record) at the requested
+    samples, which must be samples of the record. A uniform record is stepped by
+    :meth:`BeamModel.response`, an irregular one by :meth:`BeamModel.response_at` (exactly at
+    the recorded stamps). Free responses have :class:`beam.calibration.free.ProjectedFreeModel`.
     """
 
     model: BeamModel
@@ -116,7 +142,9 @@ class BeamForwardModel:
     modes: int
 
     def __post_init__(self) -> None:
-        self._names = self.model.parameter_names
+        if self.measurement.is_free:
+            raise BeamInputError("a free response has no input to drive the model: use ProjectedFreeModel")
+        self._names = self.model.parameter_names_for(self.modes)
         self._index_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def sample_indices(self, time_s: np.ndarray) -> np.ndarray | slice:
@@ -125,9 +153,19 @@ class BeamForwardModel:
         cached = self._index_cache.get(id(time_s))
         if cached is not None and cached[0] is time_s:
             return cached[1]
-        t0, dt = self.measurement.time_s[0], self.measurement.sample_interval_s
-        index = np.rint((np.asarray(time_s, dtype=float) - t0) / dt).astype(int)
-        if index.size and (index.min() < 0 or index.max() >= self.measurement.time_s.size):
+        record = self.measurement.time_s
+        times = np.asarray(time_s, dtype=float)
+        if self.measurement.uniform:
+            t0, dt = record[0], self.measurement.sample_interval_s
+            index = np.rint((times - t0) / dt).astype(int)
+        else:
+            index = np.clip(np.searchsorted(record, times), 0, record.size - 1)
+            below = np.clip(index - 1, 0, record.size - 1)
+            index = np.where(np.abs(record[below] - times) < np.abs(record[index] - times), below, index)
+            step = self.measurement.min_interval_s
+            if index.size and np.max(np.abs(record[index] - times)) > 1e-6 * step:
+                raise BeamInputError("prediction times must be time stamps of the record")
+        if index.size and (index.min() < 0 or index.max() >= record.size):
             raise BeamInputError("prediction times must lie within the record")
         if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
             index = slice(int(index[0]), int(index[0]) + index.size)
@@ -140,10 +178,16 @@ class BeamForwardModel:
             needed = index.stop
         else:
             needed = int(index.max()) + 1 if index.size else 1
+        needed = max(needed, 2)
         parameters = {name: values[name] for name in self._names}
-        response = np.atleast_2d(self.model.response(
-            parameters, self.measurement.voltage_V[: max(needed, 2)], self.measurement.sample_interval_s, self.modes
-        ))
+        record = self.measurement
+        if record.uniform:
+            response = self.model.response(parameters, record.input[:needed], record.sample_interval_s, self.modes,
+                                           output=record.output_kind)
+        else:
+            response = self.model.response_at(parameters, record.input[:needed], record.time_s[:needed], self.modes,
+                                              output=record.output_kind)
+        response = np.atleast_2d(response)
         if isinstance(index, slice) and index.start == 0 and index.stop == response.shape[1]:
             return response  # the whole computed response: no copy
         return response[:, index]
@@ -168,8 +212,39 @@ class BeamCalibrationSetup:
         return (t >= self.window[0] - 1e-12) & (t <= self.window[1] + 1e-12)
 
     @property
+    def usable_mask(self) -> np.ndarray:
+        """Samples the model is compared with: not clipped and, for a free response, from the
+        release on (:attr:`free_start_s`)."""
+        usable = ~self.measurement.clipped
+        if self.is_free:
+            usable = usable & (self.measurement.time_s >= self.free_start_s)
+        return usable
+
+    @property
+    def free_start_s(self) -> float:
+        """First sample of a free response (s): the record's start, or the release after a quiet
+        lead-in at rest (:func:`beam.calibration.free.release_index`)."""
+        return float(self.measurement.time_s[release_index(self.measurement.output)])
+
+    @property
+    def fit_mask(self) -> np.ndarray:
+        """The window's samples that enter the likelihood: clipped samples (and, for a free
+        response, those before the release) left out."""
+        return self.window_mask & self.usable_mask
+
+    @property
+    def held_out_mask(self) -> np.ndarray:
+        """Usable samples outside the window: where the prediction is scored."""
+        return ~self.window_mask & self.usable_mask
+
+    @property
     def physical_names(self) -> tuple[str, ...]:
-        return self.model.parameter_names
+        return self.model.parameter_names_for(self.modes)
+
+    @property
+    def is_free(self) -> bool:
+        """A free response: the initial state (and offset) are profiled out, see :mod:`beam.calibration.free`."""
+        return self.measurement.is_free
 
 
 def make_setup(
@@ -187,14 +262,34 @@ def make_setup(
     effects = parse_effects(effects)
     window = resolve_window(measurement, window)
     check_calibration_record(measurement, window)
-    model = BeamModel(measurement.geometry, effects, intervals)
+    model = BeamModel(measurement.geometry, effects, intervals, input_kind=measurement.input_kind)
     if isinstance(modes, bool) or int(modes) != modes or not 1 <= modes <= model.size:
         raise BeamInputError(f"modes must be between 1 and {model.size} (the mesh holds {model.size} modes), got {modes}")
-    setup = BeamCalibrationSetup(
-        measurement, window, effects, int(modes), likelihood, model, BeamForwardModel(model, measurement, int(modes))
-    )
+    if model.is_nonlinear and (measurement.is_free or not measurement.uniform or measurement.output_kind != "displacement"):
+        raise BeamInputError(
+            "tip_cubic_spring is computed for a driven record with uniform time stamps and a displacement output only"
+        )
+    if measurement.is_free:
+        released = measurement.time_s >= measurement.time_s[release_index(measurement.output)]
+        mask = window_samples(measurement, window) & ~measurement.clipped & released
+        if np.count_nonzero(mask) < MIN_WINDOW_SAMPLES:
+            raise BeamInputError(
+                f"calibration window {window[0]:g}:{window[1]:g} s holds fewer than {MIN_WINDOW_SAMPLES} samples after "
+                f"the release of the beam at {measurement.time_s[np.argmax(released)]:g} s (a free response starts there)"
+            )
+        forward = ProjectedFreeModel(model, int(modes), measurement.output_kind, measurement.time_s[mask],
+                                     measurement.output[mask], likelihood)
+    else:
+        forward = BeamForwardModel(model, measurement, int(modes))
+    setup = BeamCalibrationSetup(measurement, window, effects, int(modes), likelihood, model, forward)
     _check_window_holds_a_period(setup)
     return setup
+
+
+def window_samples(measurement: Measurement, window: tuple[float, float]) -> np.ndarray:
+    """Boolean mask of the record's samples inside ``window`` (s)."""
+    t = measurement.time_s
+    return (t >= window[0] - 1e-12) & (t <= window[1] + 1e-12)
 
 
 def _check_window_holds_a_period(setup: BeamCalibrationSetup) -> None:
@@ -211,26 +306,33 @@ def _check_window_holds_a_period(setup: BeamCalibrationSetup) -> None:
 
 
 def build_problem(setup: BeamCalibrationSetup, initial_guesses=None) -> Problem:
-    """The :class:`beam.inference.Problem` of a setup (data = the window's displacement)."""
+    """The :class:`beam.inference.Problem` of a setup (data = the window's output, clipped
+    samples left out; for a free response the forward model projects on exactly these data)."""
     measurement = setup.measurement
-    mask = setup.window_mask
-    data = measurement.displacement_m[mask]
+    mask = setup.fit_mask
+    data = measurement.output[mask]
+    forward = setup.forward
+    if setup.is_free and not (forward.fit_time_s.size == data.size
+                              and np.array_equal(forward.fit_time_s, measurement.time_s[mask])):
+        forward = ProjectedFreeModel(setup.model, setup.modes, measurement.output_kind, measurement.time_s[mask],
+                                         data, setup.likelihood)
     nominal = measurement.nominal
     parameters = [
         Parameter(name, parameter_prior(name, nominal), PARAMETER_SPECS[name].unit, PARAMETER_SPECS[name].description)
         for name in setup.physical_names
     ]
     scale = float(np.sqrt(np.mean(data**2))) or 1e-9
-    parameters.append(Parameter(NOISE_SD, LogUniform(1e-4 * scale, 2.0 * scale), "m", "sensor noise sd (estimated)"))
+    unit = measurement.output_unit
+    parameters.append(Parameter(NOISE_SD, LogUniform(1e-4 * scale, 2.0 * scale), unit, "sensor noise sd (estimated)"))
     if setup.likelihood == "ar1":
         parameters.append(Parameter(AR1_COEFFICIENT, Uniform(-1.0, 1.0, coordinate="logit"), "1", "lag-one correlation of the residuals"))
     return Problem(
         parameters=parameters,
-        model=setup.forward,
-        time_s=measurement.time_s[mask].copy(),
+        model=forward,
+        time_s=forward.fit_time_s if setup.is_free else measurement.time_s[mask].copy(),
         data=data,
         likelihood=setup.likelihood,
         initial_guesses=initial_guesses,
         name=f"beam:{measurement.name}",
-        data_unit="m",
+        data_unit=unit,
     )

@@ -105,15 +105,22 @@ def format_summary(summary: dict) -> str:
     ]
     rows = dict(summary["parameters"])
     noise = summary["noise_sd"]
-    rows["noise_sd_um"] = {k: (v * 1e6 if isinstance(v, (int, float)) else v) for k, v in noise.items()}
+    unit = summary.get("output_unit", "m")
+    if unit == "m":
+        rows["noise_sd_um"] = {k: (v * 1e6 if isinstance(v, (int, float)) else v) for k, v in noise.items()}
+    else:
+        rows[f"noise_sd ({unit})"] = noise
     if "ar1_coefficient" in summary:
         rows["ar1_coefficient"] = summary["ar1_coefficient"]
     for name, s in rows.items():
         lines.append(f"{name:32s} {s['mean']:12.5g} {s['sd']:11.3g} {s['q025']:12.5g} {s['q975']:12.5g}")
+    if "output_offset" in summary:
+        lines.append(f"{'output_offset (' + unit + ')':32s} {summary['output_offset']:12.5g} "
+                     f"{summary['output_offset_sd']:11.3g}   (profiled: the sensor's constant offset)")
     lines += [
         "",
-        f"RMSE, calibration window   {_micrometres(summary['rmse_calibration'])}",
-        f"RMSE, held-out part        {_micrometres(summary['rmse_prediction'])}",
+        f"RMSE, calibration window   {_in_unit(summary['rmse_calibration'], unit)}",
+        f"RMSE, held-out part        {_in_unit(summary['rmse_prediction'], unit)}",
         f"held-out data inside the 95 % prediction band: {_percent(summary['coverage95_prediction'])}",
         f"ESS min {_number(summary['ess_min'])}, R-hat max {_number(summary['rhat_max'])}, "
         f"{'converged' if summary['converged'] else 'NOT converged'}; {summary['seconds']:.2f} s",
@@ -134,6 +141,13 @@ def _readable(x: float) -> str:
 
 def _micrometres(value_m) -> str:
     return "n/a" if _missing(value_m) else f"{_readable(value_m * 1e6)} µm"
+
+
+def _in_unit(value, unit: str) -> str:
+    """A length in µm; another quantity in its own unit (4 significant digits)."""
+    if unit == "m":
+        return _micrometres(value)
+    return "n/a" if _missing(value) else f"{value:.4g} {unit}"
 
 
 def _percent(fraction) -> str:

@@ -56,7 +56,7 @@ def format_report(summary: dict) -> str:
     lines = [
         f"{summary['measurement']}: window {summary['window_s'][0]:g}-{summary['window_s'][1]:g} s, {summary['modes']} modes, "
         f"base model: {', '.join(summary['base']) or 'bare beam'}",
-        f"held-out RMSE of the base model {_m(summary['rmse_prediction_base'])} m, coverage of its 95% band "
+        f"held-out RMSE of the base model {_m(summary['rmse_prediction_base'])} {summary.get('output_unit', 'm')}, coverage of its 95% band "
         f"{_m(summary['coverage95_prediction_base'])}",
         "",
         "modes (data vs model)",
@@ -66,14 +66,15 @@ def format_report(summary: dict) -> str:
         lines.append(f"  {row['mode']:>4d} {_m(row['frequency_data_Hz']):>12s} {_m(row['frequency_model_Hz']):>13s} "
                      f"{_m(row['frequency_error_pct']):>8s} {_m(row['damping_data']):>10s} {_m(row['damping_model']):>11s}")
     lines += ["", "candidate effects, best first",
-              f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE (m)':>18s}  why"]
+              f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE':>18s}  why"]
     for c in summary["candidates"]:
         mark = "*" if c["material"] else " "
         lines.append(f"{mark} {c['effect']:18s} {_m(c['delta_log_evidence']):>15s} {_m(c['rmse_prediction']):>18s}  {c['explanation']}")
     lines += ["", "error ladder"]
     for step in summary["ladder"]:
         name = "base" if step["added"] is None else f"+ {step['added']}"
-        lines.append(f"  {name:22s} RMSE calibration {_m(step['rmse_calibration'])} m, prediction {_m(step['rmse_prediction'])} m, "
+        unit = summary.get("output_unit", "m")
+        lines.append(f"  {name:22s} RMSE calibration {_m(step['rmse_calibration'])} {unit}, prediction {_m(step['rmse_prediction'])} {unit}, "
                      f"coverage {_m(step['coverage95_prediction'])}")
     lines += ["", summary["verdict"]] + [f"note: {n}" for n in summary["notes"]]
     lines.append(f"({summary['seconds']:.1f} s)")

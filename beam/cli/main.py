@@ -26,7 +26,7 @@ COMMAND_MODULES = (
 class _OneLineErrorParser(argparse.ArgumentParser):
     """An ArgumentParser whose usage errors are a single ``error:`` line and exit status 2."""
 
-    def error(self, message: str):  # noqa: D401 - argparse API
+    def error(self, message: str):
         sys.stderr.write(f"error: {self.prog}: {message}\n")
         raise SystemExit(2)
 

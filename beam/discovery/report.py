@@ -85,19 +85,104 @@ class Remaining:
         return bool(self.remaining_error_ratio > OUTSIDE_CATALOGUE_RATIO and not self.white)
 
 
+def uniform_view(measurement: Measurement, *series: np.ndarray, start_s: float | None = None
+                 ) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Time stamps and ``series`` on a uniform grid for the residual diagnostics (which need one),
+    from ``start_s`` (default the first sample; a free response's release).
+
+    A uniform record is returned as it is; an irregular one is linearly interpolated onto its
+    median step (the spectra, whiteness and modal identification are then approximations: the
+    calibration itself uses the recorded stamps).
+    """
+    t = measurement.time_s
+    first = 0 if start_s is None else int(np.searchsorted(t, start_s - 1e-12))
+    t = t[first:]
+    series = [np.asarray(s, dtype=float)[first:] for s in series]
+    if measurement.uniform:
+        return t, series
+    step = measurement.median_interval_s
+    grid = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step)) + 1)
+    return grid, [np.interp(grid, t, s) for s in series]
+
+
+def _offset(result: CalibrationResult) -> float:
+    """The sensor's offset profiled out of a free-response calibration (0 otherwise)."""
+    linear = result.linear_fit()
+    return 0.0 if linear is None else float(linear["output_offset"])
+
+
 def remaining_error(result: CalibrationResult, floor: dx.NoiseFloor) -> Remaining:
     """How far ``result`` (a rung's calibration) is from the noise ``floor``."""
     measurement = result.setup.measurement
-    window = result.setup.window_mask
-    residual = (measurement.displacement_m - result.map_prediction())[window]
-    white = dx.residual_whiteness(residual, sample_interval_s=measurement.sample_interval_s,
+    window = result.setup.fit_mask
+    residual = (measurement.output - result.map_prediction())[window]
+    white = dx.residual_whiteness(residual, sample_interval_s=measurement.rate_Hz ** -1,
                                   fitted_parameters=result.problem.ndim)
     ratio = float(result.rmse_prediction_map / floor.sd) if floor.sd > 0 else float("inf")
     return Remaining(floor, ratio, bool(white.white), float(white.p_value))
 
 
+#: Two materially improving candidates whose log evidences differ by less than this (nats) and
+#: whose held-out errors differ by less than INDISTINGUISHABLE_RMSE (relative) are named together:
+#: the data cannot tell them apart (2 log Bayes factor < 6: "positive" at most on the
+#: Kass–Raftery scale, short of "strong").
+INDISTINGUISHABLE_LOG_EVIDENCE = 3.0
+INDISTINGUISHABLE_RMSE = 0.1
+
+
+#: ... or whose calibrated models give the same frequencies of every mode the record shows (within
+#: SAME_FREQUENCY, relative) with calibration RMSEs within INDISTINGUISHABLE_RMSE_CALIBRATION: with
+#: as many modes visible as the repair has parameters, each candidate fits those frequencies
+#: exactly and the rest of the evidence difference is about how each absorbs misfit elsewhere
+#: (with residuals far above the noise, an i.i.d. evidence difference of hundreds of nats is not
+#: a measurement of where a mass sits).
+SAME_FREQUENCY = 0.002
+INDISTINGUISHABLE_RMSE_CALIBRATION = 0.25
+
+
+def _map_frequencies(result: CalibrationResult, count: int) -> np.ndarray:
+    values = {k: float(v) for k, v in result.laplace.map.values.items() if k in result.setup.physical_names}
+    return result.setup.model.natural_modes(values, count)[0]
+
+
+def same_modes(ranking: Ranking, effect: str, visible_modes: int) -> int:
+    """How many of the first ``visible_modes`` modes the fit with ``effect`` places where the best
+    material candidate's fit does (within :data:`SAME_FREQUENCY`), counted from mode 1."""
+    material = [c for c in ranking.candidates if c.material]
+    if not material or effect not in ranking.results or material[0].effect not in ranking.results:
+        return 0
+    fa = _map_frequencies(ranking.results[material[0].effect], visible_modes)
+    fb = _map_frequencies(ranking.results[effect], visible_modes)
+    same = np.abs(fb - fa) <= SAME_FREQUENCY * fa
+    return int(np.argmin(same)) if not same.all() else int(same.size)
+
+
+def indistinguishable(ranking: Ranking, visible_modes: int = 0) -> list[str]:
+    """Materially improving candidates the data cannot tell from the best one (see above).
+
+    ``visible_modes``: modes identified in the record (0: compare by evidence and held-out error only).
+    """
+    material = [c for c in ranking.candidates if c.material]
+    if len(material) < 2:
+        return []
+    best = material[0]
+    out = []
+    for c in material[1:]:
+        close = (best.delta_log_evidence - c.delta_log_evidence < INDISTINGUISHABLE_LOG_EVIDENCE
+                 and abs(c.rmse_prediction - best.rmse_prediction) <= INDISTINGUISHABLE_RMSE * best.rmse_prediction)
+        if not close and visible_modes > 0 and best.effect in ranking.results and c.effect in ranking.results:
+            a, b = ranking.results[best.effect], ranking.results[c.effect]
+            fa, fb = _map_frequencies(a, visible_modes), _map_frequencies(b, visible_modes)
+            close = bool(np.all(np.abs(fb - fa) <= SAME_FREQUENCY * fa)
+                         and b.rmse_calibration <= (1 + INDISTINGUISHABLE_RMSE_CALIBRATION) * a.rmse_calibration)
+        if close:
+            out.append(c.effect)
+    return out
+
+
 def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float, rmse_after_m: float,
-                     remaining: Remaining | None) -> str:
+                     remaining: Remaining | None, *, unit: str = "m", alternatives: Iterable[str] = (),
+                     partly: Iterable[tuple[str, int]] = (), error_label: str = "held-out RMSE") -> str:
     """The one-sentence verdict of a diagnosis (the command line's and the dashboard's).
 
     Parameters
@@ -110,11 +195,28 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
         Held-out RMSE (m) of the current model and with the missing effect (or of the last rung).
     remaining : Remaining or None
         Distance of the last rung from the noise floor (None: not estimated).
+    unit : str
+        The output's unit (the RMSE and the noise floor are in it).
+    alternatives : iterable of str
+        Candidates the data cannot tell from ``missing`` (:func:`indistinguishable`).
+    partly : iterable of (str, int)
+        Material candidates whose fits place the first ``int`` (>= 2) modes where ``missing``'s
+        does, but not all the modes the record shows.
+    error_label : str
+        What the two RMSE are ("held-out RMSE"; a free decay's verdict quotes the calibration
+        window's, by which its candidates are judged).
     """
+    alternatives = list(alternatives)
+    partly = list(partly)
     floor = "" if remaining is None else (
-        f"{remaining.remaining_error_ratio:.1f}× the noise floor ({remaining.noise_floor.sd:.3g} m)")
+        f"{remaining.remaining_error_ratio:.1f}× the noise floor ({remaining.noise_floor.sd:.3g} {unit})")
     if missing is not None:
-        head = f"missing: {missing} (+{gain_nats:.0f} nats; held-out RMSE {rmse_before_m:.3g} -> {rmse_after_m:.3g} m)"
+        head = f"missing: {missing} (+{gain_nats:.0f} nats; {error_label} {rmse_before_m:.3g} -> {rmse_after_m:.3g} {unit})"
+        if alternatives:
+            head += (f"; the data cannot tell it from {' or '.join(alternatives)}: the same frequencies of the "
+                     "modes the record shows, the same repair by another cause")
+        for effect, count in partly:
+            head += (f"; {effect} places modes 1-{count} as well, only mode {count + 1} tells them apart")
         if remaining is None:
             return head
         if remaining.outside_catalogue:
@@ -156,10 +258,44 @@ class DiagnosisReport:
         """One sentence: what is missing, how far the last rung is from the noise, or that nothing in the catalogue is."""
         best = self.ranking.candidates[0] if self.ranking.candidates else None
         last = self.ladder[-1] if self.ladder else None
+        free = self.base.setup.is_free
+        def error(result: CalibrationResult) -> float:
+            return result.rmse_calibration_map if free else result.rmse_prediction_map
+
         return verdict_sentence(
-            self.missing, best.delta_log_evidence if best else float("nan"), self.base.rmse_prediction_map,
-            last.result.rmse_prediction_map if last is not None and last.result is not None else float("nan"),
-            self.remaining)
+            self.missing, best.delta_log_evidence if best else float("nan"), error(self.base),
+            error(last.result) if last is not None and last.result is not None else float("nan"),
+            self.remaining, unit=self.measurement.output_unit, alternatives=self.indistinguishable,
+            partly=self.partly_indistinguishable,
+            error_label="calibration-window RMSE" if free else "held-out RMSE")
+
+    @property
+    def visible_modes(self) -> int:
+        """The model's modes matched by an identified mode of the record, from mode 1 on."""
+        visible = 0
+        for row in self.residuals.comparison:
+            if row.frequency_data_Hz is None or not np.isfinite(row.frequency_data_Hz):
+                break
+            visible += 1
+        return min(visible, self.base.setup.modes)
+
+    @property
+    def partly_indistinguishable(self) -> list[tuple[str, int]]:
+        """Material candidates (not indistinguishable) whose fits place at least the first two modes
+        where the missing effect's fit does: which mode tells them apart."""
+        visible = self.visible_modes
+        out = []
+        for c in self.ranking.candidates[1:]:
+            if c.material and c.effect not in self.indistinguishable and visible > 2:
+                count = same_modes(self.ranking, c.effect, visible)
+                if 2 <= count < visible:
+                    out.append((c.effect, count))
+        return out
+
+    @property
+    def indistinguishable(self) -> list[str]:
+        """Candidates the data cannot tell from the missing one (:func:`indistinguishable`)."""
+        return indistinguishable(self.ranking, self.visible_modes)
 
     @property
     def outside_catalogue(self) -> bool:
@@ -179,6 +315,9 @@ class DiagnosisReport:
             "coverage95_prediction_base": base.coverage95_prediction,
             "candidates": [c.to_json() for c in self.ranking.candidates],
             "missing": self.missing,
+            "indistinguishable": self.indistinguishable,
+            "output": self.measurement.output_kind,
+            "output_unit": self.measurement.output_unit,
             "verdict": self.verdict,
             "noise_floor": None if self.remaining is None else self.remaining.noise_floor.sd,
             "remaining_error_ratio": None if self.remaining is None else self.remaining.remaining_error_ratio,
@@ -198,26 +337,40 @@ class DiagnosisReport:
 def residual_report(result: CalibrationResult) -> ResidualReport:
     """Residual diagnostics of a calibrated model over its whole record."""
     measurement = result.setup.measurement
-    time_s, data, voltage = measurement.time_s, measurement.displacement_m, measurement.voltage_V
-    prediction = result.map_prediction()
-    bands = result.bands
     notes: list[str] = []
-    band = dx.band_residuals(time_s, data, bands.mean, bands.prediction_lower, bands.prediction_upper)
+    bands = result.bands
+    offset = _offset(result)
+    start = result.setup.free_start_s if result.setup.is_free else None
+    # the diagnostics need uniform stamps; the offset (a sensor bias) is no mode of the beam
+    time_s, (data, prediction, mean, lower, upper) = uniform_view(
+        measurement, measurement.output - offset, result.map_prediction() - offset, bands.mean - offset,
+        bands.prediction_lower - offset, bands.prediction_upper - offset, start_s=start)
+    voltage = None
+    if measurement.input is not None:
+        voltage = uniform_view(measurement, measurement.input)[1][0]
+    if start is not None and start > measurement.time_s[0]:
+        notes.append(f"the beam is at rest until {start:.3g} s: the free response and its diagnostics start at the release")
+    if not measurement.uniform:
+        notes.append(f"irregular time stamps: residual spectra and modal identification on the record interpolated "
+                     f"to its median step ({measurement.median_interval_s:.3g} s)")
+    band = dx.band_residuals(time_s, data, mean, lower, upper)
     map_values = {k: float(v) for k, v in result.laplace.map.values.items() if k in result.setup.physical_names}
     frequencies, ratios = result.setup.model.natural_modes(map_values, result.setup.modes)
     spectrum = dx.residual_spectrum(time_s, data, prediction, frequencies)
-    window = result.setup.window_mask
-    whiteness = dx.residual_whiteness((data - prediction)[window], sample_interval_s=measurement.sample_interval_s,
+    window = result.setup.fit_mask
+    whiteness = dx.residual_whiteness((measurement.output - result.map_prediction())[window],
+                                      sample_interval_s=1.0 / measurement.rate_Hz,
                                       fitted_parameters=result.problem.ndim)
     identified, comparison, mode1 = None, [], None
     try:
-        identified = dx.identify_modes(time_s, data, voltage)
+        identified = dx.identify_modes(time_s, data, voltage, start_s=float(time_s[0]) if measurement.is_free else None)
         comparison = dx.compare_modes(identified, frequencies, ratios)
     except BeamInputError as exc:
         notes.append(f"no modal identification: {exc}")
     if identified is not None and len(identified.frequency_Hz):
         try:
-            mode1 = dx.analyse_mode(time_s, data, float(identified.frequency_Hz[0]), voltage)
+            mode1 = dx.analyse_mode(time_s, data, float(identified.frequency_Hz[0]), voltage,
+                                    **({"start_s": float(time_s[0])} if measurement.is_free else {}))
         except BeamInputError as exc:
             notes.append(f"no envelope of mode 1: {exc}")
     fingerprints = dx.fingerprints(
@@ -265,7 +418,10 @@ def diagnose(
     ladder = error_ladder(measurement, ranking, mcmc=ladder_mcmc, seed=seed)
     remaining = None
     try:
-        floor = dx.noise_floor(measurement.time_s, measurement.displacement_m)
+        record = base_result.setup.measurement  # as calibrated (decimated when over-long)
+        start = base_result.setup.free_start_s if base_result.setup.is_free else None
+        grid, (output,) = uniform_view(record, record.output, start_s=start)
+        floor = dx.noise_floor(grid, output)
         remaining = remaining_error(ladder[-1].result, floor)
     except BeamInputError as exc:
         residuals.notes.append(f"no noise floor: {exc}")

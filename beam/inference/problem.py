@@ -17,6 +17,15 @@ Noise
 The noise parameters named by the likelihood kind (``noise_sd``; ``ar1_coefficient`` for
 ``"ar1"``) are ordinary parameters: with a prior they are *estimated* (sampled jointly with the
 physical parameters, not marginalised analytically); listed in ``fixed`` they are known.
+
+Linear parameters profiled by the model
+---------------------------------------
+A model may fit some linear coefficients itself, by least squares on the calibration data, at
+every call (variable projection: the unknown initial state of a free response). It then
+declares ``log_likelihood_correction(values) -> ndarray (B,)``, the term that turns the
+profile likelihood of the calibration grid into the likelihood with those coefficients
+integrated out (called right after the model on :attr:`Problem.time_s` with the same
+``values``); :meth:`Problem.log_likelihood` and :meth:`Problem.log_posterior` add it.
 """
 
 from __future__ import annotations
@@ -256,7 +265,12 @@ class Problem:
         """Log likelihood of internal vectors (rows must be inside the support), shape (B,)."""
         values = self.from_internal(z)
         resid = self.data - self.predict(values)
-        return log_likelihood(self.likelihood, resid, self.noise_values(values))
+        return log_likelihood(self.likelihood, resid, self.noise_values(values)) + self._correction(values)
+
+    def _correction(self, values: Mapping[str, np.ndarray]) -> np.ndarray | float:
+        """The model's ``log_likelihood_correction`` for ``values`` (0 when it has none)."""
+        correction = getattr(self.model, "log_likelihood_correction", None)
+        return 0.0 if correction is None else np.asarray(correction(values), dtype=float)
 
     def log_posterior(self, z: np.ndarray) -> np.ndarray:
         """Unnormalised log posterior density of internal vectors, shape (B,).
@@ -277,7 +291,7 @@ class Problem:
             if pred.shape != (zz.shape[0], self.time_s.size):
                 raise ValueError(f"model returned shape {pred.shape}, expected {(zz.shape[0], self.time_s.size)}")
             self.n_model_rows += zz.shape[0]
-            ll = log_likelihood(self.likelihood, self.data - pred, values)
+            ll = log_likelihood(self.likelihood, self.data - pred, values) + self._correction(values)
             lp = self._log_prior_inside(zz) + ll
         lp[~np.isfinite(lp)] = -np.inf
         if all_ok:

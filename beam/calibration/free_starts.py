@@ -1,0 +1,95 @@
+"""Starting points of the MAP search for records without a patch coupling: free responses (whose
+initial state :class:`beam.calibration.free.ProjectedFreeModel` profiles out) and point forces.
+
+With the amplitudes and phases fitted linearly, the only multimodality left is the frequencies':
+the spectral match of :mod:`beam.calibration.starts` (EI scaled so the model's modes sit on the
+window's spectral peaks) on the record's own spectrum (irregular stamps interpolated to the
+median step), for the prior centres and for each point of the screened design over the effect
+parameters (:func:`beam.calibration.starts.design_points`), scored by residual RMS in one batched
+model call.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from beam.calibration.starts import SCALE_GRID, design_points, prior_centres
+from beam.errors import BeamInputError
+
+__all__ = ["projected_starting_points", "record_spectrum", "spectral_scales"]
+
+
+def record_spectrum(time_s: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Frequencies (Hz) and Hann-windowed periodogram (zero-padded x8) of samples at ``time_s``.
+
+    Irregular stamps are linearly interpolated onto the median step first (a spectrum for
+    locating peaks, not a measurement of power); the mean is removed.
+    """
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(values, dtype=float)
+    step = float(np.median(np.diff(t)))
+    count = int(np.floor((t[-1] - t[0]) / step)) + 1
+    uniform = t[0] + step * np.arange(count)
+    data = np.interp(uniform, t, y) if not np.allclose(np.diff(t), step, rtol=1e-6, atol=0.0) else y[:count]
+    data = data - data.mean()
+    n_fft = 8 * int(2 ** np.ceil(np.log2(data.size)))
+    power = np.abs(np.fft.rfft(data * np.hanning(data.size), n_fft)) ** 2
+    return np.fft.rfftfreq(n_fft, step), power
+
+
+def spectral_scales(frequencies_Hz: np.ndarray, spectrum: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """The best scale factor s of EI for each row of model frequencies (B, m) (Hz): s maximises
+    the summed log power of the record at sqrt(s) x the modes below 0.8 x Nyquist (the spectral
+    match of :mod:`beam.calibration.starts`)."""
+    frequencies, power = spectrum
+    nyquist = frequencies[-1]
+    model = np.atleast_2d(frequencies_Hz)
+    floor = power.max() * 1e-12 + 1e-300
+    usable = (model > 0) & (model < 0.8 * nyquist)
+    scaled = np.sqrt(SCALE_GRID)[None, :, None] * model[:, None, :]
+    inside = (scaled < 0.95 * nyquist) & usable[:, None, :]
+    score = np.where(inside, np.log(np.interp(scaled, frequencies, power) + floor), np.log(floor)).sum(axis=2)
+    return SCALE_GRID[np.argmax(score, axis=1)]
+
+
+def projected_starting_points(problem, setup, warm: Mapping[str, float] | None = None,
+                              keep: int = 3) -> list[dict[str, float]]:
+    """Starting points of the MAP search for a record without a patch coupling (a free response,
+    whose initial state the forward model profiles out, or a point force): a caller's ``warm``
+    start, the prior centres with EI matched to the window's spectrum, and the ``keep`` best
+    points of the screened design over the effect parameters of
+    :func:`beam.calibration.starts.design_points`, each with its own spectral EI, by residual
+    RMS in one batched model call (natural units, physical parameters)."""
+    measurement = setup.measurement
+    mask = setup.fit_mask
+    spectrum = record_spectrum(measurement.time_s[mask], measurement.output[mask])
+    centres = prior_centres(setup)
+    ei = "bending_stiffness_Nm2"
+    prior = {name: problem.parameter(name).prior for name in centres}
+
+    def clip(name: str, value):
+        return np.clip(value, prior[name].lower * (1 + 1e-9), prior[name].upper * (1 - 1e-9))
+
+    design = design_points(problem, setup)
+    size = next(iter(design.values())).size if design else 0
+    batch = {name: np.full(size + 1, centres[name]) for name in centres}
+    for name, values in design.items():
+        batch[name][1:] = values
+    reduced, _, _ = setup.model.reduced_system(batch, setup.modes)
+    model_frequencies = np.sqrt(np.maximum(reduced["omega2"], 0.0)) / (2 * np.pi)
+    batch[ei] = clip(ei, batch[ei] * spectral_scales(model_frequencies, spectrum))
+    batch = {name: clip(name, v) for name, v in batch.items()}
+    starts = [{name: float(v[0]) for name, v in batch.items()}]
+    if size:
+        with np.errstate(all="ignore"):
+            try:
+                rms = np.sqrt(np.mean((problem.data - problem.predict({k: v[1:] for k, v in batch.items()})) ** 2, axis=1))
+            except BeamInputError:
+                rms = np.full(size, np.inf)
+        rms[~np.isfinite(rms)] = np.inf
+        for i in np.argsort(rms, kind="stable")[:keep]:
+            if np.isfinite(rms[i]):
+                starts.append({name: float(v[1 + i]) for name, v in batch.items()})
+    return ([dict(warm)] if warm is not None else []) + starts
