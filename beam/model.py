@@ -30,6 +30,7 @@ import numpy as np
 
 from beam import modal
 from beam.assembly import GalerkinParts, assemble_parts
+from beam.basis import DEFAULT_INTERVALS, DEFAULT_KNOTS, INTERVALS_RANGE, KNOT_LAYOUTS, KnotLayout
 from beam.effects import BASE_PARAMETERS, BASE_TERMS, EFFECTS, PARAMETER_SPECS, Term, parse_effects
 from beam.errors import BeamInputError
 from beam.geometry import BeamGeometry
@@ -67,17 +68,25 @@ class BeamModel:
     effects : iterable of str or str
         Effect ids from :data:`beam.effects.EFFECTS` (or a comma-separated string).
     intervals : int
-        Number N of uniform B-spline intervals (default 16).
+        Number N of B-spline elements (knot intervals), default
+        :data:`beam.basis.DEFAULT_INTERVALS`.
+    knots : {"patch", "uniform"}
+        Knot layout (:mod:`beam.basis`): ``"patch"`` (default) puts double knots at the patch ends
+        (fourth-order accurate for the stepped beam); ``"uniform"`` is Smith's uniform C² mesh.
     """
 
-    def __init__(self, geometry: BeamGeometry, effects: Iterable[str] | str = (), intervals: int = 16) -> None:
-        if isinstance(intervals, bool) or int(intervals) != intervals or not 2 <= intervals <= 400:
-            raise BeamInputError(f"intervals must be an integer in [2, 400], got {intervals!r}")
+    def __init__(self, geometry: BeamGeometry, effects: Iterable[str] | str = (), intervals: int = DEFAULT_INTERVALS,
+                 knots: KnotLayout = DEFAULT_KNOTS) -> None:
+        if isinstance(intervals, bool) or int(intervals) != intervals or not INTERVALS_RANGE[0] <= intervals <= INTERVALS_RANGE[1]:
+            raise BeamInputError(f"intervals must be an integer in [{INTERVALS_RANGE[0]}, {INTERVALS_RANGE[1]}], got {intervals!r}")
+        if knots not in KNOT_LAYOUTS:
+            raise BeamInputError(f"knots must be one of {', '.join(repr(k) for k in KNOT_LAYOUTS)}, got {knots!r}")
         self.geometry = geometry
         self.effects = parse_effects(effects)
         self.intervals = int(intervals)
+        self.knots: str = knots
         frees_root = any(EFFECTS[e].frees_root_rotation for e in self.effects)
-        self.parts: GalerkinParts = assemble_parts(geometry, self.intervals, frees_root)
+        self.parts: GalerkinParts = assemble_parts(geometry, self.intervals, frees_root, knots)
         self._shape_cache: OrderedDict[bytes, tuple[np.ndarray, ...]] = OrderedDict()
         self._layouts: dict[tuple[str, ...], _Layout] = {}
         self._accepted = frozenset(self.accepted_parameter_names)
@@ -318,8 +327,8 @@ class BeamModel:
         n_modes = self.size if modes is None else modes
         if isinstance(n_modes, bool) or int(n_modes) != n_modes or not 1 <= n_modes <= self.size:
             raise BeamInputError(
-                f"modes must be between 1 and {self.size} (the mesh of {self.intervals} intervals holds "
-                f"{self.size} modes), got {modes}"
+                f"modes must be between 1 and {self.size} (the mesh of {self.intervals} intervals, knots "
+                f"{self.knots!r}, holds {self.size} modes), got {modes}"
             )
         return int(n_modes)
 

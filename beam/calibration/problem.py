@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from beam.basis import DEFAULT_INTERVALS, DEFAULT_KNOTS
 from beam.effects import PARAMETER_SPECS, parse_effects
 from beam.errors import BeamInputError
 from beam.limits import check_calibration_record
@@ -170,15 +171,20 @@ def make_setup(
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
     modes: int = DEFAULT_MODES,
     likelihood: str = "iid",
-    intervals: int = 16,
+    intervals: int = DEFAULT_INTERVALS,
+    knots: str = DEFAULT_KNOTS,
 ) -> BeamCalibrationSetup:
-    """Validate the choices and build the model (BeamInputError on any bad choice)."""
+    """Validate the choices and build the model (BeamInputError on any bad choice).
+
+    ``intervals`` and ``knots`` set the Galerkin mesh (:mod:`beam.basis`; default: the patch
+    knots, as ``beam simulate`` uses).
+    """
     if likelihood not in LIKELIHOODS:
         raise BeamInputError(f"unknown likelihood {likelihood!r}; expected one of {', '.join(LIKELIHOODS)}")
     effects = parse_effects(effects)
     window = resolve_window(measurement, window)
     check_calibration_record(measurement, window)
-    model = BeamModel(measurement.geometry, effects, intervals)
+    model = BeamModel(measurement.geometry, effects, intervals, knots)
     if isinstance(modes, bool) or int(modes) != modes or not 1 <= modes <= model.size:
         raise BeamInputError(f"modes must be between 1 and {model.size} (the mesh holds {model.size} modes), got {modes}")
     setup = BeamCalibrationSetup(

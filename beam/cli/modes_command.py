@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
     config = load_config(args.config)
     from beam.model import BeamModel  # scipy is slow to import: only once the config is valid
 
-    model = BeamModel(config.geometry, config.effects, config.intervals)
+    model = BeamModel(config.geometry, config.effects, config.intervals, config.knots)
     count = None if args.count is None else min(args.count, model.size)
     frequencies, ratios = model.natural_modes(config.parameters, count)
     if args.json:
@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write(json.dumps(document) + "\n")
         return 0
     effects = ", ".join(config.effects) or "none"
-    lines = [f"{config.title} (effects: {effects}; {config.intervals} intervals)",
+    lines = [f"{config.title} (effects: {effects}; {config.intervals} intervals, knots {config.knots!r})",
              f"{'mode':>4}  {'frequency (Hz)':>15}  {'damping ratio':>13}"]
     lines += [f"{i:>4}  {f:>15.6g}  {z:>13.4g}" for i, (f, z) in enumerate(zip(frequencies, ratios), start=1)]
     sys.stdout.write("\n".join(lines) + "\n")
