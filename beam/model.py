@@ -401,13 +401,18 @@ class BeamModel:
     def response_full(
         self, parameters: Mapping[str, float | np.ndarray], voltage_V: np.ndarray, sample_interval_s: float
     ) -> np.ndarray:
-        """Reference response of the full state space (all modes) by :func:`scipy.signal.lsim` (ZOH)."""
+        """Reference response of the full state space (all modes) by :func:`scipy.signal.lsim` (ZOH).
+
+        The state matrix is balanced first (:func:`scipy.linalg.matrix_balance`), which keeps the
+        exponential accurate on fine meshes, whose stiffest modes are far above the sampling rate.
+        """
         voltage = self._check_record(voltage_V, sample_interval_s)
         if np.any(np.asarray(parameters.get("tip_cubic_stiffness_N_m3", 0.0)) > 0):
             raise BeamInputError("the full state-space reference is linear; use response() for tip_cubic_spring")
         _, _, batched = self._table(parameters)
         matrices = self.system_matrices(parameters)
         batch = matrices["mass"].shape[0]
+        import scipy.linalg
         import scipy.signal  # only the reference path needs it (a slow import)
 
         time = np.arange(voltage.size) * sample_interval_s
@@ -417,6 +422,11 @@ class BeamModel:
                 matrices["mass"][b], matrices["damping"][b], matrices["stiffness"][b], matrices["force"][b],
                 self.parts.sensor_values,
             )
+            # balanced (a diagonal similarity, LAPACK gebal): the matrix exponential of the raw
+            # state matrix, whose stiffest modes reach omega ~ 3e6 rad/s at 40 elements, lost up
+            # to 7e-7 (relative L2) there against a 40-digit reference; balanced, 3e-9
+            a, (scale, _) = scipy.linalg.matrix_balance(a, permute=False, separate=True)
+            bvec, c = bvec / scale, c * scale
             _, y, _ = scipy.signal.lsim((a, bvec[:, None], c[None, :], np.zeros((1, 1))), voltage, time, interp=False)
             out[b] = y
         return out if batched else out[0]

@@ -47,7 +47,7 @@ def clean_response(config_path: Path, modes: int | None) -> tuple[np.ndarray, np
     config = load_config(config_path)
     excitation, sampling = config.require_simulation()
     voltage = excitation.voltage(sampling.time_s())
-    model = BeamModel(config.geometry, config.effects, config.intervals)
+    model = BeamModel(config.geometry, config.effects, config.intervals, config.knots)
     response = model.response(config.parameters, voltage, sampling.sample_interval_s, modes=modes)
     return voltage, np.asarray(response).reshape(-1)
 
@@ -125,7 +125,7 @@ def test_modes_json_matches_the_model(tmp_path):
     from beam.model import BeamModel
 
     config = load_config(ASSET)
-    frequencies, ratios = BeamModel(config.geometry, config.effects, config.intervals).natural_modes(
+    frequencies, ratios = BeamModel(config.geometry, config.effects, config.intervals, config.knots).natural_modes(
         config.parameters, 4)
     np.testing.assert_allclose(document["frequencies_Hz"], frequencies, rtol=1e-12)
     np.testing.assert_allclose(document["damping_ratios"], ratios, rtol=1e-12)
@@ -138,13 +138,13 @@ def test_modes_table_of_a_uniform_beam(tmp_path):
     table = run_beam("modes", config_path)
     assert table.returncode == 0, table.stderr
     lines = table.stdout.splitlines()
-    assert lines[0].startswith("uniform beam (effects: kelvin_voigt; 8 intervals)")
+    assert lines[0].startswith("uniform beam (effects: kelvin_voigt; 8 intervals, knots 'patch')")
     assert lines[1].split() == ["mode", "frequency", "(Hz)", "damping", "ratio"]
     rows = [line.split() for line in lines[2:]]
     from beam.model import BeamModel
 
     config = load_config(config_path)
-    frequencies, ratios = BeamModel(config.geometry, config.effects, 8).natural_modes(config.parameters)
+    frequencies, ratios = BeamModel(config.geometry, config.effects, 8, "patch").natural_modes(config.parameters)
     assert len(rows) == len(frequencies) > 4
     assert [int(row[0]) for row in rows] == list(range(1, len(rows) + 1))
     np.testing.assert_allclose([float(row[1]) for row in rows], frequencies, rtol=1e-5)  # 6 digits printed
