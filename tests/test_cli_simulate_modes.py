@@ -84,8 +84,14 @@ def test_simulate_writes_the_measurement_and_a_separate_truth_file(default_run):
     assert (truth_document["modes"], truth_document["seed"], truth_document["noise_m"]) == ("all", 1, 1.2e-5)
     assert truth_document["excitation"] == {"kind": "chirp", "amplitude_V": 10.0, "start_Hz": 2.0,
                                             "stop_Hz": 250.0, "duration_s": 1.5}
+    assert (truth_document["intervals"], truth_document["knots"]) == (40, "patch")
     parsed = read_truth(csv_path)
     assert parsed.modes is None and parsed.parameters == load_config(ASSET).parameters
+    assert (parsed.intervals, parsed.knots) == (40, "patch")
+    # a truth file written before the patch knots has no "knots": it was Smith's uniform mesh
+    older = truth.with_name("older.truth.toml")
+    older.write_text(truth.read_text().replace('knots = "patch"\n', ""))
+    assert (read_truth(older).intervals, read_truth(older).knots) == (40, "uniform")
 
 
 def test_simulated_record_is_the_model_response_plus_seeded_noise(default_run):
