@@ -1,8 +1,8 @@
 """Beam discrepancy explorer: headless library (no UI imports).
 
 Euler–Bernoulli cantilever with a piezoelectric patch, discretised by Galerkin's method with
-modified cubic B-splines; a catalogue of optional physical effects; a fast modal response;
-measurement files; Bayesian inference; residual diagnostics.
+cubic B-splines (double knots at the patch ends); a catalogue of optional physical effects; a
+fast modal response; measurement files; Bayesian inference; residual diagnostics.
 """
 
 from beam.errors import BeamInputError
