@@ -26,24 +26,29 @@ import numba
 import numpy as np
 
 
-#: Shift of :func:`undamped_modes`, relative to the largest diagonal ratio K_ii / M_ii (~ the
-#: largest omega²): far above round-off, far below the low modes' relative accuracy needs.
-_RELATIVE_SHIFT = 1e-8
+#: Shift of :func:`undamped_modes` when K may be singular, relative to the largest diagonal
+#: ratio K_ii / M_ii (<= the largest omega²): far above round-off (K + sigma M stays positive
+#: definite), far below the first flexible mode's omega² on any mesh of up to 400 elements.
+RELATIVE_SHIFT = 1e-8
 
 
-def undamped_modes(mass: np.ndarray, stiffness: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def undamped_modes(mass: np.ndarray, stiffness: np.ndarray, shift: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Solve K v = omega² M v for stacked symmetric (M, K) of shape (B, n, n).
 
     Solved inverted, so that the low modes are accurate to round-off relative to *their own*
-    size: with sigma = 1e-8 max_i(K_ii / M_ii) > 0 and the Cholesky factor C of K + sigma M, the
-    symmetric eigenproblem of C⁻¹ M C⁻ᵀ gives mu = 1 / (omega² + sigma), largest first. A
-    symmetric eigensolver is accurate to round-off of the largest eigenvalue; whitened by M
-    instead (K's eigenproblem), the largest is omega²_max, 1e10 times omega²_1 on 40 elements:
-    the B1TAPIH response then moved by round-off of 1.7e-8 of its size as the tip mass changed by
-    steps of 1e-5, which spoiled the Newton steps and Hessians of tip-mass calibrations; inverted,
-    2.6e-10 (tests/test_physics_response.py, the smooth-response test). The shift keeps
-    K + sigma M positive definite when K is (nearly) singular: a free root with a soft clamp,
-    whose rigid-body mode comes out with omega² ~ 0.
+    size: with the Cholesky factor C of K + sigma M, the symmetric eigenproblem of C⁻¹ M C⁻ᵀ
+    gives mu = 1 / (omega² + sigma), largest first. A symmetric eigensolver is accurate to
+    round-off of the largest eigenvalue; whitened by M instead (K's eigenproblem), the largest
+    is omega²_max, 1e10 times omega²_1 on 40 elements: the B1TAPIH response then moved by
+    round-off of 1.7e-8 of its size as the tip mass changed by steps of 1e-5, which spoiled the
+    Newton steps and Hessians of tip-mass calibrations; inverted, 5e-12
+    (tests/test_physics_response.py, the smooth-response test).
+
+    sigma is 0 unless ``shift`` (K may be singular: a free root with a soft clamp, whose
+    rigid-body mode then comes out with omega² ~ 0) or K is not numerically positive definite
+    (its Cholesky factorisation fails); then sigma = :data:`RELATIVE_SHIFT` max_i(K_ii / M_ii).
+    A shift costs accuracy in proportion to sigma / omega²_1 (the same measure with the B1TAPIH
+    patch stiffness as the parameter: 2e-9 shifted, 2e-10 not), hence not always.
 
     Returns
     -------
@@ -51,8 +56,15 @@ def undamped_modes(mass: np.ndarray, stiffness: np.ndarray) -> tuple[np.ndarray,
     shapes : (B, n, n) mass-normalised mode shapes as columns (shapes.T M shapes = I).
     """
     ratios = np.diagonal(stiffness, axis1=-2, axis2=-1) / np.diagonal(mass, axis1=-2, axis2=-1)
-    sigma = _RELATIVE_SHIFT * ratios.max(axis=-1)
-    chol = np.linalg.cholesky(stiffness + sigma[:, None, None] * mass)
+    shifted = RELATIVE_SHIFT * ratios.max(axis=-1)
+    sigma = shifted if shift else np.zeros_like(shifted)
+    try:
+        chol = np.linalg.cholesky(stiffness + sigma[:, None, None] * mass)
+    except np.linalg.LinAlgError:
+        if shift:
+            raise
+        sigma = shifted
+        chol = np.linalg.cholesky(stiffness + sigma[:, None, None] * mass)
     chol_inv = np.linalg.inv(chol)
     whitened = chol_inv @ mass @ np.swapaxes(chol_inv, -1, -2)
     whitened = 0.5 * (whitened + np.swapaxes(whitened, -1, -2))

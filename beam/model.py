@@ -268,7 +268,7 @@ class BeamModel:
         )
         try:
             with np.errstate(over="raise", invalid="raise"):
-                omega2, shapes = modal.undamped_modes(mass, stiff)
+                omega2, shapes = modal.undamped_modes(mass, stiff, shift=self.parts.basis.free_root_rotation)
         except (np.linalg.LinAlgError, FloatingPointError, OverflowError) as exc:
             raise BeamInputError(f"the beam's mass and stiffness matrices cannot be solved ({exc}); check the geometry and values") from None
         kept = shapes[:, :, :n_modes]
