@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from beam.basis import DEFAULT_INTERVALS, DEFAULT_KNOTS, INTERVALS_RANGE, KNOT_LAYOUTS  # [model] defaults and bounds
+from beam.basis import DEFAULT_INTERVALS, DEFAULT_KNOTS, INTERVALS_RANGE, KNOT_LAYOUTS, patch_breaks
 from beam.effects import BASE_PARAMETERS, EFFECTS, effects_switched_on
 from beam.errors import BeamInputError
 from beam.excitation import ALL_EXCITATION_KEYS, EXCITATION_KEYS, Excitation
@@ -237,7 +237,7 @@ def load_config(path: str | os.PathLike[str]) -> SimulationConfig:
     )
     knots = read_knots(reader, model_table, "model")
     if knots == "patch":
-        segments = 1 + sum(0 < p < geometry.length_m for p in (geometry.patch_start_m, geometry.patch_end_m))
+        segments = patch_breaks(geometry, intervals).size - 1
         if intervals < segments:
             raise reader.fail("[model] intervals", f"must be >= {segments} with knots = \"patch\" (one element per segment "
                                                    "between the root, the patch ends and the tip)")

@@ -117,6 +117,28 @@ def test_gauss_points_integrate_degree_seven_exactly():
     np.testing.assert_allclose(np.sum(w * x**7), 0.5**8 / 8, rtol=1e-13)
 
 
+@pytest.mark.parametrize("start, end, tolerance", [
+    (1e-6, 0.1, 1e-5),  # a patch starting 1 µm from the root: that knot is dropped
+    (5e-4, 0.1, 1e-5),  # 0.04 L/N from the root: kept, a short first element
+    (0.3, 0.4573 - 1e-7, 1e-5),  # ending 0.1 µm before the tip: that knot is dropped
+    (0.15, 0.151, 3e-3),  # a 1 mm patch (0.09 L/N): no knots, the uniform layout's first-order error
+])
+def test_patch_ends_next_to_the_root_the_tip_or_each_other_stay_accurate(start, end, tolerance):
+    """Patch ends too close to the root, the tip or each other would cut off one tiny element
+    (a patch ending 1e-7 m before the tip gave infinite responses): beam.basis.patch_breaks."""
+    length, density, stiffness, added_density, added_stiffness = 0.4573, 0.093, 0.491, 0.433, 0.793
+    segments = [(stiffness, density, start), (stiffness + added_stiffness, density + added_density, end - start),
+                (stiffness, density, length - end)]
+    reference = stepped_beam_frequencies_Hz(segments, 4, 2 * np.pi * 400)
+    model = BeamModel(BeamGeometry(length, density, start, end, 0.27), ["patch_stiffening"])
+    parameters = {"bending_stiffness_Nm2": stiffness, "patch_coupling_NmV": 0.01,
+                  "patch_added_density_kg_m": added_density, "patch_added_stiffness_Nm2": added_stiffness}
+    frequencies, _ = model.natural_modes(parameters, 4)
+    assert np.abs(frequencies / reference - 1).max() <= tolerance, frequencies / reference - 1
+    response = model.response(parameters, np.sin(2 * np.pi * 30 * np.arange(500) * 1e-3), 1e-3)
+    assert np.isfinite(response).all() and 1e-6 < np.abs(response).max() < 1e-2
+
+
 @pytest.mark.parametrize("free_root", [False, True])
 def test_uniform_knots_span_smiths_modified_basis(free_root):
     """``knots = "uniform"`` spans the same functions as Smith's hand-written basis: every
