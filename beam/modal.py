@@ -68,11 +68,31 @@ def undamped_modes(mass: np.ndarray, stiffness: np.ndarray, shift: bool = False)
     chol_inv = np.linalg.inv(chol)
     whitened = chol_inv @ mass @ np.swapaxes(chol_inv, -1, -2)
     whitened = 0.5 * (whitened + np.swapaxes(whitened, -1, -2))
-    mu, vectors = np.linalg.eigh(whitened)
+    mu, vectors = _symmetric_eigen(whitened)
     mu, vectors = mu[:, ::-1], vectors[:, :, ::-1]  # largest mu first: lowest omega² first
     omega_squared = 1.0 / mu - sigma[:, None]
     shapes = (np.swapaxes(chol_inv, -1, -2) @ vectors) / np.sqrt(mu)[:, None, :]
     return omega_squared, shapes
+
+
+def _symmetric_eigen(stack: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (ascending) and eigenvectors of a stack of symmetric matrices (B, n, n).
+
+    LAPACK ``dsyevd`` one matrix at a time with its minimal workspace, not
+    :func:`numpy.linalg.eigh`: with OpenBLAS's threads, two Python threads solving 64 matrices
+    of 43 x 43 at once took 118 ms with numpy against 15 ms so (numpy's optimal workspace runs
+    the blocked, threaded reduction, which contends on 2 cores); one thread alone, 7 ms both.
+    """
+    from scipy.linalg import lapack
+
+    batch, n = stack.shape[0], stack.shape[1]
+    values, vectors = np.empty((batch, n)), np.empty((batch, n, n))
+    for b in range(batch):
+        w, v, info = lapack.dsyevd(stack[b], compute_v=1, lwork=1 + 6 * n + 2 * n * n, liwork=3 + 5 * n)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"symmetric eigensolver failed (LAPACK dsyevd info {info})")
+        values[b], vectors[b] = w, v
+    return values, vectors
 
 
 @dataclass(frozen=True)
