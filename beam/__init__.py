@@ -1,8 +1,8 @@
 """Beam discrepancy explorer: headless library (no UI imports).
 
 Euler–Bernoulli cantilever with a piezoelectric patch, discretised by Galerkin's method with
-cubic B-splines; a catalogue of optional physical effects; a fast modal response; measurement
-files; Bayesian inference; residual diagnostics; the ranking of missing effects.
+cubic B-splines (double knots at the patch ends); a catalogue of optional physical effects; a
+fast modal response; measurement files; Bayesian inference; residual diagnostics; the ranking of missing effects.
 
 The main entry points are importable from here; each is imported on first use, so that
 ``import beam`` stays light (the command line reads and checks files before numpy-heavy imports).

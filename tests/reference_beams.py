@@ -25,6 +25,11 @@ def bracket_roots(function, low: float, high: float, count: int, grid: int = 400
     return np.array(roots)
 
 
+def cantilever_beta_l(count: int = 4) -> np.ndarray:
+    """beta_n L of the clamped-free uniform beam to round-off: roots of 1 + cos cosh = 0."""
+    return bracket_roots(lambda b: 1 + np.cos(b) * np.cosh(b), 0.5, 3.5 * count, count)
+
+
 def tip_mass_beta_l(mass_ratio: float, count: int = 4) -> np.ndarray:
     """Roots of 1 + cos cosh + (m_t / rho L) bL (cos sinh − sin cosh) = 0."""
 

@@ -10,6 +10,11 @@ them so that the essential boundary conditions hold gives the modified basis:
   so that the root rotation stays free and a rotational spring can act on it.
 
 The free end needs no modification (its conditions are natural).
+
+The model no longer uses this module: :mod:`beam.physics.basis` builds the same space of functions on
+:class:`scipy.interpolate.BSpline` (``knots = "uniform"``) and, by default, adds double knots at
+the patch ends. This hand-written version stays as an independent reference of Smith's basis
+(``tests/test_physics_modes.py`` checks that both give the same frequencies).
 """
 
 from __future__ import annotations
@@ -84,16 +89,3 @@ class ModifiedCubicBasis:
         s = x[:, None] / self.spacing_m - self._centres[None, :]
         standard = cardinal_cubic_bspline(s, derivative) / self.spacing_m**derivative
         return standard @ self.combination.T
-
-
-def gauss_points(breakpoints_m: np.ndarray, points_per_interval: int = 4) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss–Legendre nodes and weights on each interval between sorted breakpoints.
-
-    Four points integrate polynomials of degree 7 exactly, enough for products of cubics.
-    """
-    nodes, weights = np.polynomial.legendre.leggauss(points_per_interval)
-    left, right = breakpoints_m[:-1, None], breakpoints_m[1:, None]
-    half = 0.5 * (right - left)
-    x = (left + right) * 0.5 + half * nodes[None, :]
-    w = half * weights[None, :]
-    return x.ravel(), w.ravel()

@@ -165,7 +165,7 @@ def test_driven_records_of_every_output_on_irregular_stamps():
     rng = np.random.default_rng(7)
     geometry = BeamGeometry(length_m=0.5, linear_density_kg_m=0.27, patch_start_m=None, patch_end_m=None,
                             sensor_position_m=0.44, force_position_m=0.3)
-    model = BeamModel(geometry, ("modal_damping",), 16, input_kind="force")
+    model = BeamModel(geometry, ("modal_damping",), input_kind="force")  # the calibration's default mesh
     truth = {"bending_stiffness_Nm2": 2.2, "damping_ratio_mode_1": 0.01, "damping_ratio_mode_2": 0.02}
     t = np.cumsum(rng.uniform(0.5e-3, 1.5e-3, 3000))
     t -= t[0]

@@ -47,7 +47,7 @@ def clean_response(config_path: Path, modes: int | None) -> tuple[np.ndarray, np
     config = load_config(config_path)
     excitation, sampling = config.require_simulation()
     voltage = excitation.voltage(sampling.time_s())
-    model = BeamModel(config.geometry, config.effects, config.intervals)
+    model = BeamModel(config.geometry, config.effects, config.intervals, config.knots)
     response = model.response(config.parameters, voltage, sampling.sample_interval_s, modes=modes)
     return voltage, np.asarray(response).reshape(-1)
 
@@ -84,8 +84,14 @@ def test_simulate_writes_the_measurement_and_a_separate_truth_file(default_run):
     assert (truth_document["modes"], truth_document["seed"], truth_document["noise_m"]) == ("all", 1, 1.2e-5)
     assert truth_document["excitation"] == {"kind": "chirp", "amplitude_V": 10.0, "start_Hz": 2.0,
                                             "stop_Hz": 250.0, "duration_s": 1.5}
+    assert (truth_document["intervals"], truth_document["knots"]) == (40, "patch")
     parsed = read_truth(csv_path)
     assert parsed.modes is None and parsed.parameters == load_config(ASSET).parameters
+    assert (parsed.intervals, parsed.knots) == (40, "patch")
+    # a truth file written before the patch knots has no "knots": it was Smith's uniform mesh
+    older = truth.with_name("older.truth.toml")
+    older.write_text(truth.read_text().replace('knots = "patch"\n', ""))
+    assert (read_truth(older).intervals, read_truth(older).knots) == (40, "uniform")
 
 
 def test_simulated_record_is_the_model_response_plus_seeded_noise(default_run):
@@ -125,7 +131,7 @@ def test_modes_json_matches_the_model(tmp_path):
     from beam.physics.model import BeamModel
 
     config = load_config(ASSET)
-    frequencies, ratios = BeamModel(config.geometry, config.effects, config.intervals).natural_modes(
+    frequencies, ratios = BeamModel(config.geometry, config.effects, config.intervals, config.knots).natural_modes(
         config.parameters, 4)
     np.testing.assert_allclose(document["frequencies_Hz"], frequencies, rtol=1e-12)
     np.testing.assert_allclose(document["damping_ratios"], ratios, rtol=1e-12)
@@ -138,12 +144,12 @@ def test_modes_table_of_a_uniform_beam(tmp_path):
     table = run_beam("modes", config_path)
     assert table.returncode == 0, table.stderr
     lines = table.stdout.splitlines()
-    assert lines[0].startswith("uniform beam (effects: kelvin_voigt; 8 intervals)")
+    assert lines[0].startswith("uniform beam (effects: kelvin_voigt; 8 intervals, knots 'patch')")
     assert lines[1].split() == ["mode", "frequency", "(Hz)", "damping", "ratio", "resolved"]
     from beam.physics.model import BeamModel
 
     config = load_config(config_path)
-    frequencies, ratios = BeamModel(config.geometry, config.effects, 8).natural_modes(config.parameters)
+    frequencies, ratios = BeamModel(config.geometry, config.effects, 8, "patch").natural_modes(config.parameters)
     rows = [line.split() for line in lines[2:2 + len(frequencies)]]
     assert lines[2 + len(frequencies)].startswith("resolved: the frequency changes by less than 0.1 % on a mesh of 16")
     assert len(rows) == len(frequencies) > 4

@@ -74,14 +74,14 @@ def test_bundled_b1tapih_config():
     assert (sampling.rate_Hz, sampling.sample_count, sampling.seed) == (1000.0, 4700, 1)
     assert int(0.3 * sampling.sample_count) == 1410  # the default calibration window
     assert 0 < sampling.noise_m < 1e-4
-    assert config.intervals == 16
+    assert (config.intervals, config.knots) == (40, "patch")
 
 
 def test_a_small_config_parses_to_numbers(tmp_path):
     config = _load(tmp_path, CONFIG)
     assert config.title == "uniform test beam"
     assert config.effects == ("air_damping",)
-    assert config.intervals == DEFAULT_INTERVALS and config.nominal == {}
+    assert config.intervals == DEFAULT_INTERVALS and config.knots == "patch" and config.nominal == {}
     excitation, sampling = config.require_simulation()
     assert (excitation.kind, excitation.amplitude_V, excitation.width_s) == ("pulse", 5.0, 0.01)
     assert sampling == Sampling(rate_Hz=1000.0, duration_s=0.5, noise_m=1e-6, seed=7)
@@ -100,9 +100,9 @@ def test_parameters_alone_are_enough_for_modes(tmp_path):
 
 def test_optional_sampling_keys_default_to_zero(tmp_path):
     config = _load(tmp_path, GEOMETRY_TOML + PARAMETERS_TOML + EXCITATION_TOML
-                   + "[sampling]\nrate_Hz = 2000\nduration_s = 1\n[model]\nintervals = 8\n")
+                   + "[sampling]\nrate_Hz = 2000\nduration_s = 1\n[model]\nintervals = 8\nknots = \"uniform\"\n")
     assert (config.sampling.noise_m, config.sampling.seed, config.sampling.sample_count) == (0.0, 0, 2000)
-    assert config.intervals == 8
+    assert (config.intervals, config.knots) == (8, "uniform")
 
 
 def test_file_excitation_replays_a_recorded_voltage(tmp_path):
@@ -158,6 +158,11 @@ BAD_CONFIGS = [
     ("intervals too small", CONFIG + "[model]\nintervals = 1\n", "[model] intervals: must be >= 2"),
     ("intervals float", CONFIG + "[model]\nintervals = 16.0\n", "[model] intervals: must be an integer"),
     ("unknown model key", CONFIG + "[model]\nelements = 16\n", "[model] elements: unknown key"),
+    ("unknown knots", CONFIG + "[model]\nknots = \"chebyshev\"\n",
+     "[model] knots: unknown knot layout 'chebyshev'; expected one of patch, uniform"),
+    ("knots not a string", CONFIG + "[model]\nknots = 2\n", "[model] knots: must be a string"),
+    ("fewer elements than segments", CONFIG + "[model]\nintervals = 2\n",
+     "[model] intervals: must be >= 3 with knots = \"patch\""),
     ("excitation not a table", CONFIG.replace(EXCITATION_TOML, "") .replace("[beam]", 'excitation = "chirp"\n[beam]'),
      "excitation: must be a table [excitation]"),
     ("syntax", CONFIG.replace("seed = 7", "seed = = 7"), "TOML syntax error"),

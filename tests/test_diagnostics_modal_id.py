@@ -79,7 +79,7 @@ def test_the_decay_starts_after_the_voltage_stops():
 def chirp_record():
     config = load_config(ROOT / "assets" / "b1tapih.toml")
     simulation = simulate(config)  # all modes, noise 1.2e-5 m (1 % of the RMS), chirp for 1.5 s then free decay
-    model = BeamModel(config.geometry, config.effects, config.intervals)
+    model = BeamModel(config.geometry, config.effects, config.intervals, config.knots)
     return simulation, model.natural_modes(config.parameters, 6)
 
 

@@ -58,6 +58,13 @@ def relative_l2(a, b):
     return np.linalg.norm(a - b) / np.linalg.norm(b)
 
 
+#: These checks compare two algorithms of the same discrete model (all modes against the full
+#: state space, truncation with its correction against all modes, closed forms to 1e-10), not the
+#: mesh's accuracy; their round-off grows with the stiffest mode of the mesh (omega ~ 3e6 rad/s at
+#: the default 40 elements), so they run on 16 elements, as in tests/test_physics_response.py.
+ALL_MODES_INTERVALS = 16
+
+
 # ---------------------------------------------------------------------------------------------
 # every input x output pair against the full state space
 # ---------------------------------------------------------------------------------------------
@@ -68,7 +75,7 @@ def relative_l2(a, b):
 @pytest.mark.parametrize("input_kind", INPUTS)
 def test_all_modes_equal_the_full_state_space(input_kind, output, case):
     effects, extra = CASES[case]
-    model = BeamModel(GEOMETRY, effects, input_kind=input_kind)
+    model = BeamModel(GEOMETRY, effects, intervals=ALL_MODES_INTERVALS, input_kind=input_kind)
     parameters = parameters_for(input_kind, extra)
     t, u = smooth_burst(4000.0)
     full = model.response_full(parameters, u, t[1], output=output)
@@ -96,7 +103,7 @@ def test_four_modes_with_the_correction_match_the_full_model(input_kind, output)
     acceleration against the full model under the continuous (linearly interpolated) input at
     80 kHz, because the held input's steps give the full model's acceleration a jump c M⁻¹ f Δu
     at every sample (an artefact of the hold that the truncated model rightly lacks)."""
-    model = BeamModel(GEOMETRY, ["air_damping", "kelvin_voigt"], input_kind=input_kind)
+    model = BeamModel(GEOMETRY, ["air_damping", "kelvin_voigt"], intervals=ALL_MODES_INTERVALS, input_kind=input_kind)
     parameters = parameters_for(input_kind, DAMPING)
     if output == "acceleration":
         t, u = smooth_burst(80_000.0)
@@ -120,7 +127,7 @@ def test_four_modes_with_the_correction_match_the_full_model(input_kind, output)
 def test_the_full_models_feed_through_is_not_a_correction_for_the_acceleration():
     """c M⁻¹ f minus the retained modes' share, added as a direct term, is wrong by ~23 %: the
     discarded modes' quasi-static stiffness force cancels it (see beam.physics.model's notes)."""
-    model = BeamModel(GEOMETRY, ["air_damping", "kelvin_voigt"], input_kind="force")
+    model = BeamModel(GEOMETRY, ["air_damping", "kelvin_voigt"], intervals=ALL_MODES_INTERVALS, input_kind="force")
     parameters = parameters_for("force", DAMPING)
     matrices = model.system_matrices(parameters)
     c = model.parts.sensor_values
@@ -152,7 +159,7 @@ def test_irregular_stamps_equal_the_full_model_on_a_fine_grid(input_kind, output
     t, u_smooth = t_fine[picks], smooth_burst(fine_rate)[1][picks]
     held = u_smooth[np.searchsorted(picks, np.arange(t_fine.size), side="right") - 1]  # the staircase
     effects, extra = CASES["sensor mass (non-proportional)"]
-    model = BeamModel(GEOMETRY, effects, input_kind=input_kind)
+    model = BeamModel(GEOMETRY, effects, intervals=ALL_MODES_INTERVALS, input_kind=input_kind)
     parameters = parameters_for(input_kind, extra)
     full = model.response_full(parameters, held, 1 / fine_rate, output=output)[picks]
     exact = model.response_at(parameters, u_smooth, t, modes=None, output=output)
@@ -175,7 +182,7 @@ def _initial_modal_state(model, parameters, modes):
 @pytest.mark.parametrize("case", CASES)
 def test_free_response_with_all_modes_equals_the_full_state_space(case, output):
     effects, extra = CASES[case]
-    model = BeamModel(FREE_GEOMETRY, effects, input_kind=None)
+    model = BeamModel(FREE_GEOMETRY, effects, intervals=ALL_MODES_INTERVALS, input_kind=None)
     parameters = parameters_for(None, extra)
     eta, rate = _initial_modal_state(model, parameters, None)
     _, shapes = model.mode_shapes(parameters, None)
@@ -189,7 +196,7 @@ def test_free_response_with_all_modes_equals_the_full_state_space(case, output):
 def test_free_response_of_retained_modes_under_modal_damping_is_exact_when_truncated(output):
     """Modal damping keeps the modes uncoupled: a state in the first four modes stays there."""
     effects, extra = CASES["modal damping"]
-    model = BeamModel(FREE_GEOMETRY, effects, input_kind=None)
+    model = BeamModel(FREE_GEOMETRY, effects, intervals=ALL_MODES_INTERVALS, input_kind=None)
     parameters = parameters_for(None, extra)
     eta, rate = _initial_modal_state(model, parameters, 4)
     _, shapes = model.mode_shapes(parameters, 4)
@@ -204,7 +211,7 @@ def test_release_from_a_static_tip_deflection_four_modes_against_the_full_model(
     discarded modes (t > 0.2 s: 1.3e-8 measured; before, the discarded modes' ringing is 2 % of
     the velocity and as large as the acceleration)."""
     effects, extra = CASES["sensor mass (non-proportional)"]
-    model = BeamModel(FREE_GEOMETRY, effects, input_kind=None)
+    model = BeamModel(FREE_GEOMETRY, effects, intervals=ALL_MODES_INTERVALS, input_kind=None)
     parameters = parameters_for(None, dict(extra, kelvin_voigt_Nm2s=2e-4))
     stiffness = model.system_matrices(parameters)["stiffness"][0]
     q0 = np.linalg.solve(stiffness, model.parts.tip_values) * 0.1  # 0.1 N at the tip
@@ -225,7 +232,7 @@ def test_the_free_basis_spans_every_output_and_gives_back_the_initial_state(outp
     steps = np.where(rng.random(3000) < 0.002, rng.uniform(2e-3, 1e-2, 3000), rng.normal(0.25e-3, 0.02e-3, 3000))
     t = 7.0 + np.concatenate([[0.0], np.cumsum(steps)])
     effects, extra = CASES["sensor mass (non-proportional)"]
-    model = BeamModel(FREE_GEOMETRY, effects, input_kind=None)
+    model = BeamModel(FREE_GEOMETRY, effects, intervals=ALL_MODES_INTERVALS, input_kind=None)
     parameters = parameters_for(None, extra)
     eta, rate = _initial_modal_state(model, parameters, 4)
     y = model.free_response(parameters, t, eta, rate, modes=4, output=output)
@@ -246,7 +253,7 @@ def test_single_mode_free_decay_matches_its_closed_form():
     """One retained mode with modal damping zeta: poles -zeta omega ± i omega sqrt(1 - zeta²) and
     y = phi(x_s) e^(-zeta omega t) (eta0 cos omega_d t + (eta0' + zeta omega eta0) / omega_d sin omega_d t)."""
     zeta = 0.03
-    model = BeamModel(FREE_GEOMETRY, ["modal_damping"], input_kind=None)
+    model = BeamModel(FREE_GEOMETRY, ["modal_damping"], intervals=ALL_MODES_INTERVALS, input_kind=None)
     parameters = {"bending_stiffness_Nm2": EI, "damping_ratio_mode_1": zeta}
     omega2, shapes = model.mode_shapes(parameters, 1)
     omega, phi = np.sqrt(omega2[0]), model.parts.sensor_values @ shapes[:, 0]
@@ -292,7 +299,7 @@ def test_a_slowly_applied_force_gives_the_static_deflection(force_at, sensor_at)
     The force sits on a knot of the 16-interval mesh, where the cubic-spline basis holds the
     piecewise-cubic static shape exactly."""
     geometry = BeamGeometry(LENGTH, DENSITY, None, None, sensor_at, force_position_m=force_at)
-    model = BeamModel(geometry, ["modal_damping"], input_kind="force")
+    model = BeamModel(geometry, ["modal_damping"], intervals=ALL_MODES_INTERVALS, input_kind="force")
     parameters = {"bending_stiffness_Nm2": EI, **{f"damping_ratio_mode_{j}": 0.05 for j in range(1, 5)}}
     rate, force = 1000.0, 0.2
     t = np.arange(int(6.0 * rate)) / rate
@@ -319,16 +326,16 @@ def test_a_slowly_applied_force_gives_the_static_deflection(force_at, sensor_at)
 
 def test_a_sensor_mass_at_the_tip_is_a_tip_mass():
     geometry = BeamGeometry(LENGTH, DENSITY, None, None, LENGTH)
-    sensor = BeamModel(geometry, ["sensor_mass"], input_kind=None).natural_modes(
+    sensor = BeamModel(geometry, ["sensor_mass"], intervals=ALL_MODES_INTERVALS, input_kind=None).natural_modes(
         {"bending_stiffness_Nm2": EI, "sensor_mass_kg": 0.02}, 4)[0]
-    tip = BeamModel(geometry, ["tip_mass"], input_kind=None).natural_modes(
+    tip = BeamModel(geometry, ["tip_mass"], intervals=ALL_MODES_INTERVALS, input_kind=None).natural_modes(
         {"bending_stiffness_Nm2": EI, "tip_mass_kg": 0.02}, 4)[0]
     np.testing.assert_allclose(sensor, tip, rtol=1e-12)
 
 
 def test_a_small_sensor_mass_shifts_each_mode_by_rayleighs_first_order_estimate():
     """delta omega / omega = -m_s phi_j(x_s)² / 2 for mass-normalised shapes, to first order in m_s."""
-    model = BeamModel(FREE_GEOMETRY, ["sensor_mass"], input_kind=None)
+    model = BeamModel(FREE_GEOMETRY, ["sensor_mass"], intervals=ALL_MODES_INTERVALS, input_kind=None)
     bare = {"bending_stiffness_Nm2": EI, "sensor_mass_kg": 0.0}
     omega2, shapes = model.mode_shapes(bare, 4)
     phi = model.parts.sensor_values @ shapes
@@ -338,10 +345,10 @@ def test_a_small_sensor_mass_shifts_each_mode_by_rayleighs_first_order_estimate(
 
 
 def test_modal_damping_sets_each_modes_ratio_and_leaves_the_others_undamped():
-    model = BeamModel(FREE_GEOMETRY, ["modal_damping"], input_kind=None)
+    model = BeamModel(FREE_GEOMETRY, ["modal_damping"], intervals=ALL_MODES_INTERVALS, input_kind=None)
     parameters = {"bending_stiffness_Nm2": EI, "damping_ratio_mode_1": 0.004, "damping_ratio_mode_2": 0.0015}
     frequencies, ratios = model.natural_modes(parameters, 4)
-    bare, _ = BeamModel(FREE_GEOMETRY, [], input_kind=None).natural_modes({"bending_stiffness_Nm2": EI}, 4)
+    bare, _ = BeamModel(FREE_GEOMETRY, [], intervals=ALL_MODES_INTERVALS, input_kind=None).natural_modes({"bending_stiffness_Nm2": EI}, 4)
     np.testing.assert_allclose(frequencies, bare, rtol=1e-10)  # |lambda| = omega
     np.testing.assert_allclose(ratios, [0.004, 0.0015, 0.0, 0.0], atol=1e-12)
     # the reduced system carries 2 zeta omega on its diagonal
@@ -351,7 +358,7 @@ def test_modal_damping_sets_each_modes_ratio_and_leaves_the_others_undamped():
 
 
 def test_per_mode_parameters_follow_the_number_of_retained_modes():
-    model = BeamModel(FREE_GEOMETRY, ["sensor_mass", "modal_damping"], input_kind=None)
+    model = BeamModel(FREE_GEOMETRY, ["sensor_mass", "modal_damping"], intervals=ALL_MODES_INTERVALS, input_kind=None)
     assert model.parameter_names_for(3) == ("bending_stiffness_Nm2", "sensor_mass_kg", "damping_ratio_mode_1",
                                             "damping_ratio_mode_2", "damping_ratio_mode_3")
     assert model_parameter_names(["modal_damping"], modes=2, input_kind=None) == (
@@ -376,16 +383,16 @@ def test_inputs_need_their_geometry_and_parameters():
     with pytest.raises(BeamInputError, match="voltage input needs the piezo patch"):
         BeamModel(FREE_GEOMETRY)
     with pytest.raises(BeamInputError, match="point-force input needs its position"):
-        BeamModel(FREE_GEOMETRY, input_kind="force")
+        BeamModel(FREE_GEOMETRY, intervals=ALL_MODES_INTERVALS, input_kind="force")
     with pytest.raises(BeamInputError, match="patch_stiffening acts on the piezo patch"):
-        BeamModel(FREE_GEOMETRY, ["patch_stiffening"], input_kind=None)
+        BeamModel(FREE_GEOMETRY, ["patch_stiffening"], intervals=ALL_MODES_INTERVALS, input_kind=None)
     with pytest.raises(BeamInputError, match="input kind must be"):
-        BeamModel(GEOMETRY, input_kind="pressure")
-    force_model = BeamModel(GEOMETRY, input_kind="force")
+        BeamModel(GEOMETRY, intervals=ALL_MODES_INTERVALS, input_kind="pressure")
+    force_model = BeamModel(GEOMETRY, intervals=ALL_MODES_INTERVALS, input_kind="force")
     assert force_model.parameter_names == ("bending_stiffness_Nm2",)
     with pytest.raises(BeamInputError, match="'patch_coupling_NmV' is not part of this model"):
         force_model.response({"bending_stiffness_Nm2": EI, "patch_coupling_NmV": 0.02}, np.zeros(5), 1e-3)
-    free_model = BeamModel(FREE_GEOMETRY, input_kind=None)
+    free_model = BeamModel(FREE_GEOMETRY, intervals=ALL_MODES_INTERVALS, input_kind=None)
     with pytest.raises(BeamInputError, match="no input .* use free_response"):
         free_model.response({"bending_stiffness_Nm2": EI}, np.zeros(5), 1e-3)
     with pytest.raises(BeamInputError, match="output must be one of displacement, velocity, acceleration"):

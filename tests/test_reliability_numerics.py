@@ -106,19 +106,19 @@ def test_constant_and_zero_voltage_give_finite_responses():
     assert np.all(model.response(TRUE_BASE, np.zeros(500), 1 / RATE) == 0.0)
 
 
-@pytest.mark.parametrize("modes", [0, 18, 1000, -1, 2.5, True])
+@pytest.mark.parametrize("modes", [0, 44, 1000, -1, 2.5, True])
 def test_more_modes_than_the_mesh_holds_is_one_clear_error(modes):
     model = BeamModel(GEOMETRY)
-    with pytest.raises(BeamInputError, match=r"modes must be between 1 and 17"):
+    with pytest.raises(BeamInputError, match=r"modes must be between 1 and 43"):
         model.response({"bending_stiffness_Nm2": 0.491, "patch_coupling_NmV": 0.0175}, CHIRP, 1 / RATE, modes=modes)
 
 
 def test_more_modes_than_the_mesh_holds_in_calibration():
     measurement = simulated_measurement(TRUE_BASE, duration_s=1.5, rate_Hz=400.0)
-    with pytest.raises(BeamInputError, match=r"modes must be between 1 and 17 \(the mesh holds 17 modes\), got 18"):
-        make_setup(measurement, modes=18)
-    with pytest.raises(BeamInputError, match="modes must be between 1 and 17"):
-        calibration_preview(measurement, modes=40)
+    with pytest.raises(BeamInputError, match=r"modes must be between 1 and 43 \(the mesh holds 43 modes\), got 44"):
+        make_setup(measurement, modes=44)
+    with pytest.raises(BeamInputError, match="modes must be between 1 and 43"):
+        calibration_preview(measurement, modes=50)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -48,6 +48,7 @@ from beam.inference import (
     Uniform,
 )
 from beam.io.measurement import Measurement
+from beam.physics.basis import DEFAULT_INTERVALS, DEFAULT_KNOTS
 from beam.physics.effects import PARAMETER_SPECS, parse_effects
 from beam.physics.model import BeamModel
 
@@ -254,15 +255,20 @@ def make_setup(
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
     modes: int = DEFAULT_MODES,
     likelihood: str = "iid",
-    intervals: int = 16,
+    intervals: int = DEFAULT_INTERVALS,
+    knots: str = DEFAULT_KNOTS,
 ) -> BeamCalibrationSetup:
-    """Validate the choices and build the model (BeamInputError on any bad choice)."""
+    """Validate the choices and build the model (BeamInputError on any bad choice).
+
+    ``intervals`` and ``knots`` set the Galerkin mesh (:mod:`beam.physics.basis`; default: the patch
+    knots, as ``beam simulate`` uses).
+    """
     if likelihood not in LIKELIHOODS:
         raise BeamInputError(f"unknown likelihood {likelihood!r}; expected one of {', '.join(LIKELIHOODS)}")
     effects = parse_effects(effects)
     window = resolve_window(measurement, window)
     check_calibration_record(measurement, window)
-    model = BeamModel(measurement.geometry, effects, intervals, input_kind=measurement.input_kind)
+    model = BeamModel(measurement.geometry, effects, intervals, knots, input_kind=measurement.input_kind)
     if isinstance(modes, bool) or int(modes) != modes or not 1 <= modes <= model.size:
         raise BeamInputError(f"modes must be between 1 and {model.size} (the mesh holds {model.size} modes), got {modes}")
     if model.is_nonlinear and (measurement.is_free or not measurement.uniform or measurement.output_kind != "displacement"):

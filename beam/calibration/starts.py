@@ -49,7 +49,12 @@ import numpy as np
 from scipy.stats import qmc
 
 from beam.calibration.fit import internal_starts, levenberg_marquardt
-from beam.calibration.setup import BeamCalibrationSetup, BeamForwardModel, build_problem, prior_centre
+from beam.calibration.setup import (
+    BeamCalibrationSetup,
+    BeamForwardModel,
+    build_problem,
+    prior_centre,
+)
 from beam.inference import Problem
 from beam.physics.model import BeamModel
 

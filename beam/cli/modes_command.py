@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         BeamModel,  # scipy is slow to import: only once the config is valid
     )
 
-    model = BeamModel(config.geometry, config.effects, config.intervals)
+    model = BeamModel(config.geometry, config.effects, config.intervals, config.knots)
     count = None if args.count is None else min(args.count, model.size)
     frequencies, ratios = model.natural_modes(config.parameters, count)
     change, finer = refinement_change(config, frequencies)
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write(json.dumps(document) + "\n")
         return 0
     effects = ", ".join(config.effects) or "none"
-    lines = [f"{config.title} (effects: {effects}; {config.intervals} intervals)",
+    lines = [f"{config.title} (effects: {effects}; {config.intervals} intervals, knots {config.knots!r})",
              f"{'mode':>4}  {'frequency (Hz)':>15}  {'damping ratio':>13}  {'resolved':>8}"]
     for i, (f, z) in enumerate(zip(frequencies, ratios)):
         mark = "-" if resolved is None else ("yes" if resolved[i] else "NO")

@@ -14,7 +14,9 @@ A config is TOML with
 * ``[sampling]``: ``rate_Hz``, ``duration_s`` (n = round(rate_Hz duration_s) samples at
   t_k = k / rate_Hz), optional ``noise_m`` (standard deviation of Gaussian sensor noise, m,
   default 0) and ``seed`` (integer >= 0, default 0);
-* optional ``[model]`` ``intervals`` (B-spline intervals, default 16).
+* optional ``[model]``: ``intervals`` (B-spline elements, default
+  :data:`beam.physics.basis.DEFAULT_INTERVALS`) and ``knots`` (``"patch"``, the default: double knots at
+  the patch ends; or ``"uniform"``: Smith's uniform mesh, see :mod:`beam.physics.basis`).
 
 ``[excitation]`` and ``[sampling]`` may be left out when only the parameters matter
 (``beam modes``); :meth:`SimulationConfig.require_simulation` asks for them. Unknown tables and
@@ -49,6 +51,13 @@ from beam.io.text import (
     load_toml,
     short_repr,
 )
+from beam.physics.basis import (
+    DEFAULT_INTERVALS,
+    DEFAULT_KNOTS,
+    INTERVALS_RANGE,
+    KNOT_LAYOUTS,
+    patch_breaks,
+)
 from beam.physics.effects import BASE_PARAMETERS, EFFECTS, effects_switched_on
 from beam.physics.excitation import ALL_EXCITATION_KEYS, EXCITATION_KEYS, Excitation
 from beam.physics.geometry import BeamGeometry
@@ -56,11 +65,6 @@ from beam.physics.geometry import BeamGeometry
 #: Top-level tables a config may hold.
 CONFIG_TABLES: tuple[str, ...] = (*GEOMETRY_TABLES, "nominal", "parameters", "excitation", "sampling", "model")
 
-#: Default number of B-spline intervals of the Galerkin model.
-DEFAULT_INTERVALS = 16
-
-#: Bounds on ``[model] intervals``.
-INTERVALS_RANGE = (2, 400)
 
 #: Largest number of samples a simulation may ask for.
 MAX_SAMPLES = 1_000_000
@@ -142,7 +146,9 @@ class SimulationConfig:
     sampling : Sampling or None
         Sampling and noise; None when the file has no ``[sampling]``.
     intervals : int
-        B-spline intervals of the Galerkin model.
+        B-spline elements of the Galerkin model.
+    knots : {"patch", "uniform"}
+        Knot layout of the Galerkin model (:mod:`beam.physics.basis`).
     nominal : dict
         ``[nominal]`` prior centres, copied to a simulated measurement's sidecar.
     path : Path or None
@@ -155,6 +161,7 @@ class SimulationConfig:
     excitation: Excitation | None = None
     sampling: Sampling | None = None
     intervals: int = DEFAULT_INTERVALS
+    knots: str = DEFAULT_KNOTS
     nominal: dict[str, float] = field(default_factory=dict)
     path: Path | None = None
 
@@ -243,15 +250,32 @@ def load_config(path: str | os.PathLike[str]) -> SimulationConfig:
     excitation = _read_excitation(reader)
     sampling = _read_sampling(reader)
     model_table = reader.table("model", required=False) or {}
-    reader.check_keys("model", model_table, ("intervals",))
+    reader.check_keys("model", model_table, ("intervals", "knots"))
     intervals = reader.integer(
         "model", model_table, "intervals", required=False, default=DEFAULT_INTERVALS,
         minimum=INTERVALS_RANGE[0], maximum=INTERVALS_RANGE[1],
     )
+    knots = read_knots(reader, model_table, "model")
+    if knots == "patch":
+        segments = patch_breaks(geometry, intervals).size - 1
+        if intervals < segments:
+            raise reader.fail("[model] intervals", f"must be >= {segments} with knots = \"patch\" (one element per segment "
+                                                   "between the root, the patch ends and the tip)")
     return SimulationConfig(
         title=title if title is not None else path.stem, geometry=geometry, parameters=parameters,
-        excitation=excitation, sampling=sampling, intervals=intervals, nominal=nominal, path=path,
+        excitation=excitation, sampling=sampling, intervals=intervals, knots=knots, nominal=nominal, path=path,
     )
+
+
+def read_knots(reader: TomlReader, table: Mapping[str, Any], name: str | None, default: str = DEFAULT_KNOTS) -> str:
+    """``knots`` of a table (``default`` when absent), one of :data:`KNOT_LAYOUTS`."""
+    if "knots" not in table:
+        return default
+    knots = reader.string(name, table, "knots")
+    if knots not in KNOT_LAYOUTS:
+        where = f"[{name}] knots" if name else "knots"
+        raise reader.fail(where, f"unknown knot layout {knots!r}; expected one of {', '.join(KNOT_LAYOUTS)}")
+    return knots
 
 
 def _read_excitation(reader: TomlReader) -> Excitation | None:

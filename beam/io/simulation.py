@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from beam.errors import BeamInputError
-from beam.io.config import SimulationConfig, check_parameters
+from beam.io.config import SimulationConfig, check_parameters, read_knots
 from beam.io.measurement import Measurement, measurement_paths, write_measurement
 from beam.io.text import TomlReader, dump_toml, load_toml
 from beam.physics.effects import parse_effects
@@ -76,6 +76,7 @@ class Simulation:
             "noise_m": float(self.noise_m),
             "seed": int(self.seed),
             "intervals": int(config.intervals),
+            "knots": config.knots,
             "parameters": dict(config.parameters),
             "excitation": excitation_table,
             "sampling": {"rate_Hz": float(sampling.rate_Hz), "duration_s": float(sampling.duration_s),
@@ -116,7 +117,7 @@ def simulate(
         raise BeamInputError(f"seed must be an integer >= 0, got {seed!r}")
     time_s = sampling.time_s()
     voltage_V = excitation.voltage(time_s)
-    model = BeamModel(config.geometry, config.effects, config.intervals)
+    model = BeamModel(config.geometry, config.effects, config.intervals, config.knots)
     clean = model.response(config.parameters, voltage_V, sampling.sample_interval_s, modes=modes)
     clean = np.asarray(clean, dtype=float)
     clean = clean.reshape(time_s.size)  # one parameter set: (n,), also if the model returns (1, n)
@@ -177,7 +178,10 @@ class Truth:
     seed : int
         Noise seed.
     intervals : int
-        B-spline intervals of the model.
+        B-spline elements of the model.
+    knots : str
+        Knot layout of the model (``"patch"`` or ``"uniform"``; ``"uniform"`` when the file
+        predates the patch knots and has no ``knots``).
     excitation, sampling : dict
         The ``[excitation]`` and ``[sampling]`` tables as written.
     path : Path
@@ -190,6 +194,7 @@ class Truth:
     noise_m: float
     seed: int
     intervals: int
+    knots: str
     excitation: dict[str, Any]
     sampling: dict[str, Any]
     path: Path
@@ -214,7 +219,7 @@ def read_truth(path: str | os.PathLike[str]) -> Truth:
     document = reader.document
     reader.check_top_level(
         tables=("parameters", "excitation", "sampling"),
-        keys=("title", "config", "effects", "modes", "noise_m", "seed", "intervals"),
+        keys=("title", "config", "effects", "modes", "noise_m", "seed", "intervals", "knots"),
     )
     parameters = check_parameters(reader.table("parameters"), f"{path}: [parameters]")
     effects = document.get("effects")
@@ -234,6 +239,7 @@ def read_truth(path: str | os.PathLike[str]) -> Truth:
         noise_m=reader.number(None, document, "noise_m", allow_zero=True),
         seed=reader.integer(None, document, "seed", minimum=0),
         intervals=reader.integer(None, document, "intervals", minimum=2),
+        knots=read_knots(reader, document, None, default="uniform"),
         excitation=dict(reader.table("excitation")),
         sampling=dict(reader.table("sampling")),
         path=path,

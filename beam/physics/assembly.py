@@ -2,8 +2,10 @@
 
 Every matrix the effects need is assembled once per geometry and mesh, for a unit coefficient:
 the model then forms M, C, K and the force as sums ``coefficient * part`` (see
-:class:`beam.physics.effects.Term`). Quadrature is Gauss–Legendre on each mesh interval, split at the
-patch ends, so that piecewise properties are integrated exactly.
+:class:`beam.physics.effects.Term`). The basis is :class:`beam.physics.basis.SplineBasis` (cubic B-splines, the
+patch ends as double knots by default). Quadrature is Gauss–Legendre on each knot interval, also
+split at the patch ends (which are knots already unless ``knots = "uniform"``), so that piecewise
+properties are integrated exactly.
 """
 
 from __future__ import annotations
@@ -12,7 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from beam.physics.basis import ModifiedCubicBasis, gauss_points
+from beam.physics.basis import (
+    DEFAULT_INTERVALS,
+    DEFAULT_KNOTS,
+    KnotLayout,
+    SplineBasis,
+    gauss_points,
+)
 from beam.physics.geometry import BeamGeometry
 
 
@@ -38,7 +46,7 @@ class GalerkinParts:
     sensor_values : (n,)  phi_i(x_obs): sensor displacement y = sensor_values @ q.
     """
 
-    basis: ModifiedCubicBasis
+    basis: SplineBasis
     mass_beam: np.ndarray
     mass_patch: np.ndarray
     mass_tip: np.ndarray
@@ -56,12 +64,24 @@ class GalerkinParts:
         return self.basis.size
 
 
-def assemble_parts(geometry: BeamGeometry, intervals: int = 16, free_root_rotation: bool = False) -> GalerkinParts:
-    """Assemble the Galerkin parts of ``geometry`` on ``intervals`` uniform intervals."""
-    basis = ModifiedCubicBasis(geometry.length_m, intervals, free_root_rotation)
-    nodes = np.linspace(0.0, geometry.length_m, basis.intervals + 1)
-    patch = [geometry.patch_start_m, geometry.patch_end_m] if geometry.has_patch else []
-    breaks = np.unique(np.concatenate([nodes, patch]))
+def assemble_parts(geometry: BeamGeometry, intervals: int = DEFAULT_INTERVALS, free_root_rotation: bool = False,
+                   knots: KnotLayout = DEFAULT_KNOTS) -> GalerkinParts:
+    """Assemble the Galerkin parts of ``geometry`` with ``intervals`` elements in a knot layout.
+
+    Parameters
+    ----------
+    geometry : BeamGeometry
+        Beam, patch and sensor (m).
+    intervals : int
+        Number of elements (knot intervals).
+    free_root_rotation : bool
+        Keep the root rotation free (compliant clamp) instead of clamping it.
+    knots : {"patch", "uniform"}
+        Knot layout (:func:`beam.physics.basis.knot_vector`).
+    """
+    basis = SplineBasis.for_geometry(geometry, intervals, knots, free_root_rotation)
+    patch_ends = [geometry.patch_start_m, geometry.patch_end_m] if geometry.has_patch else []
+    breaks = np.unique(np.concatenate([basis.breakpoints_m, patch_ends]))
     x, w = gauss_points(breaks)
     if geometry.has_patch:
         on_patch = (x >= geometry.patch_start_m) & (x <= geometry.patch_end_m)

@@ -74,6 +74,13 @@ import numpy as np
 from beam.errors import BeamInputError
 from beam.physics import modal
 from beam.physics.assembly import GalerkinParts, assemble_parts
+from beam.physics.basis import (
+    DEFAULT_INTERVALS,
+    DEFAULT_KNOTS,
+    INTERVALS_RANGE,
+    KNOT_LAYOUTS,
+    KnotLayout,
+)
 from beam.physics.effects import (
     BASE_TERMS,
     EFFECTS,
@@ -126,7 +133,11 @@ class BeamModel:
     effects : iterable of str or str
         Effect ids from :data:`beam.physics.effects.EFFECTS` (or a comma-separated string).
     intervals : int
-        Number N of uniform B-spline intervals (default 16).
+        Number N of B-spline elements (knot intervals), default
+        :data:`beam.physics.basis.DEFAULT_INTERVALS`.
+    knots : {"patch", "uniform"}
+        Knot layout (:mod:`beam.physics.basis`): ``"patch"`` (default) puts double knots at the
+        patch ends (fourth-order accurate for the stepped beam); ``"uniform"`` is Smith's uniform C² mesh.
     input_kind : {"voltage", "force", None}
         What drives the beam: the patch voltage (needs a patch; parameter
         ``patch_coupling_NmV``), a point force in N at ``geometry.force_position_m``, or nothing
@@ -134,15 +145,18 @@ class BeamModel:
     """
 
     def __init__(
-        self, geometry: BeamGeometry, effects: Iterable[str] | str = (), intervals: int = 16, *,
-        input_kind: str | None = "voltage",
+        self, geometry: BeamGeometry, effects: Iterable[str] | str = (), intervals: int = DEFAULT_INTERVALS,
+        knots: KnotLayout = DEFAULT_KNOTS, *, input_kind: str | None = "voltage",
     ) -> None:
-        if isinstance(intervals, bool) or int(intervals) != intervals or not 2 <= intervals <= 400:
-            raise BeamInputError(f"intervals must be an integer in [2, 400], got {intervals!r}")
+        if isinstance(intervals, bool) or int(intervals) != intervals or not INTERVALS_RANGE[0] <= intervals <= INTERVALS_RANGE[1]:
+            raise BeamInputError(f"intervals must be an integer in [{INTERVALS_RANGE[0]}, {INTERVALS_RANGE[1]}], got {intervals!r}")
+        if knots not in KNOT_LAYOUTS:
+            raise BeamInputError(f"knots must be one of {', '.join(repr(k) for k in KNOT_LAYOUTS)}, got {knots!r}")
         check_input_kind(input_kind)
         self.geometry = geometry
         self.effects = parse_effects(effects)
         self.intervals = int(intervals)
+        self.knots: str = knots
         self.input_kind = input_kind
         if input_kind == "voltage" and not geometry.has_patch:
             raise BeamInputError("a voltage input needs the piezo patch: the sidecar has no [patch]")
@@ -152,7 +166,7 @@ class BeamModel:
             if EFFECTS[effect_id].needs_patch and not geometry.has_patch:
                 raise BeamInputError(f"effect {effect_id} acts on the piezo patch, but the sidecar has no [patch]")
         frees_root = any(EFFECTS[e].frees_root_rotation for e in self.effects)
-        self.parts: GalerkinParts = assemble_parts(geometry, self.intervals, frees_root)
+        self.parts: GalerkinParts = assemble_parts(geometry, self.intervals, frees_root, knots)
         input_term = INPUT_TERMS[input_kind]
         self._base_terms: tuple[Term, ...] = BASE_TERMS[:2] + ((input_term,) if input_term is not None else ())
         self._input_vector = getattr(self.parts, input_term.part) if input_term is not None else np.zeros(self.size)
@@ -319,7 +333,7 @@ class BeamModel:
         matrices = {target: self._combine(layout, coef, target) for target in ("mass", "damping", "stiffness", "force")}
         if layout.modal_rows.size:
             mass, stiffness = matrices["mass"], matrices["stiffness"]
-            omega2, shapes = modal.undamped_modes(mass, stiffness)
+            omega2, shapes = modal.undamped_modes(mass, stiffness, shift=self.parts.basis.free_root_rotation)
             count = min(self.size, int(layout.modal_modes.max()) + 1)
             ratios = self._modal_ratios(layout, table, count)
             gains = 2.0 * ratios * np.sqrt(np.clip(omega2[:, :count], 0.0, None))  # (B, count)
@@ -385,7 +399,7 @@ class BeamModel:
         )
         try:
             with np.errstate(over="raise", invalid="raise"):
-                omega2, shapes = modal.undamped_modes(mass, stiff)
+                omega2, shapes = modal.undamped_modes(mass, stiff, shift=self.parts.basis.free_root_rotation)
         except (np.linalg.LinAlgError, FloatingPointError, OverflowError) as exc:
             raise BeamInputError(f"the beam's mass and stiffness matrices cannot be solved ({exc}); check the geometry and values") from None
         shapes = shapes * _shape_signs(self.parts.tip_values @ shapes)[:, None, :]
@@ -449,8 +463,8 @@ class BeamModel:
         n_modes = self.size if modes is None else modes
         if isinstance(n_modes, bool) or int(n_modes) != n_modes or not 1 <= n_modes <= self.size:
             raise BeamInputError(
-                f"modes must be between 1 and {self.size} (the mesh of {self.intervals} intervals holds "
-                f"{self.size} modes), got {modes}"
+                f"modes must be between 1 and {self.size} (the mesh of {self.intervals} intervals, knots "
+                f"{self.knots!r}, holds {self.size} modes), got {modes}"
             )
         return int(n_modes)
 
@@ -509,7 +523,8 @@ class BeamModel:
         matrices = self.system_matrices(parameters)
         if matrices["mass"].shape[0] != 1:
             raise BeamInputError("mode_shapes takes one parameter set")
-        omega2, shapes = modal.undamped_modes(matrices["mass"], matrices["stiffness"])
+        omega2, shapes = modal.undamped_modes(matrices["mass"], matrices["stiffness"],
+                                              shift=self.parts.basis.free_root_rotation)
         shapes = shapes * _shape_signs(self.parts.tip_values @ shapes)[:, None, :]
         return omega2[0, :n_modes], shapes[0, :, :n_modes]
 
@@ -785,10 +800,10 @@ class BeamModel:
         time = np.arange(voltage.size) * sample_interval_s
         out = np.empty((batch, voltage.size))
         for b in range(batch):
-            system = state_space(
+            system = _balanced(state_space(
                 matrices["mass"][b], matrices["damping"][b], matrices["stiffness"][b], matrices["force"][b],
                 self.parts.sensor_values, order,
-            )
+            ))
             _, y, _ = scipy.signal.lsim(system, voltage, time, interp=False)
             out[b] = y
         return out if batched else out[0]
@@ -810,10 +825,25 @@ class BeamModel:
 
         q = np.asarray(displacement, dtype=float)
         v = np.zeros_like(q) if velocity is None else np.asarray(velocity, dtype=float)
-        system = state_space(matrices["mass"][0], matrices["damping"][0], matrices["stiffness"][0],
-                             np.zeros(self.size), self.parts.sensor_values, order)
-        _, y, _ = scipy.signal.lsim(system, np.zeros(time.size), time - time[0], X0=np.concatenate([q, v]), interp=False)
+        system, scale = _balanced(state_space(matrices["mass"][0], matrices["damping"][0], matrices["stiffness"][0],
+                                              np.zeros(self.size), self.parts.sensor_values, order), with_scale=True)
+        x0 = np.concatenate([q, v]) / scale  # the balanced state is diag(scale)⁻¹ x
+        _, y, _ = scipy.signal.lsim(system, np.zeros(time.size), time - time[0], X0=x0, interp=False)
         return y
+
+
+def _balanced(system: tuple[np.ndarray, ...], with_scale: bool = False):
+    """The state space (A, B, C, D) balanced by a diagonal similarity (:func:`scipy.linalg.matrix_balance`).
+
+    The matrix exponential of the raw state matrix, whose stiffest modes reach omega ~ 3e6 rad/s
+    at 40 elements, lost up to 7e-7 (relative L2) against a 40-digit reference; balanced, 3e-9.
+    """
+    import scipy.linalg
+
+    a, b, c, d = system
+    a, (scale, _) = scipy.linalg.matrix_balance(a, permute=False, separate=True)
+    balanced = (a, b / scale[:, None], c * scale[None, :], d)
+    return (balanced, scale) if with_scale else balanced
 
 
 def held_input_derivative(inputs: np.ndarray, time_s: np.ndarray | float, order: int) -> np.ndarray:

@@ -38,7 +38,7 @@ def best_seconds(function, number: int = 1, repeat: int = 5) -> float:
 
 def main() -> None:
     config = load_config(ROOT / "assets" / "b1tapih.toml")
-    model = BeamModel(config.geometry, config.effects, config.intervals)
+    model = BeamModel(config.geometry, config.effects, config.intervals, config.knots)
     frequencies, _ = model.natural_modes(config.parameters, 4)
     truth = np.round(frequencies, 2)
     print(f"{'samples':>8} {'identify':>9} {'envelope':>9} {'spectrum':>9} {'whiteness':>9}  modes found (truth {truth})")

@@ -36,7 +36,7 @@ def main() -> None:
     dt = config.sampling.sample_interval_s
     time_s = np.arange(2000) * dt
     voltage = config.excitation.voltage(time_s)
-    model = BeamModel(config.geometry, config.effects, config.intervals)
+    model = BeamModel(config.geometry, config.effects, config.intervals, config.knots)
     parameters = dict(config.parameters)
     model.response(parameters, voltage, dt, modes=4)  # compile (numba) and warm the shape cache
 
@@ -66,7 +66,7 @@ def main() -> None:
         model.response(batch, voltage, dt, modes=4)
 
     # the calibration default (air_damping + kelvin_voigt: one shared shape for every set)
-    base_model = BeamModel(config.geometry, ["air_damping", "kelvin_voigt"], config.intervals)
+    base_model = BeamModel(config.geometry, ["air_damping", "kelvin_voigt"], config.intervals, config.knots)
     base_parameters = {k: v for k, v in parameters.items() if k in base_model.parameter_names}
     base_batch = {k: v * rng.uniform(0.9, 1.1, 64) for k, v in base_parameters.items()}
     base_model.response(base_batch, voltage, dt, modes=4)
