@@ -42,7 +42,7 @@ def test_adding_the_missing_effect_lowers_the_prediction_error(page):
     assert before["rmse_prediction"] > 3 * after["rmse_prediction"]
     assert ladder["ladder_rmse"] == pytest.approx(after["rmse_prediction"], rel=1e-4)
     open_tab(page, "Beam calibration")
-    expect(page.locator(".beam-cal-rmse-prediction-um").first).to_be_visible()
+    expect(page.locator(".beam-cal-rmse-prediction").first).to_be_visible()
     assert page.errors == []
 
 
