@@ -3,7 +3,8 @@
 Pure Python on top of the public ``beam`` API (no UI import).
 
 :func:`bundled_datasets`, :func:`load_bundled`, :func:`load_upload`
-    The bundled lab runs (``assets/measurements``) and user uploads (CSV + TOML sidecar,
+    The bundled lab runs (``assets/measurements``), the real records offered as teaching cases
+    (:data:`REAL_DATASETS`, in ``assets/real``; no known answer) and user uploads (CSV + TOML sidecar,
     checked by writing them to a temporary directory and reading them with
     :func:`beam.io.measurement.read_measurement`).
 :func:`calibration_run`
@@ -56,11 +57,11 @@ from dashboard.runtime import scheduler as sch
 from dashboard.runtime.caches import LRU, cached_stages
 
 __all__ = [
-    "warm_worker",
     "ASSETS",
     "CALIBRATIONS",
     "DIAGNOSES",
     "MAX_UPLOAD_BYTES",
+    "REAL_DATASETS",
     "CalibrationKey",
     "Diagnosis",
     "bundled_datasets",
@@ -68,9 +69,11 @@ __all__ = [
     "calibration_stages",
     "diagnosis_run",
     "diagnosis_stages",
+    "is_real",
     "load_bundled",
     "load_upload",
     "read_answer",
+    "warm_worker",
 ]
 
 REPO = Path(__file__).resolve().parents[2]
@@ -97,27 +100,46 @@ class CalibrationKey:
 
 
 # -- datasets ---------------------------------------------------------------------------------
+#: Real records (``assets/real/NAME.csv``) in the dataset list, with the title shown for them (a
+#: teaching question: there is no hidden answer, see ``assets/real/README.md``).
+REAL_DATASETS = {
+    "adxl_50cm_114655": "Real aluminium strip (accelerometer): the model misses something — what?",
+}
+
+
+def is_real(name: str) -> bool:
+    """Whether ``name`` is a bundled real record (no known answer)."""
+    return name in REAL_DATASETS
+
+
 @lru_cache(maxsize=1)
 def bundled_datasets() -> dict[str, str]:
-    """``{name: "name — title"}`` of the bundled lab runs, in name order."""
+    """``{name: "name — title"}`` of the bundled lab runs (name order), then the real records."""
     out = {}
     for csv in sorted((ASSETS / "measurements").glob("*.csv")):
         try:
             out[csv.stem] = f"{csv.stem} — {load_bundled(csv.stem).title}"
         except BeamInputError:  # pragma: no cover - a broken bundled file
             continue
+    for name, title in REAL_DATASETS.items():
+        if (ASSETS / "real" / f"{name}.csv").exists():
+            out[name] = f"{name} — {title}"
     return out
 
 
 @lru_cache(maxsize=8)
 def load_bundled(name: str) -> Measurement:
-    """The bundled measurement ``assets/measurements/NAME.csv`` (cached: measurements are read-only)."""
-    return read_measurement(ASSETS / "measurements" / f"{name}.csv")
+    """The bundled measurement ``assets/measurements/NAME.csv`` or, for a real record,
+    ``assets/real/NAME.csv`` (cached: measurements are read-only)."""
+    folder = "real" if is_real(name) else "measurements"
+    return read_measurement(ASSETS / folder / f"{name}.csv")
 
 
 def read_answer(name: str) -> dict | None:
     """The hidden truth of a bundled dataset: ``{"title", "effects", "parameters", "noise_m"}`` or None
-    (``noise_m``: the true noise sd in m, None if the truth file has none)."""
+    (``noise_m``: the true noise sd in m, None if the truth file has none); None for a real record."""
+    if is_real(name):
+        return None
     path = ASSETS / "answers" / f"{name}.truth.toml"
     if not path.exists():
         return None
@@ -280,7 +302,7 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> Iterator[
     base = calibration_preview(measurement, window=key.window, effects=key.effects, modes=key.modes)
     yield sch.progress(0.1, "residual diagnostics: band, spectrum, whiteness, modes, backbone")
     residuals = residual_report(base)
-    names = list(candidate_effects(base.setup.effects))
+    names = list(candidate_effects(base.setup.effects, measurement))  # fits the record: sensor_mass for an accelerometer
     diagnosis = Diagnosis(key, base, residuals, [], list(names))
     yield sch.partial(diagnosis, 0.25, f"ranking {len(names)} candidate effects")
     explain = explainer(residuals)
@@ -297,7 +319,7 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> Iterator[
         yield sch.partial(diagnosis, 0.25 + 0.75 * done / max(len(names), 1), f"ranked {done} of {len(names)} candidates")
     try:  # how far the best model reached is from the record's noise (as the command line's verdict)
         best = fits.get(diagnosis.missing) if diagnosis.missing is not None else base
-        diagnosis.remaining = remaining_error(best, noise_floor(measurement.time_s, measurement.displacement_m))
+        diagnosis.remaining = remaining_error(best, noise_floor(measurement.time_s, measurement.output))
     except BeamInputError:
         pass
     yield sch.final(diagnosis, "diagnosis")

@@ -1,7 +1,9 @@
 """Read-outs, tables and downloads of beam calibration results (pure Python: numpy and pandas).
 
 Everything comes from the public :class:`beam.calibration.CalibrationResult` API; every
-quantity carries its unit in its label (displacements and RMSE in µm, coverage in %).
+quantity carries its unit in its label. Read-outs follow the record's output
+(:func:`output_units`): displacement and its RMSE in µm, velocity in mm/s, acceleration in m/s²;
+coverage in %.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import math
 import os
 import tempfile
 import threading
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -23,6 +26,7 @@ from beam.residuals.noise import noise_floor
 from dashboard.outputs.exports import _jsonable
 
 __all__ = [
+    "OutputUnits",
     "bands_csv",
     "compare_table",
     "convergence",
@@ -32,8 +36,10 @@ __all__ = [
     "filename",
     "fmt_pct",
     "fmt_um",
+    "fmt_value",
     "judged_readouts",
     "noise_floor_m",
+    "output_units",
     "parameter_label",
     "parameter_table",
     "posterior_netcdf",
@@ -45,11 +51,48 @@ __all__ = [
     "verdict_text",
 ]
 
+@dataclass(frozen=True)
+class OutputUnits:
+    """How a record's output is shown: read-outs in ``unit`` (``scale`` × the SI value), plots in
+    ``plot_unit`` (``plot_scale`` × the SI value); ``quantity`` is ``"Displacement"``, ... ."""
+
+    quantity: str
+    si_unit: str
+    scale: float
+    unit: str
+    plot_scale: float
+    plot_unit: str
+
+    def axis_label(self, what: str | None = None) -> str:
+        """``"Acceleration (m/s²)"``, or ``"Residual (m/s²)"`` with ``what="Residual"`` (plot unit)."""
+        return f"{what or self.quantity} ({self.plot_unit})"
+
+
+_UNITS = {
+    "displacement": OutputUnits("Displacement", "m", 1e6, "µm", 1e3, "mm"),
+    "velocity": OutputUnits("Velocity", "m/s", 1e3, "mm/s", 1e3, "mm/s"),
+    "acceleration": OutputUnits("Acceleration", "m/s²", 1.0, "m/s²", 1.0, "m/s²"),
+}
+
+
+def output_units(source) -> OutputUnits:
+    """The :class:`OutputUnits` of a measurement, a calibration result or a diagnosis
+    (``measurement.output_kind``); displacement for None."""
+    m = source
+    if m is not None and not hasattr(m, "output_kind"):
+        result = getattr(m, "base", m)  # a diagnosis: its base calibration
+        m = result.setup.measurement
+    return _UNITS["displacement" if m is None else m.output_kind]
+
+
 _EXTRA_LABELS = {"noise_sd": "Noise sd σ (m)", "ar1_coefficient": "AR(1) coefficient ρ (1)"}
 
 
-def parameter_label(name: str) -> str:
-    """``"EI — bending stiffness (N m²)"`` for a catalogue parameter, ``"Noise sd σ (m)"`` for noise."""
+def parameter_label(name: str, output_unit: str = "m") -> str:
+    """``"EI — bending stiffness (N m²)"`` for a catalogue parameter, ``"Noise sd σ (m)"`` for noise
+    (in ``output_unit``, the record's output's SI unit: ``"m/s²"`` for an accelerometer)."""
+    if name == "noise_sd":
+        return f"Noise sd σ ({output_unit})"
     if name in _EXTRA_LABELS:
         return _EXTRA_LABELS[name]
     try:
@@ -59,8 +102,10 @@ def parameter_label(name: str) -> str:
     return f"{spec.symbol} — {spec.description} ({spec.unit})"
 
 
-def short_label(name: str) -> str:
-    """``"EI (N m²)"``: short axis label with unit."""
+def short_label(name: str, output_unit: str = "m") -> str:
+    """``"EI (N m²)"``: short axis label with unit (the noise sd's in ``output_unit``)."""
+    if name == "noise_sd":
+        return f"σ ({output_unit})"
     if name in _EXTRA_LABELS:
         return _EXTRA_LABELS[name].replace("Noise sd ", "").replace("AR(1) coefficient ", "")
     try:
@@ -110,16 +155,21 @@ def summary(result) -> dict[str, dict[str, float]]:
     return _memoised(result, "summary", result.summary)
 
 
-def readouts(result) -> dict[str, float]:
-    """RMSE in the window and held out (µm), held-out 95 % coverage (%), noise sd (µm); NaN without a result."""
-    keys = ("rmse_calibration_um", "rmse_prediction_um", "coverage_pct", "noise_sd_um")
+def readouts(result) -> dict:
+    """RMSE in the window and held out, held-out 95 % coverage (%), noise sd; NaN without a result.
+
+    The RMSEs and the noise sd are in ``out["unit"]`` (:func:`output_units` of the record: µm for
+    displacement, mm/s for velocity, m/s² for acceleration).
+    """
+    keys = ("rmse_calibration", "rmse_prediction", "coverage_pct", "noise_sd")
     if result is None:
-        return dict.fromkeys(keys, math.nan)
+        return {**dict.fromkeys(keys, math.nan), "unit": output_units(None).unit}
 
     def compute():
+        u = output_units(result)
         noise = summary(result).get("noise_sd", {}).get("mean", math.nan)
-        return {"rmse_calibration_um": 1e6 * result.rmse_calibration, "rmse_prediction_um": 1e6 * result.rmse_prediction,
-                "coverage_pct": 100.0 * result.coverage95_prediction, "noise_sd_um": 1e6 * noise}
+        return {"rmse_calibration": u.scale * result.rmse_calibration, "rmse_prediction": u.scale * result.rmse_prediction,
+                "coverage_pct": 100.0 * result.coverage95_prediction, "noise_sd": u.scale * noise, "unit": u.unit}
 
     return dict(_memoised(result, "readouts", compute))
 
@@ -134,8 +184,8 @@ def parameter_table(result) -> pd.DataFrame:
     """Parameters (mean ± sd [95 % interval]) with units; empty without a result."""
     if result is None:
         return pd.DataFrame()
-    stats = summary(result)
-    rows = {parameter_label(n): {"posterior mean ± sd [95 % interval]": _estimate(stats[n]),
+    stats, si = summary(result), output_units(result).si_unit
+    rows = {parameter_label(n, si): {"posterior mean ± sd [95 % interval]": _estimate(stats[n]),
                                  "relative sd (%)": f"{100 * stats[n]['sd'] / abs(stats[n]['mean']):.2g}"
                                  if stats[n]["mean"] else "–"} for n in stats}
     return pd.DataFrame.from_dict(rows, orient="index")
@@ -146,21 +196,23 @@ def correlation_table(result) -> pd.DataFrame:
     if result is None:
         return pd.DataFrame()
     corr = result.correlation()
-    names = list(corr)
+    names, si = list(corr), output_units(result).si_unit
     return pd.DataFrame([[round(corr[a][b], 2) for b in names] for a in names],
-                        index=[short_label(n) for n in names], columns=[short_label(n) for n in names])
+                        index=[short_label(n, si) for n in names], columns=[short_label(n, si) for n in names])
 
 
 def compare_table(current, pinned=None) -> pd.DataFrame:
-    """Side by side: set-up, stage, parameters, RMSE (µm), coverage (%), convergence; columns Pinned, Current."""
+    """Side by side: set-up, stage, parameters, RMSE (the current record's output unit, see
+    :func:`output_units`), coverage (%), convergence; columns Pinned, Current."""
     if current is None:
         return pd.DataFrame()
+    unit = output_units(current).unit
     columns = ({"Pinned": pinned} if pinned is not None else {}) | {"Current": current}
     names: list[str] = []
     for res in columns.values():
         names += [n for n in summary(res) if n not in names]
-    index = (["Set-up", "Stage"] + [parameter_label(n) for n in names] + [
-        "RMSE in the window (µm)", "Held-out RMSE (µm)", "Held-out coverage, 95 % prediction band (%)",
+    index = (["Set-up", "Stage"] + [parameter_label(n, output_units(current).si_unit) for n in names] + [
+        f"RMSE in the window ({unit})", f"Held-out RMSE ({unit})", "Held-out coverage, 95 % prediction band (%)",
         "Converged (min ESS, max R-hat)"])
     table = {}
     for label, res in columns.items():
@@ -169,7 +221,8 @@ def compare_table(current, pinned=None) -> pd.DataFrame:
                 else "preview (no MCMC)")
         table[label] = [result_label(res), "preview (MAP + Laplace)" if res.is_preview else "posterior (MCMC)"] + [
             _estimate(s.get(n)) for n in names] + [
-            f"{r['rmse_calibration_um']:.4g}", f"{r['rmse_prediction_um']:.4g}", f"{r['coverage_pct']:.1f}", conv]
+            *(f"{r[k]:.4g}" + ("" if r["unit"] == unit else f" {r['unit']}") for k in ("rmse_calibration", "rmse_prediction")),
+            f"{r['coverage_pct']:.1f}", conv]
     return pd.DataFrame(table, index=index)
 
 
@@ -240,18 +293,22 @@ def effects_words(effects) -> str:
     return ", ".join(effect_title(e) for e in effects) or "bare beam"
 
 
-def fmt_um(value_um: float) -> str:
-    """A length in µm with sensible digits: ``"1 379"``, ``"57.3"``, ``"4.21"``, ``"0.052"``; ``"–"`` if not finite."""
-    if not math.isfinite(value_um):
+def fmt_value(value: float) -> str:
+    """A read-out with sensible digits: ``"1 379"``, ``"57.3"``, ``"4.21"``, ``"0.052"``; ``"–"`` if not finite."""
+    if not math.isfinite(value):
         return "–"
-    a = abs(value_um)
+    a = abs(value)
     if a >= 100:
-        return f"{value_um:,.0f}".replace(",", "\u2009")
+        return f"{value:,.0f}".replace(",", "\u2009")
     if a >= 10:
-        return f"{value_um:.1f}"
+        return f"{value:.1f}"
     if a >= 1:
-        return f"{value_um:.2f}"
-    return f"{value_um:.2g}"
+        return f"{value:.2f}"
+    return f"{value:.2g}"
+
+
+#: A length in µm (the same digits as :func:`fmt_value`).
+fmt_um = fmt_value
 
 
 def fmt_pct(value_pct: float) -> str:
@@ -310,7 +367,8 @@ GLOSSES = {
 
 # -- the noise floor of a record ------------------------------------------------------------------
 def noise_floor_m(measurement) -> float:
-    """Model-free estimate of the sensor noise sd of a record (m), NaN when it cannot be made.
+    """Model-free estimate of the sensor noise sd of a record (in the output's SI unit: m, m/s or
+    m/s²), NaN when it cannot be made.
 
     :func:`beam.residuals.noise.noise_floor` (the quietest sub-band of the record's spectrum),
     the same estimate as the diagnosis's verdict; memoised per record. A noise sd far above it
@@ -321,7 +379,7 @@ def noise_floor_m(measurement) -> float:
 
     def compute():
         try:
-            return noise_floor(measurement.time_s, measurement.displacement_m).sd
+            return noise_floor(measurement.time_s, measurement.output).sd
         except BeamInputError:
             return math.nan
 
@@ -339,10 +397,11 @@ def judged_readouts(result, floor_m: float | None = None) -> list[dict]:
     the physics — a high coverage is then not good news, and is not coloured green.
     """
     r = readouts(result)
+    u = output_units(result)
     if floor_m is None:
         floor_m = noise_floor_m(None if result is None else result.setup.measurement)
-    floor_um = 1e6 * floor_m if floor_m is not None else math.nan
-    ratio = r["noise_sd_um"] / floor_um if math.isfinite(floor_um) and floor_um > 0 else math.nan
+    floor_shown = u.scale * floor_m if floor_m is not None else math.nan  # in the read-outs' unit
+    ratio = r["noise_sd"] / floor_shown if math.isfinite(floor_shown) and floor_shown > 0 else math.nan
     inflated = math.isfinite(ratio) and ratio > 3.0
     cov = r["coverage_pct"]
     out = []
@@ -352,33 +411,33 @@ def judged_readouts(result, floor_m: float | None = None) -> list[dict]:
                     "gloss": gloss})
 
     if result is None:
-        for key, label, unit in (("rmse_calibration_um", "Error in the window", "µm"),
-                                 ("rmse_prediction_um", "Error on held-out data", "µm"),
+        for key, label, unit in (("rmse_calibration", "Error in the window", u.unit),
+                                 ("rmse_prediction", "Error on held-out data", u.unit),
                                  ("coverage_pct", "Held-out data inside the 95 % band", "%"),
-                                 ("noise_sd_um", "Noise the model needs", "µm")):
+                                 ("noise_sd", "Noise the model needs", u.unit)):
             item(key, label, "–", unit, "none", "", "")
         return out
-    item("rmse_calibration_um", "Error in the window", fmt_um(r["rmse_calibration_um"]), "µm", "none",
+    item("rmse_calibration", "Error in the window", fmt_value(r["rmse_calibration"]), u.unit, "none",
          "root-mean-square distance between data and model mean where it was calibrated",
          "RMSE: root-mean-square of data − model mean")
-    ratio_pred = r["rmse_prediction_um"] / floor_um if math.isfinite(ratio) else math.nan
+    ratio_pred = r["rmse_prediction"] / floor_shown if math.isfinite(ratio) else math.nan
     if math.isfinite(ratio_pred):
         if ratio_pred > 3.0:
-            words = f"{ratio_pred:.0f}× the sensor noise (~{fmt_um(floor_um)} µm): the model does not predict the rest of the record"
+            words = f"{ratio_pred:.0f}× the sensor noise (~{fmt_value(floor_shown)} {u.unit}): the model does not predict the rest of the record"
             kind = "bad"
         else:
-            words = f"close to the sensor noise (~{fmt_um(floor_um)} µm): the model predicts the rest of the record"
+            words = f"close to the sensor noise (~{fmt_value(floor_shown)} {u.unit}): the model predicts the rest of the record"
             kind = "good"
     else:
         words, kind = "root-mean-square error where the model was not calibrated", "none"
-    item("rmse_prediction_um", "Error on held-out data", fmt_um(r["rmse_prediction_um"]), "µm", kind, words,
+    item("rmse_prediction", "Error on held-out data", fmt_value(r["rmse_prediction"]), u.unit, kind, words,
          "RMSE on the part of the record not used for calibration")
     if not math.isfinite(cov):
         kind, words = "none", ""
     elif inflated:
         kind = "warn"
         words = (f"only because the band is {ratio:.0f}× too wide: the model needs a noise of "
-                 f"{fmt_um(r['noise_sd_um'])} µm where the sensor has ~{fmt_um(floor_um)} µm")
+                 f"{fmt_value(r['noise_sd'])} {u.unit} where the sensor has ~{fmt_value(floor_shown)} {u.unit}")
     elif cov < 85.0:
         kind, words = "bad", "well below 95 %: the band is too narrow, the model misses something"
     elif cov < 90.0:
@@ -388,11 +447,11 @@ def judged_readouts(result, floor_m: float | None = None) -> list[dict]:
     item("coverage_pct", "Held-out data inside the 95 % band", fmt_pct(cov), "%", kind, words, GLOSSES["coverage"])
     if math.isfinite(ratio):
         kind = "bad" if inflated else "good"
-        words = (f"{ratio:.0f}× the sensor's noise floor (~{fmt_um(floor_um)} µm): the misfit is put into the noise"
-                 if inflated else f"close to the sensor's noise floor (~{fmt_um(floor_um)} µm)")
+        words = (f"{ratio:.0f}× the sensor's noise floor (~{fmt_value(floor_shown)} {u.unit}): the misfit is put into the noise"
+                 if inflated else f"close to the sensor's noise floor (~{fmt_value(floor_shown)} {u.unit})")
     else:
         kind, words = "none", "standard deviation of the noise term of the likelihood"
-    item("noise_sd_um", "Noise the model needs", fmt_um(r["noise_sd_um"]), "µm", kind, words,
+    item("noise_sd", "Noise the model needs", fmt_value(r["noise_sd"]), u.unit, kind, words,
          "estimated noise sd σ; " + GLOSSES["noise floor"])
     return out
 
@@ -403,23 +462,24 @@ def verdict_text(diagnosis) -> str:
         return ""
     if diagnosis.pending:
         return f"Ranking the candidate effects: {len(diagnosis.pending)} to go…"
+    u = output_units(diagnosis)
     white = diagnosis.residuals.whiteness
     missing = diagnosis.missing
     remaining = getattr(diagnosis, "remaining", None)
     tail = ""
     if remaining is not None:
-        ratio, floor = remaining.remaining_error_ratio, 1e6 * remaining.noise_floor.sd
+        ratio, floor = remaining.remaining_error_ratio, u.scale * remaining.noise_floor.sd
         if remaining.outside_catalogue:
-            tail = (f" Still, the held-out error is **{ratio:.1f}× the sensor's noise** ({fmt_um(floor)} µm, "
+            tail = (f" Still, the held-out error is **{ratio:.1f}× the sensor's noise** ({fmt_value(floor)} {u.unit}, "
                     "estimated from the record alone) and the residuals are not white: **something outside the "
                     "catalogue** is at work.")
         else:
-            tail = f" What remains is {ratio:.1f}× the sensor's noise ({fmt_um(floor)} µm): the model predicts to the noise."
+            tail = f" What remains is {ratio:.1f}× the sensor's noise ({fmt_value(floor)} {u.unit}): the model predicts to the noise."
     if missing is not None:
         best = diagnosis.candidates[0]
-        before, after = 1e6 * diagnosis.base.rmse_prediction_map, 1e6 * best.rmse_prediction
-        return (f"**Missing: {effect_title(missing)}.** With it the held-out error is {fmt_um(after)} µm instead of "
-                f"{fmt_um(before)} µm ({change_words(after, before)}); evidence {evidence_words(best.delta_log_evidence)}."
+        before, after = u.scale * diagnosis.base.rmse_prediction_map, u.scale * best.rmse_prediction
+        return (f"**Missing: {effect_title(missing)}.** With it the held-out error is {fmt_value(after)} {u.unit} instead of "
+                f"{fmt_value(before)} {u.unit} ({change_words(after, before)}); evidence {evidence_words(best.delta_log_evidence)}."
                 + tail)
     if remaining is not None and remaining.outside_catalogue:
         return "**Nothing in the catalogue helps.**" + tail
@@ -441,7 +501,7 @@ def truth_table(result, answer: dict | None) -> pd.DataFrame:
     """Posterior against the true values of a revealed bundled dataset (units in the labels)."""
     if result is None:
         return pd.DataFrame()
-    stats = summary(result)
+    stats, si = summary(result), output_units(result).si_unit
     truth = dict((answer or {}).get("parameters", {}))
     if answer is not None and answer.get("noise_m") is not None:
         truth["noise_sd"] = float(answer["noise_m"])
@@ -453,10 +513,10 @@ def truth_table(result, answer: dict | None) -> pd.DataFrame:
             row["true value"] = f"{t:.4g}" if t is not None else "–"
             row["truth inside the 95 % interval"] = ("–" if t is None else
                                                      "yes" if s["q025"] <= t <= s["q975"] else "NO")
-        rows[parameter_label(n)] = row
+        rows[parameter_label(n, si)] = row
     if answer is not None:
         for n, t in truth.items():
             if n not in stats:
-                rows[parameter_label(n)] = {"posterior mean ± sd [95 % interval]": "not in the model",
+                rows[parameter_label(n, si)] = {"posterior mean ± sd [95 % interval]": "not in the model",
                                             "true value": f"{t:.4g}", "truth inside the 95 % interval": "–"}
     return pd.DataFrame.from_dict(rows, orient="index")

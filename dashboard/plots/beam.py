@@ -5,7 +5,8 @@ HoloViews version (DynamicMaps fed by Pipes for the record, the result, the pinn
 the true noise) drew the beam preview in 0.82 and 0.92 s median (1.34, 1.39 s max) after a
 window move in two runs, against 0.49 and 0.55 s (0.68, 0.66 s max) for this module in runs
 just after them (target 0.5 s; table and conditions in :mod:`dashboard.plots.timeseries`).
-Displacements are drawn in mm. Data sources are named ``beam-prediction-band``, ``beam-mean``,
+The output is drawn in its plot unit (:func:`dashboard.outputs.beam.output_units`: displacement in
+mm, velocity in mm/s, acceleration in m/s²), the y axis labelled with it. Data sources are named ``beam-prediction-band``, ``beam-mean``,
 ``beam-pinned-mean`` ... (unique in the document, so that browser tests can read them with
 ``get_model_by_name``).
 """
@@ -16,6 +17,7 @@ import numpy as np
 from bokeh.models import BoxAnnotation, ColumnDataSource, Legend, LegendItem, Range1d
 from bokeh.plotting import figure
 
+from dashboard.outputs.beam import output_units
 from dashboard.plots.timeseries import COLORS
 
 #: The pinned result (grey: the pink bands are the current result's) and the measurement (dark blue).
@@ -55,7 +57,7 @@ class BeamTimeSeriesPlot:
         fig.xaxis.major_label_text_font_size = fig.yaxis.major_label_text_font_size = "10pt"
         fig.xaxis.ticker.desired_num_ticks = 6
         fig.xaxis.axis_label = "Time (s)"
-        fig.yaxis.axis_label = "Displacement (mm)"
+        fig.yaxis.axis_label = output_units(None).axis_label()  # "Displacement (mm)" until a record is shown
         self.window = BoxAnnotation(left=0.0, right=0.0, fill_color=COLORS["window"], fill_alpha=0.35, level="underlay")
         fig.add_layout(self.window)
         names = ("pinned-band", "prediction-band", "credible-band", "data", "pinned-mean", "mean", "true-noise")
@@ -88,12 +90,16 @@ class BeamTimeSeriesPlot:
         self._measurement = None
         self._result = None
         self._true_noise_m: float | None = None
+        self._scale = MM  # SI -> the plot unit of the record shown
 
     def show_measurement(self, measurement) -> None:
         """Draw a record (before any result) and reset the axes to it."""
         if measurement is None or measurement is self._measurement:
             return
-        t, y = measurement.time_s, measurement.displacement_m * MM
+        u = output_units(measurement)
+        self._scale = u.plot_scale
+        self.figure.yaxis.axis_label = u.axis_label()
+        t, y = measurement.time_s, measurement.output * u.plot_scale
         k = _every(t.size)
         self.sources["data"].data = {"time_s": t[k], "value": y[k]}
         lo, hi = float(y.min()), float(y.max())
@@ -113,17 +119,17 @@ class BeamTimeSeriesPlot:
             b = result.bands
             k = _every(b.time_s.size)
             t = b.time_s[k]
-            src["prediction-band"].data = {"time_s": t, "lower": b.prediction_lower[k] * MM, "upper": b.prediction_upper[k] * MM}
-            src["credible-band"].data = {"time_s": t, "lower": b.credible_lower[k] * MM, "upper": b.credible_upper[k] * MM}
-            src["mean"].data = {"time_s": t, "value": b.mean[k] * MM}
+            src["prediction-band"].data = {"time_s": t, "lower": b.prediction_lower[k] * self._scale, "upper": b.prediction_upper[k] * self._scale}
+            src["credible-band"].data = {"time_s": t, "lower": b.credible_lower[k] * self._scale, "upper": b.credible_upper[k] * self._scale}
+            src["mean"].data = {"time_s": t, "value": b.mean[k] * self._scale}
             self.window.left, self.window.right = (float(v) for v in result.setup.window)
         same_record = pinned is not None and result is not None and pinned.setup.measurement is result.setup.measurement
         if same_record:
             pb = pinned.bands
             k = _every(pb.time_s.size)
-            src["pinned-band"].data = {"time_s": pb.time_s[k], "lower": pb.prediction_lower[k] * MM,
-                                       "upper": pb.prediction_upper[k] * MM}
-            src["pinned-mean"].data = {"time_s": pb.time_s[k], "value": np.asarray(pb.mean[k]) * MM}
+            src["pinned-band"].data = {"time_s": pb.time_s[k], "lower": pb.prediction_lower[k] * self._scale,
+                                       "upper": pb.prediction_upper[k] * self._scale}
+            src["pinned-mean"].data = {"time_s": pb.time_s[k], "value": np.asarray(pb.mean[k]) * self._scale}
         else:
             src["pinned-band"].data = dict(_BAND)
             src["pinned-mean"].data = dict(_XY)
@@ -145,7 +151,7 @@ class BeamTimeSeriesPlot:
             return
         b = result.bands
         k = _every(b.time_s.size)
-        mean = np.asarray(b.mean[k]) * MM
-        half = 1.959964 * noise * MM
+        mean = np.asarray(b.mean[k]) * self._scale
+        half = 1.959964 * noise * self._scale
         self.sources["true-noise"].data = {"time_s": b.time_s[k], "lower": mean - half, "upper": mean + half}
         self._truth_item.visible = True

@@ -8,7 +8,8 @@ amplitude) of mode 1, and the error ladder — each a :class:`holoviews.DynamicM
 bokeh GridPlot beside another plot never lets the document go idle, see the dashboard README).
 They change a few times per session (a diagnosis, an added effect, Reveal), so the tens of
 milliseconds of a ``Pipe.send`` of a record's ~5,000 residual samples do not matter.
-Displacements in µm, PSDs in m²/Hz. The residual's data source is named ``diag-residual``, the
+Residuals and amplitudes in the record's read-out unit (:func:`dashboard.outputs.beam.output_units`:
+µm for displacement, mm/s for velocity, m/s² for acceleration), PSDs in the output's SI unit² /Hz. The residual's data source is named ``diag-residual``, the
 ladder's ``diag-ladder``; the ladder figure carries the CSS class ``diag-ladder-plot``.
 """
 
@@ -19,6 +20,7 @@ import math
 import numpy as np
 
 from dashboard.outputs.beam import effect_title as _title
+from dashboard.outputs.beam import output_units
 from dashboard.plots.elements import css_class, hide_on_click, hv, name_source
 from dashboard.plots.timeseries import COLORS
 
@@ -31,7 +33,12 @@ _TOOLS = {"default_tools": ["pan", "wheel_zoom", "box_zoom", "reset", "save"], "
 
 
 def _empty_residual() -> dict:
-    return {"t": [], "r": [], "band_t": [], "lo": [], "hi": [], "out_t": [], "out_r": [], "intervals": []}
+    return {"t": [], "r": [], "band_t": [], "lo": [], "hi": [], "out_t": [], "out_r": [], "intervals": [], "unit": "µm"}
+
+
+def _psd_unit(si_unit: str) -> str:
+    """``"m²/Hz"``, ``"(m/s²)²/Hz"``: the PSD unit of an output in ``si_unit``."""
+    return f"{si_unit}²/Hz" if "/" not in si_unit else f"({si_unit})²/Hz"
 
 
 def _overlay(layers: list, **opts):
@@ -90,7 +97,7 @@ class DiagnosisPlots:
     # -- elements ---------------------------------------------------------------------------------
     @staticmethod
     def _residual(data: dict):
-        t, r = hv.Dimension("t", label="Time (s)"), hv.Dimension("r", label="Residual (µm)")
+        t, r = hv.Dimension("t", label="Time (s)"), hv.Dimension("r", label=f"Residual ({data.get('unit', 'µm')})")
         intervals = hv.Rectangles(data["intervals"], kdims=["left", "bottom", "right", "top"],
                                   label="exceedance intervals").opts(color=RED, alpha=0.12, line_alpha=0.0)
         band = hv.Area({"t": data["band_t"], "lo": data["lo"], "hi": data["hi"]}, t, ["lo", "hi"],
@@ -110,7 +117,7 @@ class DiagnosisPlots:
 
     @staticmethod
     def _spectrum(data: dict):
-        f, psd = hv.Dimension("f", label="Frequency (Hz)"), hv.Dimension("psd", label="PSD (m²/Hz)")
+        f, psd = hv.Dimension("f", label="Frequency (Hz)"), hv.Dimension("psd", label=f"PSD ({data.get('psd_unit', 'm²/Hz')})")
         y0, y1 = data["ylim"]
         # explicit range: a log axis over a data range with no positive value yet logs a console warning
         lines = [hv.Curve({"f": data["f"], "psd": data[key]}, f, psd, label=key).opts(color=color, logy=True,
@@ -137,7 +144,7 @@ class DiagnosisPlots:
 
     @staticmethod
     def _backbone(data: dict):
-        a, f = hv.Dimension("a", label="Amplitude (µm)"), hv.Dimension("f", label="Frequency (Hz)")
+        a, f = hv.Dimension("a", label=f"Amplitude ({data.get('unit', 'µm')})"), hv.Dimension("f", label="Frequency (Hz)")
         bars = hv.Segments({"x0": data["a"], "y0": data["lo"], "x1": data["a"], "y1": data["hi"]},
                            kdims=["x0", "y0", "x1", "y1"]).opts(color="#7f7f7f")
         frame = {"a": data["a"], "f": data["f"]}
@@ -148,18 +155,19 @@ class DiagnosisPlots:
     @staticmethod
     def _ladder(data: list[dict]):
         rungs = data
-        rmse = [max(r["rmse_prediction_um"], 1e-3) for r in rungs]
+        unit = rungs[-1].get("unit", "µm") if rungs else "µm"
+        rmse = [max(r["rmse_prediction"], 1e-12) for r in rungs]
         x = [float(r["rung"]) for r in rungs]
         bottom = min(rmse, default=1.0) / 4
         top = max(rmse, default=1.0) * 3
-        step, error = hv.Dimension("rung", label="Effect added"), hv.Dimension("rmse", label="Held-out error (µm)")
+        step, error = hv.Dimension("rung", label="Effect added"), hv.Dimension("rmse", label=f"Held-out error ({unit})")
         bars = hv.Rectangles({"x0": [v - 0.3 for v in x], "y0": [bottom] * len(x), "x1": [v + 0.3 for v in x],
                               "y1": rmse, "coverage": [r["coverage95_pct"] for r in rungs]},
                              kdims=[hv.Dimension("x0", label=step.label), hv.Dimension("y0", label=error.label), "x1", "y1"],
                              vdims=["coverage"]).opts(color=COLORS["mean"], alpha=0.7, logy=True,
                                                       xlim=(-0.6, max(len(rungs), 4) - 0.4), ylim=(bottom / 2, top),
                                                       hooks=[name_source("diag-ladder")])
-        labels = hv.Labels({"rung": x, "rmse": rmse, "label": [f"{r['rmse_prediction_um']:.3g} µm" for r in rungs]},
+        labels = hv.Labels({"rung": x, "rmse": rmse, "label": [f"{r['rmse_prediction']:.3g} {r.get('unit', unit)}" for r in rungs]},
                            [step, error], "label").opts(text_font_size="8pt", text_baseline="top")
         ticks = [(v, "start" if r["rung"] == 0 else _title(r["added"])) for v, r in zip(x, rungs)] or [(0.0, "start")]
         return _overlay([bars, labels]).opts(
@@ -189,18 +197,20 @@ class DiagnosisPlots:
         rep = diagnosis.residuals
         band = rep.band
         b = diagnosis.base.bands
-        top = float(np.max(np.abs(band.residual_m))) * UM if band.residual_m.size else 1.0
-        pipes["residual"].send({
-            "t": band.time_s, "r": band.residual_m * UM,
-            "band_t": b.time_s, "lo": (b.prediction_lower - b.mean) * UM, "hi": (b.prediction_upper - b.mean) * UM,
-            "out_t": band.time_s[band.outside], "out_r": band.residual_m[band.outside] * UM,
+        u = output_units(diagnosis)
+        scale = u.scale  # SI -> the read-out unit (µm for displacement)
+        top = float(np.max(np.abs(band.residual_m))) * scale if band.residual_m.size else 1.0
+        pipes["residual"].send({"unit": u.unit,
+            "t": band.time_s, "r": band.residual_m * scale,
+            "band_t": b.time_s, "lo": (b.prediction_lower - b.mean) * scale, "hi": (b.prediction_upper - b.mean) * scale,
+            "out_t": band.time_s[band.outside], "out_r": band.residual_m[band.outside] * scale,
             "intervals": [(i.start_s, -top, i.end_s, top) for i in band.intervals]})
         sp = rep.spectrum
         keep = sp.frequency_Hz > 0
         positive = sp.data_psd_m2_Hz[keep]
         positive = positive[positive > 0]
         ylim = (float(positive.min()), float(positive.max())) if positive.size else (1e-20, 1.0)
-        pipes["spectrum"].send({"f": sp.frequency_Hz[keep], "residual": sp.residual_psd_m2_Hz[keep],
+        pipes["spectrum"].send({"psd_unit": _psd_unit(u.si_unit), "f": sp.frequency_Hz[keep], "residual": sp.residual_psd_m2_Hz[keep],
                                 "data": sp.data_psd_m2_Hz[keep], "ylim": ylim,
                                 "modes": [float(f) for f in rep.model_frequencies_Hz if f < sp.frequency_Hz[-1]]})
         w = rep.whiteness
@@ -210,7 +220,7 @@ class DiagnosisPlots:
         if bb is None:
             pipes["backbone"].send({"a": [], "f": [], "lo": [], "hi": [], "title": "Mode 1: no free decay on this record"})
         else:
-            pipes["backbone"].send({"a": bb.amplitude_m * UM, "f": bb.frequency_Hz, "lo": bb.frequency_Hz - bb.frequency_std_Hz,
+            pipes["backbone"].send({"unit": u.unit, "a": bb.amplitude_m * scale, "f": bb.frequency_Hz, "lo": bb.frequency_Hz - bb.frequency_std_Hz,
                                     "hi": bb.frequency_Hz + bb.frequency_std_Hz, "title": "Mode 1: frequency vs amplitude"})
 
     def show_true_noise(self, noise_m: float | None) -> None:

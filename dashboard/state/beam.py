@@ -13,12 +13,14 @@ own run slot: a new request cancels the previous one of the same activity only.
     Diagnosis of the beam view's current model (residuals, ranked candidates), the error
     ladder (one rung per effect added with :meth:`DiagnosisState.add`, each a full MCMC
     re-calibration of the beam view, after which the diagnosis re-runs for the new model) and the
-    revealed answer of a bundled dataset.
+    revealed answer of a bundled dataset (a real record has none: :meth:`DiagnosisState.reveal` says so).
+
+A dataset may come with its own default inputs (:data:`DATASET_DEFAULTS`, e.g. the real strip
+record: window 0–2 s, modal damping, as ``beam diagnose RECORD --window 0:2 --base modal_damping``).
 """
 
 from __future__ import annotations
 
-import math
 from functools import partial as bind
 
 import param
@@ -33,20 +35,32 @@ from dashboard.jobs.beam import (
     calibration_run,
     diagnosis_run,
     effect_label,
+    is_real,
     load_bundled,
     load_upload,
     read_answer,
 )
+from dashboard.outputs.beam import fmt_value, output_units
 from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 
-__all__ = ["DEFAULT_DATASET", "BeamState", "DiagnosisState", "ladder_rung"]
+__all__ = ["DATASET_DEFAULTS", "DEFAULT_DATASET", "NO_ANSWER", "BeamState", "DiagnosisState", "ladder_rung"]
 
 DEFAULT_DATASET = "lab_run_1"
 #: Likelihood choices as shown to the user.
 LIKELIHOODS = {"i.i.d. Gaussian": "iid", "AR(1) correlated": "ar1"}
 STAGES = ("idle", "queued", "preview", "sampling", "final", "error")
 _INPUTS = ("window_s", "modes", "effects", "likelihood", "seed", "target_ess")
+#: Inputs a dataset starts with when selected, besides the default window (the lab runs: none).
+#: The real strip record: a 0–2 s window of the free decay, a damping ratio per mode as the base
+#: model and the 4 modes of ``beam diagnose RECORD --window 0:2 --base modal_damping`` (the
+#: library's default; README "Real measurements").
+DATASET_DEFAULTS: dict[str, dict] = {
+    "adxl_50cm_114655": {"window_s": (0.0, 2.0), "effects": ["modal_damping"], "modes": 4},
+}
+#: What Reveal says for a record without a known answer (a real one or an upload).
+NO_ANSWER = ("No known answer: this is a real record (or an upload), not a simulation — nobody knows its "
+             "true parameters. Judge the model by the residuals, the held-out error and the evidence.")
 #: Default calibration window: this fraction of the record from its start (as the library).
 WINDOW_FRACTION = 0.3
 
@@ -57,13 +71,16 @@ def _default_window(measurement) -> tuple[float, float]:
 
 
 def ladder_rung(result, added: str | None, index: int) -> dict:
-    """A row of the error ladder from a :class:`~beam.calibration.CalibrationResult` (units in the keys)."""
+    """A row of the error ladder from a :class:`~beam.calibration.CalibrationResult`: the RMSEs in
+    ``unit``, the record's read-out unit (:func:`dashboard.outputs.beam.output_units`: µm, mm/s, m/s²)."""
+    u = output_units(result)
     return {
         "rung": index,
         "added": added or "(base model)",
         "effects": ", ".join(result.setup.effects),
-        "rmse_calibration_um": 1e6 * result.rmse_calibration,
-        "rmse_prediction_um": 1e6 * result.rmse_prediction,
+        "rmse_calibration": u.scale * result.rmse_calibration,
+        "rmse_prediction": u.scale * result.rmse_prediction,
+        "unit": u.unit,
         "coverage95_pct": 100.0 * result.coverage95_prediction,
         "log_evidence_laplace": float(result.laplace.log_evidence),
         "mcmc": not result.is_preview,
@@ -139,11 +156,13 @@ class BeamState(_Runs):
         super().__init__(**params)
         self._keys: dict[int, CalibrationKey] = {}
         self._quiet = False
+        self._previous = self.dataset
         m = self._load(self.dataset)
         with param.edit_constant(self):
             self.measurement = m
         if "window_s" not in params:
             self._set_window(m)
+        self._apply_defaults(self.dataset, None, keep=set(params))
 
     # -- datasets --------------------------------------------------------------------------------
     def dataset_label(self, name: str) -> str:
@@ -154,6 +173,21 @@ class BeamState(_Runs):
 
     def _load(self, name: str):
         return self.uploads[name] if name in self.uploads else load_bundled(name)
+
+    def _apply_defaults(self, name: str, previous: str | None, keep=()) -> None:
+        """Quietly set the inputs of :data:`DATASET_DEFAULTS` for ``name``; leaving such a dataset for one
+        without restores the class defaults of the inputs it had set. ``keep``: inputs given explicitly."""
+        values = dict(DATASET_DEFAULTS.get(name, {}))
+        if not values and previous in DATASET_DEFAULTS:
+            values = {k: self.param[k].default for k in DATASET_DEFAULTS[previous] if k != "window_s"}
+        values = {k: v for k, v in values.items() if k not in keep}
+        if not values:
+            return
+        self._quiet = True
+        try:
+            self.param.update(**values)
+        finally:
+            self._quiet = False
 
     def _set_window(self, m) -> None:
         t = m.time_s
@@ -166,6 +200,7 @@ class BeamState(_Runs):
 
     @param.depends("dataset", watch=True)
     def _dataset_changed(self) -> None:
+        previous, self._previous = self._previous, self.dataset
         try:
             m = self._load(self.dataset)
         except Exception as exc:  # noqa: BLE001 - a bundled file broken on disk: say so, keep the rest
@@ -174,6 +209,7 @@ class BeamState(_Runs):
         with param.edit_constant(self):
             self.measurement = m
         self._set_window(m)
+        self._apply_defaults(self.dataset, previous)
         self.request()
 
     def upload(self, csv_name: str | None, csv_bytes: bytes | None, toml_name: str | None,
@@ -362,16 +398,27 @@ class DiagnosisState(_Runs):
         with param.edit_constant(self):
             self.param.update(ladder=rungs + [ladder_rung(event.new, self.adding, len(rungs))], adding="",
                               status=f"added {self.adding}: held-out RMSE "
-                                     f"{_um(event.new.rmse_prediction)} µm")
+                                     f"{_shown(event.new)}")
         self.request()  # every view of the diagnosis (residuals, spectra, modes, candidates) for the new model
 
+    def has_answer(self) -> bool:
+        """Whether the current dataset has a known answer (a simulated bundled run; not a real record
+        nor an upload)."""
+        name = self.beam.dataset
+        return name not in self.beam.uploads and not is_real(name)
+
     def reveal(self) -> dict | None:
-        """The hidden effects and true parameters of a bundled dataset (None for an upload)."""
-        answer = None if self.beam.dataset in self.beam.uploads else read_answer(self.beam.dataset)
+        """The hidden effects and true parameters of a bundled dataset (None for an upload or a real
+        record: ``status`` then says there is no known answer, :data:`NO_ANSWER`)."""
+        answer = read_answer(self.beam.dataset) if self.has_answer() else None
         with param.edit_constant(self):
             self.answer = answer
+            if answer is None:
+                self.status = NO_ANSWER
         return answer
 
 
-def _um(value: float) -> str:
-    return f"{1e6 * value:.3g}" if math.isfinite(value) else "–"
+def _shown(result) -> str:
+    """The held-out RMSE of ``result`` in its read-out unit, e.g. ``"4.21 µm"``."""
+    u = output_units(result)
+    return f"{fmt_value(u.scale * result.rmse_prediction)} {u.unit}"

@@ -18,6 +18,7 @@ from dashboard.outputs import beam as bs
 from dashboard.plots.beam import BeamTimeSeriesPlot
 from dashboard.plots.corner import CornerPlot
 from dashboard.runtime.staging import run_steps
+from dashboard.state.beam import NO_ANSWER
 from dashboard.state.session import SessionState
 from dashboard.views.panes import (
     BUTTON_WRAP,
@@ -54,8 +55,8 @@ def readouts_html(items: list[dict], true_noise_m: float | None = None) -> str:
     boxes = []
     for it in items:
         extra = ""
-        if it["key"] == "noise_sd_um" and true_noise_m is not None:
-            extra = f'<div class="truth" style="color:#2ca02c;font-weight:600">true: {bs.fmt_um(1e6 * true_noise_m)} µm</div>'
+        if it["key"] == "noise_sd" and true_noise_m is not None:  # simulated (displacement) records only
+            extra = f'<div class="truth" style="color:#2ca02c;font-weight:600">true: {bs.fmt_value(1e6 * true_noise_m)} µm</div>'
         boxes.append(
             f'<div class="readout beam-cal-{it["key"].replace("_", "-")}" data-kind="{it["kind"]}" '
             f'title="{html.escape(it["gloss"])}" style="flex:1 1 170px;padding:2px 6px;">'
@@ -233,8 +234,9 @@ class BeamCalibrationView(pn.viewable.Viewer):
         load.on_click(lambda e: beam.upload(csv.filename, csv.value, toml.filename, toml.value))
         return pn.Card(
             select,
-            Markdown(f"**Upload** a record: `NAME.csv` (time_s, voltage_V, displacement_m) and its sidecar "
-                             f"`NAME.toml` (geometry), at most {mb} MB each.", margin=(0, 10)),
+            Markdown(f"**Upload** a record: `NAME.csv` (`time_s`, then `voltage_V`, `force_N` or no input column "
+                     "for a free response, then `displacement_m`, `velocity_m_s` or `acceleration_m_s2`) and its "
+                     f"sidecar `NAME.toml` (geometry, sensor position), at most {mb} MB each.", margin=(0, 10)),
             Markdown("Data file (.csv)", margin=(0, 10)), csv,
             Markdown("Sidecar (.toml)", margin=(0, 10)), toml, load,
             title="Measurement", collapsible=False, sizing_mode="stretch_width")
@@ -274,7 +276,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
             effects = "+".join(result.setup.effects) if result is not None else ""
             return status_html("cal-status", stage, status, requested, shown, _STAGE_TEXT.get(stage, stage),
                                dataset=dataset, effects=effects, preview=int(result is None or result.is_preview),
-                               rmse_prediction_um=f"{r['rmse_prediction_um']:.6g}")
+                               rmse_prediction=f"{r['rmse_prediction']:.6g}", unit=r["unit"])
 
         p = beam.param
         status = HTML(pn.bind(html, p.stage, p.status, p.requested, p.shown, p.result, p.dataset),
@@ -304,13 +306,14 @@ class BeamCalibrationView(pn.viewable.Viewer):
         d, beam = self.session.diagnosis, self._beam
         button = pn.widgets.Button(label="Reveal the true values", color="warning", sizing_mode="stretch_width",
                                    css_classes=["beam-reveal"], stylesheets=BUTTON_WRAP,
-                                   disabled=pn.bind(lambda name, uploads: name in uploads, beam.param.dataset,
+                                   disabled=pn.bind(lambda name, uploads: not d.has_answer(), beam.param.dataset,
                                                     beam.param.uploads))
         button.on_click(lambda e: d.reveal())
-        note = Markdown(pn.bind(lambda a: "True values shown in green: *Parameters* table, pair plot, and the true "
-                                          "noise around the model mean." if a is not None else
-                                          "Bundled records only: shows what the record was simulated with.",
-                                d.param.answer), margin=(0, 10))
+        note = Markdown(pn.bind(lambda a, name: NO_ANSWER if not d.has_answer() else
+                                "True values shown in green: *Parameters* table, pair plot, and the true "
+                                "noise around the model mean." if a is not None else
+                                "Bundled simulated records only: shows what the record was simulated with.",
+                                d.param.answer, beam.param.dataset), margin=(0, 10), css_classes=["beam-answer-note"])
         return pn.Card(button, note, title="Answer (for the teacher)", collapsible=True, collapsed=True,
                        sizing_mode="stretch_width")
 
@@ -326,7 +329,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
             return
         names = tuple(bs.summary(beam.result))
         if self._corner is None or self._corner.names != names:
-            self._corner = CornerPlot(names, size=150, labels={n: bs.short_label(n) for n in names})
+            self._corner = CornerPlot(names, size=150, labels={n: bs.short_label(n, bs.output_units(beam.result).si_unit) for n in names})
             cells = [pn.pane.Bokeh(fig, sizing_mode="fixed", margin=0) if fig is not None else pn.Spacer(width=150, height=150)
                      for row in self._corner.grid for fig in row]
             grid = pn.GridBox(*cells, ncols=len(names), sizing_mode="fixed")

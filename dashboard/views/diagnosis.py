@@ -20,11 +20,12 @@ from dashboard.outputs.beam import (
     effect_title,
     evidence_words,
     fmt_pct,
-    fmt_um,
+    fmt_value,
     parameter_label,
 )
 from dashboard.plots.diagnosis import DiagnosisPlots
 from dashboard.runtime.staging import run_steps
+from dashboard.state.beam import NO_ANSWER
 from dashboard.state.session import SessionState
 from dashboard.views.panes import (
     BUTTON_WRAP,
@@ -75,9 +76,10 @@ def ladder_table(rungs: list[dict]) -> pd.DataFrame:
     """The error ladder as a table with units."""
     if not rungs:
         return pd.DataFrame()
+    unit = rungs[-1]["unit"]  # one record per ladder: one unit
     return pd.DataFrame([{
         "step": r["rung"], "added": "(starting model)" if r["rung"] == 0 else effect_title(r["added"]),
-        "held-out error (µm)": fmt_um(r["rmse_prediction_um"]), "in the 95 % band (%)": fmt_pct(r["coverage95_pct"]),
+        f"held-out error ({unit})": fmt_value(r["rmse_prediction"]), "in the 95 % band (%)": fmt_pct(r["coverage95_pct"]),
         "posterior": "full (MCMC)" if r["mcmc"] else "preview",
     } for r in rungs]).set_index("step")
 
@@ -214,9 +216,10 @@ class DiagnosisView(pn.viewable.Viewer):
         p = d.param
 
         def html(stage, status, requested, shown, ladder, adding):
-            last = ladder[-1]["rmse_prediction_um"] if ladder else float("nan")
+            last = ladder[-1]["rmse_prediction"] if ladder else float("nan")
             return status_html("diag-status", stage, status, requested, shown, _STAGE_TEXT.get(stage, stage),
-                               ladder_n=len(ladder), ladder_rmse_um=f"{last:.6g}", adding=adding)
+                               ladder_n=len(ladder), ladder_rmse=f"{last:.6g}",
+                               ladder_unit=ladder[-1]["unit"] if ladder else "", adding=adding)
 
         status = HTML(pn.bind(html, p.stage, p.status, p.requested, p.shown, p.ladder, p.adding),
                               sizing_mode="stretch_width", margin=(5, 10, 0, 10))
@@ -233,7 +236,8 @@ class DiagnosisView(pn.viewable.Viewer):
             self._candidates[:] = []
             return
         cards = []
-        now_um = 1e6 * diagnosis.base.rmse_prediction_map
+        u = bs.output_units(diagnosis)
+        now = u.scale * diagnosis.base.rmse_prediction_map
         for c in diagnosis.candidates:
             present = c.effect in beam.effects
             title = effect_title(c.effect)
@@ -242,10 +246,10 @@ class DiagnosisView(pn.viewable.Viewer):
                                        stylesheets=BUTTON_WRAP, disabled=present or bool(d.adding),
                                        css_classes=[f"diag-add-{c.effect}"])
             button.on_click(lambda e, effect=c.effect: d.add(effect))
-            after_um = 1e6 * c.rmse_prediction
-            params = "; ".join(f"{parameter_label(n)} = {s['mean']:.3g}" for n, s in c.parameters.items())
+            after = u.scale * c.rmse_prediction
+            params = "; ".join(f"{parameter_label(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
             text = (f"**{title}**{' — materially better' if c.material else ''}<br>"
-                    f"held-out error {fmt_um(after_um)} µm ({bs.change_words(after_um, now_um)} than now), "
+                    f"held-out error {fmt_value(after)} {u.unit} ({bs.change_words(after, now)} than now), "
                     f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
                     f"<span title='{bs.GLOSSES['log evidence']}'>{evidence_words(c.delta_log_evidence)}</span>"
                     f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
@@ -259,15 +263,16 @@ class DiagnosisView(pn.viewable.Viewer):
         d = self._diag
         button = pn.widgets.Button(label="Reveal the hidden effect", color="warning", css_classes=["diag-reveal"],
                                    stylesheets=BUTTON_WRAP,
-                                   disabled=pn.bind(lambda name: name in self.session.beam.uploads,
-                                                    self.session.beam.param.dataset))
+                                   disabled=pn.bind(lambda name: not d.has_answer(), self.session.beam.param.dataset))
         button.on_click(lambda e: d.reveal())
 
         def text(answer, dataset):
+            if not d.has_answer():
+                return NO_ANSWER
             if answer is None:
                 return "Bundled datasets only: shows the effects and parameters the record was simulated with."
             params = "<br>".join(f"{parameter_label(k)}: {v:.4g}" for k, v in answer["parameters"].items())
-            noise = (f"<br>Sensor noise sd: {fmt_um(1e6 * answer['noise_m'])} µm (green dotted lines on the residual)"
+            noise = (f"<br>Sensor noise sd: {fmt_value(1e6 * answer['noise_m'])} µm (green dotted lines on the residual)"
                      if answer.get("noise_m") is not None else "")
             return (f"**Simulated with:** {', '.join(effect_title(e) for e in answer['effects'])}<br>{params}{noise}"
                     "<br>The *Parameters* tab of the beam view sets them beside the posterior.")

@@ -118,7 +118,7 @@ needs with the sensor's noise floor before trusting the coverage.
 *ESS*: how many independent draws the sampler's chain is worth. *R-hat*: whether the
 sampler's chains agree (1.00 is perfect).
 
-<small>Displacements in µm; EI in N m², k_p in N m/V. Kennedy & O'Hagan (2001);
+<small>Errors in the output's unit (displacement in µm, velocity in mm/s, acceleration in m/s²); EI in N m², k_p in N m/V. Kennedy & O'Hagan (2001);
 Brynjarsdóttir & O'Hagan (2014).</small>
 """
 

@@ -162,7 +162,7 @@ def test_add_appends_a_ladder_rung_and_the_error_falls(pool):
         assert diag.adding == "" and len(diag.ladder) == 2
         rung = diag.ladder[1]
         assert rung["added"] == "tip_mass" and rung["mcmc"]
-        assert diag.ladder[0]["rmse_prediction_um"] > 3 * rung["rmse_prediction_um"]
+        assert diag.ladder[0]["rmse_prediction"] > 3 * rung["rmse_prediction"]
         answer = diag.reveal()
         assert answer["effects"] == ["air_damping", "kelvin_voigt", "tip_mass"]
         assert answer["noise_m"] == pytest.approx(2e-5)  # the truth file of lab_run_2

@@ -127,12 +127,12 @@ def test_readouts_judge_a_missing_effect_by_its_noise_not_by_its_coverage():
     items = {i["key"]: i for i in judged_readouts(wrong)}
     assert float(items["coverage_pct"]["value"]) > 95.0
     assert items["coverage_pct"]["kind"] != "good" and "too wide" in items["coverage_pct"]["words"]
-    assert items["noise_sd_um"]["kind"] == "bad" and "noise floor" in items["noise_sd_um"]["words"]
-    assert items["rmse_prediction_um"]["kind"] == "bad"
+    assert items["noise_sd"]["kind"] == "bad" and "noise floor" in items["noise_sd"]["words"]
+    assert items["rmse_prediction"]["kind"] == "bad"
     right = calibration_preview(m, window=(0.0, 1.05), effects=("air_damping", "kelvin_voigt", "patch_stiffening"),
                                 modes=4)
     items = {i["key"]: i for i in judged_readouts(right)}
-    assert items["noise_sd_um"]["kind"] == "good"  # the noise the model needs is the sensor's
+    assert items["noise_sd"]["kind"] == "good"  # the noise the model needs is the sensor's
 
 
 def test_student_words():
