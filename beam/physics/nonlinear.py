@@ -62,14 +62,37 @@ def integrate_tip_cubic(
         substeps = choose_substeps(system, cubic, voltage, sample_interval_s)
     substeps = np.broadcast_to(np.asarray(substeps, dtype=np.int64), (batch,)).copy()
     static = np.zeros((batch, 2)) if static_gains is None else np.ascontiguousarray(np.broadcast_to(static_gains, (batch, 2)), dtype=float)
-    return _etdrk4(
-        np.ascontiguousarray(system.poles),
-        np.ascontiguousarray(system.input_gains[:, 0]),
-        np.ascontiguousarray(system.input_gains[:, 1]),
-        np.ascontiguousarray(system.output_gains[:, 0]),
-        np.ascontiguousarray(system.output_gains[:, 1]),
-        np.ascontiguousarray(cubic), voltage, float(sample_interval_s), substeps, static,
-    )
+    poles, gains = _one_per_pair(system)
+    return _etdrk4(poles, gains[0], gains[1], gains[2], gains[3],
+                   np.ascontiguousarray(cubic), voltage, float(sample_interval_s), substeps, static)
+
+
+def _one_per_pair(system: ComplexModes) -> tuple[np.ndarray, np.ndarray]:
+    """Poles (B, P) and gains (4, B, P) with one pole per conjugate pair.
+
+    The voltage and the spring's force are real, so a conjugate pole's coordinate is the
+    conjugate of its partner's and adds the conjugate to every output: each pair is stepped once,
+    its output gains doubled (halves the stepping; measured 2x on ``lab_run_4``). Rows with fewer
+    kept poles (real poles of an overdamped mode) are padded with zero gains, which stay at rest.
+    Gains: voltage input, tip-force input, sensor output, tip output.
+    """
+    poles = system.poles
+    following = np.concatenate([poles[:, 1:], np.zeros((poles.shape[0], 1), complex)], axis=1)
+    paired = (poles.imag > 0) & (np.abs(following - np.conj(poles)) <= 1e-12 * np.abs(poles))
+    dropped = np.concatenate([np.zeros((poles.shape[0], 1), bool), paired[:, :-1]], axis=1)
+    order = np.argsort(dropped, axis=1, kind="stable")  # kept poles first, in their order
+    kept = (~np.take_along_axis(dropped, order, axis=1))
+    width = int(kept.sum(axis=1).max())
+    order, kept = order[:, :width], kept[:, :width]
+    factor = np.where(np.take_along_axis(paired, order, axis=1), 2.0, 1.0) * kept
+    gains = np.stack([
+        np.take_along_axis(system.input_gains[:, 0], order, axis=1) * kept,
+        np.take_along_axis(system.input_gains[:, 1], order, axis=1) * kept,
+        np.take_along_axis(system.output_gains[:, 0], order, axis=1) * factor,
+        np.take_along_axis(system.output_gains[:, 1], order, axis=1) * factor,
+    ])
+    kept_poles = np.where(kept, np.take_along_axis(poles, order, axis=1), -1.0 + 0j)
+    return np.ascontiguousarray(kept_poles), np.ascontiguousarray(gains)
 
 
 def choose_substeps(system: ComplexModes, cubic: np.ndarray, voltage: np.ndarray, sample_interval_s: float) -> np.ndarray:
@@ -95,10 +118,9 @@ def choose_substeps(system: ComplexModes, cubic: np.ndarray, voltage: np.ndarray
                                np.ascontiguousarray(system.output_gains[:, 1] * system.input_gains[:, 0]))
     batch, n_slots = upper.shape
     voltage = np.ascontiguousarray(voltage, dtype=float)
-    zero = np.zeros(batch)
     # each pair's own linear tip response (its peak), and the total's peak
-    pair_tip = np.stack([_step(upper[:, j:j + 1].copy(), weights[:, j:j + 1].copy(), sample_interval_s, voltage, zero)
-                         for j in range(n_slots)], axis=1)  # (B, P, n)
+    pair_tip = _step(upper.reshape(-1, 1), weights.reshape(-1, 1), sample_interval_s, voltage,
+                     np.zeros(batch * n_slots)).reshape(batch, n_slots, -1)  # (B, P, n)
     peaks = np.abs(pair_tip).max(axis=2)  # (B, P); unused slots have weight 0
     amplitude = np.abs(pair_tip.sum(axis=1)).max(axis=1)
     # squared tip entry of each mass-normalised shape, from the tip-to-tip residue r of its pole:
@@ -155,31 +177,49 @@ def _phi123(z):  # pragma: no cover - jitted
 
 @numba.njit(cache=True, nogil=True)
 def _etdrk4(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, voltage, dt, substeps, static):  # pragma: no cover
+    """ETDRK4 (Cox & Matthews) substeps, written in terms of the tip displacement at the stages.
+
+    The stages a, b, c of the scheme enter the update only through the spring's force at the tip,
+    and each stage is linear in xi, the held voltage and the previous stage forces, so their tip
+    displacements are Re(gamma·(e_half xi)), Re(gamma·(e_full xi)) plus per-sample constants:
+    three dot products and one update per substep instead of four of each (the same arithmetic
+    rearranged; measured 2-3x faster than forming the stages on ``lab_run_4``).
+    """
     batch, n_poles = poles.shape
     n = voltage.shape[0]
     out = np.zeros((batch, n))
     e_full = np.empty(n_poles, np.complex128)
-    e_half = np.empty(n_poles, np.complex128)
     q_half = np.empty(n_poles, np.complex128)
-    f1 = np.empty(n_poles, np.complex128)
-    f2 = np.empty(n_poles, np.complex128)
-    f3 = np.empty(n_poles, np.complex128)
+    g_half = np.empty(n_poles, np.complex128)  # gamma_tip e_half
+    g_full = np.empty(n_poles, np.complex128)  # gamma_tip e_full
+    f_u = np.empty(n_poles, np.complex128)  # (f1 + 4 f2 + f3) beta_u: the held voltage's weight in the update
+    f1t = np.empty(n_poles, np.complex128)
+    f2t = np.empty(n_poles, np.complex128)
+    f3t = np.empty(n_poles, np.complex128)
+    drive = np.empty(n_poles, np.complex128)
     xi = np.empty(n_poles, np.complex128)
-    a = np.empty(n_poles, np.complex128)
-    bb = np.empty(n_poles, np.complex128)
-    c = np.empty(n_poles, np.complex128)
     for b in range(batch):
         h = dt / substeps[b]
+        tip_q = 0.0  # Re gamma·(q_half beta_tip): the tip's response to a stage force, half step
+        tip_eq = 0.0  # Re gamma·(e_half q_half beta_tip)
         for j in range(n_poles):
             z = poles[b, j] * h
             e_full[j] = np.exp(z)
-            e_half[j] = np.exp(0.5 * z)
+            e_half = np.exp(0.5 * z)
             p1h, _, _ = _phi123(0.5 * z)
             q_half[j] = 0.5 * h * p1h
             p1, p2, p3 = _phi123(z)
-            f1[j] = h * (p1 - 3.0 * p2 + 4.0 * p3)
-            f2[j] = h * (p2 - 2.0 * p3)
-            f3[j] = h * (4.0 * p3 - p2)
+            f1 = h * (p1 - 3.0 * p2 + 4.0 * p3)
+            f2 = h * (p2 - 2.0 * p3)
+            f3 = h * (4.0 * p3 - p2)
+            f_u[j] = (f1 + 4.0 * f2 + f3) * beta_u[b, j]
+            f1t[j] = f1 * beta_tip[b, j]
+            f2t[j] = 2.0 * f2 * beta_tip[b, j]
+            f3t[j] = f3 * beta_tip[b, j]
+            g_half[j] = gamma_tip[b, j] * e_half
+            g_full[j] = gamma_tip[b, j] * e_full[j]
+            tip_q += (gamma_tip[b, j] * q_half[j] * beta_tip[b, j]).real
+            tip_eq += (g_half[j] * q_half[j] * beta_tip[b, j]).real
             xi[j] = 0j
         k3 = cubic[b]
         for k in range(n):
@@ -189,31 +229,30 @@ def _etdrk4(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, voltage, dt
             u = voltage[k]
             out[b, k] = acc + static[b, 0] * u
             tip_static = static[b, 1] * u
+            tip_u = tip_static  # the held voltage's part of a stage's tip displacement, half step
+            tip_eu = tip_static  # … and of the third stage (a half step on from the first)
+            for j in range(n_poles):
+                qu = q_half[j] * beta_u[b, j] * u
+                tip_u += (gamma_tip[b, j] * qu).real
+                tip_eu += (g_half[j] * qu).real + (gamma_tip[b, j] * qu).real
+                drive[j] = f_u[j] * u
             for _ in range(substeps[b]):
-                s_n = _tip_force(gamma_tip[b], xi, k3, tip_static)
+                w_n = tip_static
+                w_half = 0.0
+                w_full = 0.0
                 for j in range(n_poles):
-                    a[j] = e_half[j] * xi[j] + q_half[j] * (beta_u[b, j] * u + beta_tip[b, j] * s_n)
-                s_a = _tip_force(gamma_tip[b], a, k3, tip_static)
+                    x = xi[j]
+                    w_n += (gamma_tip[b, j] * x).real
+                    w_half += (g_half[j] * x).real
+                    w_full += (g_full[j] * x).real
+                s_n = -k3 * w_n * w_n * w_n
+                w_a = w_half + tip_u + s_n * tip_q
+                s_a = -k3 * w_a * w_a * w_a
+                w_b = w_half + tip_u + s_a * tip_q
+                s_b = -k3 * w_b * w_b * w_b
+                w_c = w_full + tip_eu + s_n * tip_eq + (2.0 * s_b - s_n) * tip_q
+                s_c = -k3 * w_c * w_c * w_c
+                s_ab = s_a + s_b
                 for j in range(n_poles):
-                    bb[j] = e_half[j] * xi[j] + q_half[j] * (beta_u[b, j] * u + beta_tip[b, j] * s_a)
-                s_b = _tip_force(gamma_tip[b], bb, k3, tip_static)
-                for j in range(n_poles):
-                    c[j] = e_half[j] * a[j] + q_half[j] * (beta_u[b, j] * u + beta_tip[b, j] * (2.0 * s_b - s_n))
-                s_c = _tip_force(gamma_tip[b], c, k3, tip_static)
-                for j in range(n_poles):
-                    forcing_u = beta_u[b, j] * u
-                    xi[j] = (
-                        e_full[j] * xi[j]
-                        + f1[j] * (forcing_u + beta_tip[b, j] * s_n)
-                        + 2.0 * f2[j] * (2.0 * forcing_u + beta_tip[b, j] * (s_a + s_b))
-                        + f3[j] * (forcing_u + beta_tip[b, j] * s_c)
-                    )
+                    xi[j] = e_full[j] * xi[j] + drive[j] + f1t[j] * s_n + f2t[j] * s_ab + f3t[j] * s_c
     return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _tip_force(gamma_tip, state, k3, w_static):  # pragma: no cover - jitted
-    w = w_static
-    for j in range(state.shape[0]):
-        w += (gamma_tip[j] * state[j]).real
-    return -k3 * w * w * w
