@@ -65,10 +65,16 @@ from beam.inference.laplace import LaplaceResult, preview
 from beam.inference.problem import Problem
 from beam.inference.results import PosteriorResult
 
-__all__ = ["BURN_AUTOCORR_TIMES", "EnsembleRun", "LaplaceIndependenceMove", "Progress", "default_moves", "sample_posterior"]
+__all__ = [
+    "BURN_AUTOCORR_TIMES", "ENSEMBLES", "EnsembleRun", "GroupedDEMove", "LaplaceIndependenceMove", "Progress",
+    "default_ensembles", "default_moves", "sample_posterior",
+]
 
 #: Burn-in length in autocorrelation times (capped at half the chain).
 BURN_AUTOCORR_TIMES = 3.0
+#: Independent ensembles run side by side by default (R-hat compares them; Vehtari et al. 2021
+#: recommend at least four chains).
+ENSEMBLES = 4
 
 
 @dataclass(frozen=True)
@@ -136,13 +142,75 @@ def LaplaceIndependenceMove(laplace: LaplaceResult, *, scale: float = 1.3, df: f
     return emcee.moves.MHMove(_laplace_t_proposal(laplace.mean, laplace.cov, scale, df))
 
 
-def default_moves(laplace: LaplaceResult | None):
+def GroupedDEMove(n_ensembles: int):
+    """emcee's ``DEMove`` run inside each of ``n_ensembles`` independent ensembles.
+
+    Walkers ``k * m`` to ``(k + 1) * m - 1`` (``m = n_walkers / n_ensembles``) form ensemble
+    ``k``. Each ensemble is split at random into two halves and each half moves with
+    differential-evolution vectors drawn from the other half *of the same ensemble* (the
+    proposal of :class:`emcee.moves.DEMove`, unchanged); no walker ever uses a position of
+    another ensemble, so the ensembles are independent Markov chains (the ones R-hat compares,
+    :func:`beam.inference.convergence.rhat`). The proposals of all ensembles' halves are
+    evaluated in one vectorised call. ``n_ensembles = 1`` is ``DEMove`` itself.
+
+    Returns
+    -------
+    emcee.moves.DEMove
+    """
+    import emcee
+    from emcee.state import State
+
+    class _Grouped(emcee.moves.DEMove):
+        def propose(self, model, state):
+            nwalkers, ndim = state.coords.shape
+            if nwalkers % (2 * n_ensembles):
+                raise ValueError(f"{nwalkers} walkers do not split into {n_ensembles} ensembles of an even size")
+            m = nwalkers // n_ensembles
+            if m < 2 * ndim:
+                raise RuntimeError(f"ensembles of {m} walkers: DE needs at least 2 * ndim = {2 * ndim} each")
+            self.setup(state.coords)
+            accepted = np.zeros(nwalkers, dtype=bool)
+            all_inds = np.arange(nwalkers)
+            inds = np.empty(nwalkers, dtype=int)
+            for k in range(n_ensembles):  # a random half split inside each ensemble
+                half = np.arange(m) % 2
+                model.random.shuffle(half)
+                inds[k * m:(k + 1) * m] = half
+            group = all_inds // m
+            for split in range(2):
+                S1 = inds == split
+                parts = [
+                    self.get_proposal(state.coords[S1 & (group == k)], [state.coords[~S1 & (group == k)]], model.random)
+                    for k in range(n_ensembles)
+                ]
+                q = np.concatenate([p[0] for p in parts])  # walker order of all_inds[S1]: groups are contiguous
+                factors = np.concatenate([p[1] for p in parts])
+                new_log_probs, new_blobs = model.compute_log_prob_fn(q)
+                for j, f, nlp in zip(all_inds[S1], factors, new_log_probs):
+                    if f + nlp - state.log_prob[j] > np.log(model.random.rand()):
+                        accepted[j] = True
+                state = self.update(state, State(q, log_prob=new_log_probs, blobs=new_blobs), accepted, S1)
+            return state, accepted
+
+    return _Grouped() if n_ensembles > 1 else emcee.moves.DEMove()
+
+
+def default_ensembles(n_walkers: int, ndim: int, laplace: LaplaceResult | None) -> int:
+    """:data:`ENSEMBLES` independent ensembles when the walkers allow (each of an even size
+    >= ``2 * ndim``) and the preview is usable, else 1 (one ensemble, R-hat over walkers)."""
+    k = ENSEMBLES
+    if laplace is None or not laplace.ok or n_walkers % (2 * k) or n_walkers // k < 2 * ndim:
+        return 1
+    return k
+
+
+def default_moves(laplace: LaplaceResult | None, n_ensembles: int = 1):
     """The default move mixture (see the module docstring)."""
     import emcee
 
     if laplace is None or not laplace.ok:
         return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
-    return [(LaplaceIndependenceMove(laplace), 0.5), (emcee.moves.DEMove(), 0.5)]
+    return [(LaplaceIndependenceMove(laplace), 0.5), (GroupedDEMove(n_ensembles), 0.5)]
 
 
 class EnsembleRun:
@@ -155,13 +223,19 @@ class EnsembleRun:
     laplace : LaplaceResult, optional
         Preview to start from; computed with :func:`~beam.inference.laplace.preview` if None.
     n_walkers : int, optional
-        Ensemble size (even); default ``max(32, 8 * ndim)`` rounded up to even.
+        Walkers in all (even); default ``max(32, 8 * ndim)`` rounded up to a multiple of
+        ``2 * ENSEMBLES``.
     seed : int
         Seed of the initial positions and of emcee's random state.
     moves : emcee moves, optional
         As accepted by :class:`emcee.EnsembleSampler`; default :func:`default_moves`.
     init_scale : float
         Multiplier of the Laplace standard deviations for the initial walker cloud.
+    n_ensembles : int, optional
+        Independent ensembles the walkers form (R-hat compares them). Default
+        :func:`default_ensembles` with the default moves, 1 with ``moves`` given (moves that
+        mix walkers across the whole ensemble make one ensemble). With more than one and
+        ``moves`` given, the moves must keep the ensembles apart (as :func:`GroupedDEMove`).
     """
 
     def __init__(
@@ -173,6 +247,7 @@ class EnsembleRun:
         seed: int = 0,
         moves=None,
         init_scale: float = 1.0,
+        n_ensembles: int | None = None,
     ) -> None:
         import emcee
 
@@ -182,16 +257,22 @@ class EnsembleRun:
         d = problem.ndim
         if n_walkers is None:
             n_walkers = max(32, 8 * d)
+            n_walkers += -n_walkers % (2 * ENSEMBLES)
         n_walkers = int(n_walkers) + int(n_walkers) % 2
         if n_walkers < 2 * d:
             raise ValueError(f"need at least 2 * ndim = {2 * d} walkers, got {n_walkers}")
         self.n_walkers = n_walkers
+        if n_ensembles is None:
+            n_ensembles = default_ensembles(n_walkers, d, self.laplace) if moves is None else 1
+        if n_ensembles < 1 or n_walkers % n_ensembles:
+            raise ValueError(f"{n_ensembles} ensembles do not divide {n_walkers} walkers")
+        self.n_ensembles = int(n_ensembles)
         self.seed = int(seed)
         rng = np.random.default_rng(seed)
         p0 = self.laplace.draws_internal(n_walkers, rng, scale=init_scale)
         random_state = np.random.RandomState(int(rng.integers(2**32 - 1))).get_state()
         self._state = emcee.State(p0, random_state=random_state)
-        self.moves = default_moves(self.laplace) if moves is None else moves
+        self.moves = default_moves(self.laplace, self.n_ensembles) if moves is None else moves
         self.sampler = emcee.EnsembleSampler(n_walkers, d, problem.log_posterior, vectorize=True, moves=self.moves)
         self._cache: dict[tuple[int, int], tuple] = {}  # (n_steps, n_burn) -> (tau, ess, rhat)
         self.seconds = time.perf_counter() - t0 + self.laplace.seconds
@@ -273,6 +354,7 @@ class EnsembleRun:
             acceptance_fraction=acceptance,
             target_ess=target_ess,
             precomputed=self._cache.get((self.n_steps, n_burn), (None, None, None)),
+            n_ensembles=self.n_ensembles,
         )
         self.seconds += time.perf_counter() - t0
         return PosteriorResult.from_chain(
@@ -301,9 +383,14 @@ class EnsembleRun:
         """
         if initial_steps is None:
             # Enough for the ESS (target * tau / n_walkers) and for R-hat (R-hat - 1 was measured
-            # ~ 0.9 tau / length on the toy) with a guessed tau of 4 steps, plus burn-in.
+            # ~ 0.9 tau / length on the toy with walkers as chains; over independent ensembles
+            # the chains are the ensembles' pooled draws, n_walkers / n_ensembles times as
+            # many) with a guessed tau of 4 steps, plus burn-in.
             tau_guess = 4.0
-            need = max(1.2 * target_ess * tau_guess / self.n_walkers, 1.1 * 0.9 * tau_guess / (RHAT_MAX - 1.0))
+            per_chain = self.n_walkers // self.n_ensembles if self.n_ensembles > 1 else 1
+            need = max(1.2 * target_ess * tau_guess / self.n_walkers,
+                       1.1 * 0.9 * tau_guess / per_chain / (RHAT_MAX - 1.0),
+                       MIN_AUTOCORR_TIMES * tau_guess)
             initial_steps = math.ceil(need + BURN_AUTOCORR_TIMES * tau_guess)
         steps = min(int(initial_steps), max_steps - self.n_steps)
         while steps > 0:
@@ -321,7 +408,7 @@ class EnsembleRun:
             if kept < MIN_AUTOCORR_TIMES * tau_max:
                 grow = max(grow, 1.05 * MIN_AUTOCORR_TIMES * tau_max / kept)
             if grow == 1.0:  # ESS and length suffice: check R-hat
-                rh = rhat(chain)
+                rh = rhat(chain, self.n_ensembles)
                 rh_max = float(np.max(rh))
                 if rh_max > RHAT_MAX:
                     grow = max(1.2, (rh_max - 1.0) / (0.8 * (RHAT_MAX - 1.0)))
