@@ -102,7 +102,7 @@ def rhat(chain: np.ndarray, n_ensembles: int = 1) -> np.ndarray:
         1: each walker is a chain (the walkers of one ensemble are not independent, so this is
         an approximation, and a strict one: ``R-hat - 1`` scales as ``tau / n_steps`` whatever
         the ensemble size). More: the walkers form that many *independent* ensembles (walkers
-        never interact across ensembles, see :class:`beam.inference.sampling.GroupedDEMove`)
+        never interact across ensembles, see :class:`beam.inference.sampling.GroupedMove`)
         and each ensemble's pooled draws are one chain (:func:`ensemble_draws`) -- independent
         chains, as R-hat assumes.
 
