@@ -105,3 +105,21 @@ def test_grouped_de_samples_a_correlated_gaussian():
     np.testing.assert_allclose(draws.mean(axis=0), 0.0, atol=0.1)
     np.testing.assert_allclose(np.cov(draws.T), cov, atol=0.1)
     assert np.max(rhat(chain, 4)) < 1.01
+
+
+def test_run_to_ess_adapts_each_ensembles_proposal_from_its_own_draws():
+    from beam.inference import EnsembleRun, preview
+    from beam.toy import ToyScenario, simulate, toy_problem
+
+    data = simulate(ToyScenario(seed=0))
+    problem = toy_problem(data.time_s[data.calibration], data.data[data.calibration])
+    run = EnsembleRun(problem, preview(problem), seed=2)
+    assert run.n_ensembles == 4
+    proposal = run.moves[0][0].proposal
+    np.testing.assert_array_equal(proposal.means, np.tile(run.laplace.mean, (4, 1)))  # before: the Laplace centre
+    result = run.run_to_ess(1000, initial_steps=60)  # too short: a second chunk, adapted
+    assert result.diagnostics.converged and result.diagnostics.n_ensembles == 4
+    assert len({tuple(m) for m in proposal.means}) == 4  # each ensemble its own centre
+    # each centre is its ensemble's mean, within the posterior sd (the draws it came from are fewer)
+    sd = np.std(run.chain().reshape(-1, problem.ndim), axis=0)
+    assert np.all(np.abs(proposal.means - run.laplace.mean) < sd)

@@ -47,6 +47,11 @@ Design
   only as ``tau / n_steps`` whatever the ensemble size, so it, not the ESS, set the length of
   a run (measured on lab_run_1: ESS 3,600 against 1,000 asked when R-hat reached 1.01); over
   ensembles it falls as ``tau / (n_steps * walkers per ensemble)``, and the ESS sets it.
+* Adaptation, once (:meth:`EnsembleRun.sample_to_ess`, when the first chunk does not
+  suffice): each ensemble's independence proposal is re-centred on that ensemble's own
+  post-burn-in draws with their covariance (finite adaptation: a fixed exact MH kernel from
+  then on; per ensemble, so the ensembles stay independent). Measured on lab_run_1 (seeds 0,
+  1): 642 / 717 steps to convergence before, 443 / 574 after.
 * Seeding: ``seed`` fixes the initial walker positions (``numpy.random.default_rng``) and
   emcee's internal ``RandomState`` (passed through :class:`emcee.State`); a run is
   reproducible for a given seed.
@@ -107,27 +112,39 @@ class Progress:
     elapsed_s: float
 
 
-def _laplace_t_proposal(mean: np.ndarray, cov: np.ndarray, scale: float, df: float):
-    """Independence proposal from a multivariate t: draws and log density (up to a constant)."""
-    chol = np.linalg.cholesky(cov) * scale
-    inv_chol = np.linalg.inv(chol)
-    d = mean.size
+class _TProposal:
+    """Independence proposal from a multivariate t per ensemble: draws and log density ratio.
 
-    def log_q(x: np.ndarray) -> np.ndarray:
-        u = (x - mean) @ inv_chol.T
-        return -0.5 * (df + d) * np.log1p(np.einsum("ij,ij->i", u, u) / df)
+    Walkers ``k * m`` to ``(k + 1) * m - 1`` draw from ensemble ``k``'s centre and covariance
+    (all the same until :meth:`adapt`), so an adapted proposal built from one ensemble's own
+    draws keeps the ensembles independent.
+    """
 
-    def propose(coords: np.ndarray, random) -> tuple[np.ndarray, np.ndarray]:
-        n = coords.shape[0]
+    def __init__(self, mean: np.ndarray, cov: np.ndarray, scale: float, df: float, n_ensembles: int) -> None:
+        self.scale, self.df, self.n_ensembles = float(scale), float(df), int(n_ensembles)
+        self.set([mean] * self.n_ensembles, [cov] * self.n_ensembles)
+
+    def set(self, means, covs) -> None:
+        """Centre and covariance (before widening by ``scale``) of each ensemble's proposal."""
+        self.means = np.array(means, dtype=float)
+        self.chols = np.array([np.linalg.cholesky(c) * self.scale for c in covs])
+        self.inv_chols = np.linalg.inv(self.chols)
+
+    def _log_q(self, x: np.ndarray, group: np.ndarray) -> np.ndarray:
+        u = np.einsum("nij,nj->ni", self.inv_chols[group], x - self.means[group])
+        d = x.shape[1]
+        return -0.5 * (self.df + d) * np.log1p(np.einsum("ij,ij->i", u, u) / self.df)
+
+    def __call__(self, coords: np.ndarray, random) -> tuple[np.ndarray, np.ndarray]:
+        n, d = coords.shape
+        group = np.arange(n) // (n // self.n_ensembles)
         g = random.standard_normal((n, d))
-        w = random.chisquare(df, n) / df
-        q = mean + (g / np.sqrt(w)[:, None]) @ chol.T
-        return q, log_q(coords) - log_q(q)
-
-    return propose
+        w = random.chisquare(self.df, n) / self.df
+        q = self.means[group] + np.einsum("nij,nj->ni", self.chols[group], g / np.sqrt(w)[:, None])
+        return q, self._log_q(coords, group) - self._log_q(q, group)
 
 
-def LaplaceIndependenceMove(laplace: LaplaceResult, *, scale: float = 1.3, df: float = 6.0):
+def LaplaceIndependenceMove(laplace: LaplaceResult, *, scale: float = 1.3, df: float = 6.0, n_ensembles: int = 1):
     """An emcee ``MHMove`` proposing independently from a widened multivariate t.
 
     Parameters
@@ -138,16 +155,23 @@ def LaplaceIndependenceMove(laplace: LaplaceResult, *, scale: float = 1.3, df: f
         Multiplier of the Laplace standard deviations (> 1 to cover the posterior tails).
     df : float
         Degrees of freedom of the t (heavier tails than the Gaussian).
+    n_ensembles : int
+        Independent ensembles among the walkers; ``move.proposal.set`` can give each its own
+        centre and covariance (:meth:`EnsembleRun.sample_to_ess` adapts them once, each
+        ensemble from its own draws).
 
     Returns
     -------
     emcee.moves.MHMove
         Exact Metropolis-Hastings: the proposal ratio ``log q(x) - log q(x')`` is passed to
-        emcee as the move's ``factors``.
+        emcee as the move's ``factors``. The proposal object is ``move.proposal``.
     """
     import emcee
 
-    return emcee.moves.MHMove(_laplace_t_proposal(laplace.mean, laplace.cov, scale, df))
+    proposal = _TProposal(laplace.mean, laplace.cov, scale, df, n_ensembles)
+    move = emcee.moves.MHMove(proposal)
+    move.proposal = proposal
+    return move
 
 
 class GroupedMove:
@@ -230,7 +254,7 @@ def default_moves(laplace: LaplaceResult | None, n_ensembles: int = 1):
 
     if laplace is None or not laplace.ok:
         return [(grouped(emcee.moves.DEMove()), 0.8), (grouped(emcee.moves.DESnookerMove()), 0.2)]
-    return [(LaplaceIndependenceMove(laplace), 0.5), (grouped(emcee.moves.DEMove()), 0.5)]
+    return [(LaplaceIndependenceMove(laplace, n_ensembles=n_ensembles), 0.5), (grouped(emcee.moves.DEMove()), 0.5)]
 
 
 class EnsembleRun:
@@ -295,6 +319,7 @@ class EnsembleRun:
         self.moves = default_moves(self.laplace, self.n_ensembles) if moves is None else moves
         self.sampler = emcee.EnsembleSampler(n_walkers, d, problem.log_posterior, vectorize=True, moves=self.moves)
         self._cache: dict[tuple[int, int], tuple] = {}  # (n_steps, n_burn) -> (tau, ess, rhat)
+        self._adapted = moves is not None  # only the default independence proposal is adapted
         self.seconds = time.perf_counter() - t0 + self.laplace.seconds
 
     @property
@@ -433,11 +458,40 @@ class EnsembleRun:
                 if rh_max > RHAT_MAX:
                     grow = max(1.2, (rh_max - 1.0) / (0.8 * (RHAT_MAX - 1.0)))
             self._cache[(self.n_steps, n_burn)] = (tau, ess, rh)
+            if grow != 1.0 and not self._adapted:
+                self._adapt_proposal(chain)
             self.seconds += time.perf_counter() - t1
             if grow == 1.0:
                 return
             want_total = math.ceil(kept * grow + BURN_AUTOCORR_TIMES * tau_max)
             steps = int(min(max(want_total - self.n_steps, 20), max_steps - self.n_steps))
+
+    def _adapt_proposal(self, chain: np.ndarray) -> None:
+        """Once, after the first chunk: centre and covariance of each ensemble's independence
+        proposal from that ensemble's own post-burn-in draws (finite adaptation: from then on a
+        fixed exact MH kernel). The Laplace Gaussian under-covers skewed directions (measured on
+        lab_run_1: posterior sd of log air damping 0.43 against 0.29), where an independence
+        sampler gets stuck in the tail; the ensemble's covariance covers them."""
+        self._adapted = True
+        proposal = next((getattr(m, "proposal", None) for m, _ in self._move_list() if isinstance(getattr(m, "proposal", None), _TProposal)), None)
+        if proposal is None:
+            return
+        k = proposal.n_ensembles
+        n_kept, n_walkers, d = chain.shape
+        per = chain.reshape(n_kept, k, n_walkers // k, d).transpose(1, 0, 2, 3).reshape(k, -1, d)
+        if per.shape[1] < 20 * d:
+            return
+        covs = [np.cov(x.T) for x in per]
+        try:
+            proposal.set(per.mean(axis=1), covs)
+        except np.linalg.LinAlgError:  # a degenerate ensemble: keep the Laplace proposal
+            pass
+
+    def _move_list(self):
+        m = self.moves
+        if not isinstance(m, list):
+            return [(m, 1.0)]
+        return [x if isinstance(x, tuple) else (x, 1.0) for x in m]
 
     def run_to_ess(self, target_ess: float = 1000.0, *, max_steps: int = 20000, initial_steps: int | None = None) -> PosteriorResult:
         """:meth:`sample_to_ess` without progress reports, then :meth:`result`.
