@@ -7,10 +7,12 @@ Conventions
   walker-averaged autocorrelation function, Goodman & Weare 2010; the estimate is only
   trusted for chains longer than ``min_autocorr_times * tau``).
 * Bulk ESS and rank-normalised split R-hat come from ArviZ (:func:`arviz.ess`,
-  :func:`arviz.rhat`, Vehtari et al. 2021), treating each walker after burn-in as a chain.
-  The walkers of an affine-invariant ensemble are **not** independent chains (each move uses
-  the positions of the others), so these figures are approximations; they agree with
-  ``n_walkers * n_steps / tau`` when the ensemble mixes well. Both statistics are invariant
+  :func:`arviz.rhat`, Vehtari et al. 2021). The ESS treats each walker after burn-in as a
+  chain. The walkers of an affine-invariant ensemble are **not** independent chains (each move
+  uses the positions of the others), so this figure is an approximation; it agrees with
+  ``n_walkers * n_steps / tau`` when the ensemble mixes well. R-hat is computed over
+  *independent ensembles* when the sampler runs several (each ensemble's pooled draws are one
+  chain, :func:`ensemble_draws`), otherwise over walkers as chains. Both statistics are invariant
   under monotone transformations, so they are computed on the internal coordinates.
 """
 
@@ -23,7 +25,7 @@ import numpy as np
 
 from beam.inference._arviz import import_arviz
 
-__all__ = ["Diagnostics", "assess", "autocorr_time", "ess_bulk", "rhat"]
+__all__ = ["Diagnostics", "assess", "autocorr_time", "ensemble_draws", "ess_bulk", "rhat"]
 
 #: R-hat above this flags non-convergence (Vehtari et al. 2021).
 RHAT_MAX = 1.01
@@ -65,12 +67,44 @@ def ess_bulk(chain: np.ndarray) -> np.ndarray:
     return np.array([float(az.ess(np.ascontiguousarray(x[..., i]), method="bulk")) for i in range(x.shape[-1])])
 
 
-def rhat(chain: np.ndarray) -> np.ndarray:
-    """ArviZ rank-normalised split R-hat of each parameter (walkers as chains).
+def ensemble_draws(chain: np.ndarray, n_ensembles: int) -> np.ndarray:
+    """Pool each independent ensemble's walkers into one sequence of draws, in time order.
 
     Parameters
     ----------
     chain : ndarray, shape (n_steps, n_walkers, ndim)
+        Walkers ``k * n_walkers / n_ensembles`` to ``(k + 1) * n_walkers / n_ensembles - 1``
+        form ensemble ``k``.
+    n_ensembles : int
+        Number of independent ensembles (divides ``n_walkers``).
+
+    Returns
+    -------
+    ndarray, shape (n_ensembles, n_steps * n_walkers / n_ensembles, ndim)
+        ArviZ layout (chain, draw, parameter): draw ``t * m + j`` is walker ``j`` of the ensemble
+        at step ``t``, so the first half of the draws is the first half of the steps (split R-hat
+        splits in time).
+    """
+    n_steps, n_walkers, ndim = chain.shape
+    if n_ensembles < 1 or n_walkers % n_ensembles:
+        raise ValueError(f"{n_ensembles} ensembles do not divide {n_walkers} walkers")
+    m = n_walkers // n_ensembles
+    return chain.reshape(n_steps, n_ensembles, m, ndim).transpose(1, 0, 2, 3).reshape(n_ensembles, n_steps * m, ndim)
+
+
+def rhat(chain: np.ndarray, n_ensembles: int = 1) -> np.ndarray:
+    """ArviZ rank-normalised split R-hat of each parameter.
+
+    Parameters
+    ----------
+    chain : ndarray, shape (n_steps, n_walkers, ndim)
+    n_ensembles : int
+        1: each walker is a chain (the walkers of one ensemble are not independent, so this is
+        an approximation, and a strict one: ``R-hat - 1`` scales as ``tau / n_steps`` whatever
+        the ensemble size). More: the walkers form that many *independent* ensembles (walkers
+        never interact across ensembles, see :class:`beam.inference.sampling.GroupedMove`)
+        and each ensemble's pooled draws are one chain (:func:`ensemble_draws`) -- independent
+        chains, as R-hat assumes.
 
     Returns
     -------
@@ -78,7 +112,7 @@ def rhat(chain: np.ndarray) -> np.ndarray:
     """
     az = import_arviz()
 
-    x = np.swapaxes(chain, 0, 1)
+    x = np.swapaxes(chain, 0, 1) if n_ensembles == 1 else ensemble_draws(chain, n_ensembles)
     return np.array([float(az.rhat(np.ascontiguousarray(x[..., i]), method="rank")) for i in range(x.shape[-1])])
 
 
@@ -102,6 +136,8 @@ class Diagnostics:
         Rank-normalised split R-hat per parameter.
     target_ess : float or None
         ESS the run aimed for.
+    n_ensembles : int
+        Independent ensembles the R-hat compares (1: walkers as chains).
     converged : bool
         R-hat <= 1.01, ESS >= target and chain length >= 20 autocorrelation times.
     warnings : list of str
@@ -119,6 +155,7 @@ class Diagnostics:
     target_ess: float | None
     converged: bool
     warnings: list[str] = field(default_factory=list)
+    n_ensembles: int = 1
 
     @property
     def ess_min(self) -> float:
@@ -139,6 +176,7 @@ class Diagnostics:
         """Plain-Python version, for JSON and netCDF attributes."""
         return {
             "n_walkers": int(self.n_walkers),
+            "n_ensembles": int(self.n_ensembles),
             "n_steps": int(self.n_steps),
             "n_burn": int(self.n_burn),
             "acceptance_fraction": float(self.acceptance_fraction),
@@ -164,6 +202,7 @@ def assess(
     rhat_max: float = RHAT_MAX,
     min_autocorr_times: float = MIN_AUTOCORR_TIMES,
     precomputed: tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None] = (None, None, None),
+    n_ensembles: int = 1,
 ) -> Diagnostics:
     """Compute all diagnostics of a post-burn-in chain and decide convergence.
 
@@ -185,6 +224,8 @@ def assess(
         Required chain length after burn-in, in autocorrelation times.
     precomputed : tuple
         ``(tau, ess, rhat)`` already computed on this very chain (None entries are computed).
+    n_ensembles : int
+        Independent ensembles among the walkers (see :func:`rhat`).
 
     Returns
     -------
@@ -193,7 +234,7 @@ def assess(
     tau, ess, rh = precomputed
     tau = autocorr_time(chain) if tau is None else tau
     ess = ess_bulk(chain) if ess is None else ess
-    rh = rhat(chain) if rh is None else rh
+    rh = rhat(chain, n_ensembles) if rh is None else rh
     warnings = []
     if np.any(~np.isfinite(rh)) or np.max(rh) > rhat_max:
         worst = names[int(np.nanargmax(np.where(np.isfinite(rh), rh, np.inf)))]
@@ -219,4 +260,5 @@ def assess(
         target_ess=target_ess,
         converged=not warnings,
         warnings=warnings,
+        n_ensembles=int(n_ensembles),
     )

@@ -51,7 +51,7 @@ TOY_GLOSSARY = {
                 "model and its noise are right",
     "RMSE": "root-mean-square distance between the prediction and the held-out measurements (du)",
     "ESS": "effective sample size: how many independent draws the correlated MCMC chain is worth",
-    "R-hat": "agreement between the MCMC walkers; above 1.01 the chain has not settled",
+    "R-hat": "agreement between the independent MCMC ensembles (between walkers when too few for four); above 1.01 the chain has not settled",
     "held out": "the part of the record after the calibration window, not used to calibrate",
 }
 
