@@ -66,6 +66,13 @@ SHORT_WINDOW_FRACTION = 1.0 / 3.0
 #: best are started.
 DESIGN_POINTS = 128
 DESIGN_KEPT = 3
+#: Bins of each log range in the stratified screening (see :func:`screened_design`).
+STRATA = 8
+STRATIFIED_POINTS = 512
+#: Lock-step iterations of the screening search over the stratified design, and how many of its
+#: best distinct ends are kept as starts.
+SCREEN_ITERATIONS = 8
+SCREEN_KEPT = 4
 #: Smallest distance between two kept design points (max-norm, fraction of the log ranges).
 DESIGN_SPREAD = 0.2
 #: Where a "barely on" effect parameter sits: this fraction of its log prior range from the end
@@ -207,7 +214,7 @@ def design_points(problem: Problem, setup: BeamCalibrationSetup, points: int = D
 
 
 def screened_design(problem: Problem, setup: BeamCalibrationSetup, keep: int = DESIGN_KEPT,
-                    points: int = DESIGN_POINTS, seed: int = 0) -> list[dict[str, float]]:
+                    points: int = DESIGN_POINTS, seed: int = 0, stratify: bool = False) -> list[dict[str, float]]:
     """The ``keep`` best design points (natural units, physical parameters; see the module
     notes), each with its spectral EI and least-squares k_p, by residual RMS on the window."""
     design = design_points(problem, setup, points, seed)
@@ -258,7 +265,65 @@ def screened_design(problem: Problem, setup: BeamCalibrationSetup, keep: int = D
         if all(np.max(np.abs(cube[i] - cube[j])) >= DESIGN_SPREAD or
                abs(np.log(batch["bending_stiffness_Nm2"][i] / batch["bending_stiffness_Nm2"][j])) > 0.05 for j in kept):
             kept.append(int(i))
+    if not stratify:
+        return [{name: float(v[i]) for name, v in batch.items()} for i in kept]
+    return [{name: float(v[i]) for name, v in batch.items()} for i in kept] + _stratified_design(problem, setup, points, seed)
+
+
+def _stratified_design(problem: Problem, setup: BeamCalibrationSetup, points: int, seed: int) -> list[dict[str, float]]:
+    """Design points over EI and the parameters of the effects that change the modes, the best
+    (by residual RMS, k_p by least squares) in each cell of STRATA x STRATA bins of the log
+    ranges of EI and of each such parameter (see the module notes)."""
+    names = [n for n in _effect_names(setup) if not _pure_damping_parameter(n)]
+    if not names:
+        return []
+    all_names = _effect_names(setup)
+    centres = prior_centres(setup)
+    dims = ["bending_stiffness_Nm2"] + all_names
+    ranges = np.array([_log_range(problem, n) for n in dims])
+    cube = qmc.Sobol(len(dims), scramble=True, seed=seed + 1).random(STRATIFIED_POINTS)
+    logs = ranges[:, 0] + cube * (ranges[:, 1] - ranges[:, 0])
+    batch = {n: np.exp(logs[:, i]) for i, n in enumerate(dims)}
+    size = cube.shape[0]
+    batch = {name: np.clip(v, problem.parameter(name).prior.lower * (1 + 1e-9),
+                           problem.parameter(name).prior.upper * (1 - 1e-9)) for name, v in batch.items()}
+    nonlinear = setup.model.is_nonlinear
+    batch["patch_coupling_NmV"] = np.ones(size) if not nonlinear else np.full(size, centres["patch_coupling_NmV"])
+    with np.errstate(all="ignore"):
+        try:
+            response = problem.predict(batch)
+        except Exception:  # noqa: BLE001 - a design point outside any physical range: no design
+            return []
+    data = problem.data
+    if nonlinear:
+        fitted = response
+    else:
+        denominator = np.einsum("ij,ij->i", response, response)
+        coupling = np.abs(response @ data) / np.where(denominator > 0, denominator, np.inf)
+        prior = problem.parameter("patch_coupling_NmV").prior
+        batch["patch_coupling_NmV"] = np.clip(coupling, prior.lower * (1 + 1e-9), prior.upper * (1 - 1e-9))
+        fitted = response * batch["patch_coupling_NmV"][:, None]
+    rms = np.sqrt(np.mean((data - fitted) ** 2, axis=1))
+    rms[~np.isfinite(rms)] = np.inf
+    kept: list[int] = []
+    stiffness_bin = np.minimum((cube[:, 0] * STRATA).astype(int), STRATA - 1)
+    for name in names:
+        j = dims.index(name)
+        cell = stiffness_bin * STRATA + np.minimum((cube[:, j] * STRATA).astype(int), STRATA - 1)
+        for c in np.unique(cell):
+            members = np.flatnonzero((cell == c) & np.isfinite(rms))
+            if members.size:
+                best = int(members[np.argmin(rms[members])])
+                if best not in kept:
+                    kept.append(best)
     return [{name: float(v[i]) for name, v in batch.items()} for i in kept]
+
+
+def _pure_damping_parameter(name: str) -> bool:
+    """Whether the parameter's effect only adds damping (it keeps the modes: no new basin)."""
+    from beam.physics.effects import EFFECTS, effect_of_parameter
+
+    return all(term.target == "damping" for term in EFFECTS[effect_of_parameter(name)].terms)
 
 
 def _batched_scales(setup: BeamCalibrationSetup, batch: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -353,6 +418,22 @@ def nested_starts(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[st
     return out
 
 
+def searched_design(problem: Problem, guesses: list[dict[str, float]], keep: int = SCREEN_KEPT,
+                    iterations: int = SCREEN_ITERATIONS) -> list[dict[str, float]]:
+    """The ends of a short lock-step search (:data:`SCREEN_ITERATIONS` iterations, no
+    continuation) from ``guesses``: the ``keep`` best distinct ends (natural units, physical
+    parameters)."""
+    result = levenberg_marquardt(problem, internal_starts(problem, guesses), max_iterations=iterations,
+                                 continuation=False)
+    order = [int(i) for i in np.argsort(-result.log_posterior, kind="stable")
+             if np.isfinite(result.log_posterior[i]) and not result.dropped[i]]
+    out = []
+    for i in order[:keep]:
+        values = problem.from_internal(result.z[i])
+        out.append({name: float(v[0]) for name, v in values.items() if name not in problem.noise_names})
+    return out
+
+
 def starting_points(problem: Problem, setup: BeamCalibrationSetup,
                     warm: Mapping[str, float] | None = None) -> list[dict[str, float]]:
     """The start strategy of every beam calibration (natural units, physical parameters): the
@@ -361,6 +442,9 @@ def starting_points(problem: Problem, setup: BeamCalibrationSetup,
     spectral = spectral_guesses(problem, setup)
     nested = nested_starts(problem, setup)
     design = screened_design(problem, setup)
+    strata = screened_design(problem, setup, stratify=True)[len(design):]
+    if strata:
+        design = design + searched_design(problem, strata)
     if warm is not None:
         return [dict(warm)] + nested + spectral + design
     short = _short_window_problem(setup)
