@@ -68,7 +68,7 @@ DESIGN_POINTS = 128
 DESIGN_KEPT = 3
 #: Bins of each log range in the stratified screening (see :func:`screened_design`).
 STRATA = 8
-STRATIFIED_POINTS = 512
+NONLINEAR_STRATA = 4
 #: Lock-step iterations of the screening search over the stratified design, and how many of its
 #: best distinct ends are kept as starts.
 SCREEN_ITERATIONS = 8
@@ -214,7 +214,7 @@ def design_points(problem: Problem, setup: BeamCalibrationSetup, points: int = D
 
 
 def screened_design(problem: Problem, setup: BeamCalibrationSetup, keep: int = DESIGN_KEPT,
-                    points: int = DESIGN_POINTS, seed: int = 0, stratify: bool = False) -> list[dict[str, float]]:
+                    points: int = DESIGN_POINTS, seed: int = 0) -> list[dict[str, float]]:
     """The ``keep`` best design points (natural units, physical parameters; see the module
     notes), each with its spectral EI and least-squares k_p, by residual RMS on the window."""
     design = design_points(problem, setup, points, seed)
@@ -265,12 +265,10 @@ def screened_design(problem: Problem, setup: BeamCalibrationSetup, keep: int = D
         if all(np.max(np.abs(cube[i] - cube[j])) >= DESIGN_SPREAD or
                abs(np.log(batch["bending_stiffness_Nm2"][i] / batch["bending_stiffness_Nm2"][j])) > 0.05 for j in kept):
             kept.append(int(i))
-    if not stratify:
-        return [{name: float(v[i]) for name, v in batch.items()} for i in kept]
-    return [{name: float(v[i]) for name, v in batch.items()} for i in kept] + _stratified_design(problem, setup, points, seed)
+    return [{name: float(v[i]) for name, v in batch.items()} for i in kept]
 
 
-def _stratified_design(problem: Problem, setup: BeamCalibrationSetup, points: int, seed: int) -> list[dict[str, float]]:
+def stratified_design(problem: Problem, setup: BeamCalibrationSetup, seed: int = 0) -> list[dict[str, float]]:
     """Design points over EI and the parameters of the effects that change the modes, the best
     (by residual RMS, k_p by least squares) in each cell of STRATA x STRATA bins of the log
     ranges of EI and of each such parameter (see the module notes)."""
@@ -281,35 +279,36 @@ def _stratified_design(problem: Problem, setup: BeamCalibrationSetup, points: in
     centres = prior_centres(setup)
     dims = ["bending_stiffness_Nm2"] + all_names
     ranges = np.array([_log_range(problem, n) for n in dims])
-    cube = qmc.Sobol(len(dims), scramble=True, seed=seed + 1).random(STRATIFIED_POINTS)
+    strata = STRATA if not setup.model.is_nonlinear else NONLINEAR_STRATA
+    cube = qmc.Sobol(len(dims), scramble=True, seed=seed + 1).random(8 * strata * strata)
     logs = ranges[:, 0] + cube * (ranges[:, 1] - ranges[:, 0])
     batch = {n: np.exp(logs[:, i]) for i, n in enumerate(dims)}
     size = cube.shape[0]
     batch = {name: np.clip(v, problem.parameter(name).prior.lower * (1 + 1e-9),
                            problem.parameter(name).prior.upper * (1 - 1e-9)) for name, v in batch.items()}
-    nonlinear = setup.model.is_nonlinear
-    batch["patch_coupling_NmV"] = np.ones(size) if not nonlinear else np.full(size, centres["patch_coupling_NmV"])
+    # k_p by least squares: exact for a linear model; for a nonlinear one the response at the
+    # prior centre's k_p is scaled (the small-amplitude response is linear in k_p), an estimate
+    # the screening search refines
+    base = 1.0 if not setup.model.is_nonlinear else centres["patch_coupling_NmV"]
+    batch["patch_coupling_NmV"] = np.full(size, base)
     with np.errstate(all="ignore"):
         try:
             response = problem.predict(batch)
         except Exception:  # noqa: BLE001 - a design point outside any physical range: no design
             return []
     data = problem.data
-    if nonlinear:
-        fitted = response
-    else:
-        denominator = np.einsum("ij,ij->i", response, response)
-        coupling = np.abs(response @ data) / np.where(denominator > 0, denominator, np.inf)
-        prior = problem.parameter("patch_coupling_NmV").prior
-        batch["patch_coupling_NmV"] = np.clip(coupling, prior.lower * (1 + 1e-9), prior.upper * (1 - 1e-9))
-        fitted = response * batch["patch_coupling_NmV"][:, None]
+    denominator = np.einsum("ij,ij->i", response, response)
+    ratio = np.abs(response @ data) / np.where(denominator > 0, denominator, np.inf)
+    prior = problem.parameter("patch_coupling_NmV").prior
+    batch["patch_coupling_NmV"] = np.clip(base * ratio, prior.lower * (1 + 1e-9), prior.upper * (1 - 1e-9))
+    fitted = response * ratio[:, None]
     rms = np.sqrt(np.mean((data - fitted) ** 2, axis=1))
     rms[~np.isfinite(rms)] = np.inf
     kept: list[int] = []
-    stiffness_bin = np.minimum((cube[:, 0] * STRATA).astype(int), STRATA - 1)
+    stiffness_bin = np.minimum((cube[:, 0] * strata).astype(int), strata - 1)
     for name in names:
         j = dims.index(name)
-        cell = stiffness_bin * STRATA + np.minimum((cube[:, j] * STRATA).astype(int), STRATA - 1)
+        cell = stiffness_bin * strata + np.minimum((cube[:, j] * strata).astype(int), strata - 1)
         for c in np.unique(cell):
             members = np.flatnonzero((cell == c) & np.isfinite(rms))
             if members.size:
@@ -442,7 +441,7 @@ def starting_points(problem: Problem, setup: BeamCalibrationSetup,
     spectral = spectral_guesses(problem, setup)
     nested = nested_starts(problem, setup)
     design = screened_design(problem, setup)
-    strata = screened_design(problem, setup, stratify=True)[len(design):]
+    strata = stratified_design(problem, setup)
     if strata:
         design = design + searched_design(problem, strata)
     if warm is not None:
