@@ -3,7 +3,7 @@
 For each record (the bundled ones, then fresh random ones of :func:`tests.simulated_data.random_beam_case`),
 each calibration window (three: 20, 30 and 45 % of the record from its start) and each effect set of
 up to ``--max-effects`` catalogue effects (the base model is always on), the MAP of the calibration
-engine (:func:`beam.calibration.calibration_preview`, the starts of
+engine (the MAP search of :func:`beam.calibration.calibration_preview` without its Laplace bands, the starts of
 :func:`beam.calibration.starts.starting_points`) is compared with a brute-force reference: the
 lock-step search of :mod:`beam.calibration.fit` from the strategy's own starts plus ``--starts``
 (default 256) points of a scrambled Sobol design over every physical parameter's log prior range
