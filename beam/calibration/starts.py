@@ -48,8 +48,10 @@ local optimum (each cycle of phase error is a new basin). So:
    mass); one best point per (EI, parameter) cell keeps every region alive until a few
    iterations of search tell them apart. Measured on lab_run_1 at the 20 % window: the seven
    models with tip_mass or clamp_compliance but no patch that ended 15-34 nats below a 256-start
-   reference now reach it; the cost is 0.2-0.5 s more per such preview (none for the default
-   model, whose effects only damp). For the nonlinear spring the design is 4 x 4 cells (a
+   reference now reach it. The cost, with the nested starts' sub-model fits (each with its own
+   searched design), is seconds per preview with a mode-changing effect on a cold cache
+   (lab_run_1, 0-1.05 s: + tip_mass 2-6 s, + patch_stiffening 5-16 s on a shared machine, from
+   0.15-0.25 s); none for the default model, whose effects only damp. For the nonlinear spring the design is 4 x 4 cells (a
    forward simulation each) and k_p the scaled least-squares value of the response at the
    prior centre's k_p.
 
