@@ -247,8 +247,9 @@ def _pct(value: float, signed: bool = True) -> str:
 
 
 def _low(value: float) -> str:
-    """A deficit worded once, without a sign: ``0.026`` -> ``"2.6 % low"``, ``-0.01`` -> ``"1.0 % high"``."""
-    return f"{_pct(abs(value), False)} {'low' if value >= 0 else 'high'}"
+    """A deficit worded once, without a sign: ``0.026`` -> ``"2.6 % low"``, ``-0.01`` -> ``"1.0 % high"``, ``1e-5`` -> ``"0.0 % off"``."""
+    shown = _pct(abs(value), False)
+    return f"{shown} off" if shown == "0.0 %" else f"{shown} {'low' if value > 0 else 'high'}"
 
 
 def explain(fp: Mapping[str, float]) -> dict[str, str]:
