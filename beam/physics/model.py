@@ -452,7 +452,10 @@ class BeamModel:
                 self._point_mass_factors.popitem(last=False)
         if factors is None:
             return None
-        return modal.rank_one_modes(factors, rows[:, j], n_modes)
+        try:
+            return modal.rank_one_modes(factors, rows[:, j], n_modes)
+        except np.linalg.LinAlgError:  # MRRR did not settle (never seen): the dense path decides
+            return None
 
     def _solve_shapes(self, rows: np.ndarray, keys: list[bytes], layout: _Layout, n_modes: int) -> dict[bytes, tuple]:
         """Solve the undamped eigenproblem for normalised coefficient rows; cache and return the entries.
