@@ -200,6 +200,7 @@ class CalibrationResult:
             "window_s": list(self.setup.window),
             "effects": list(self.setup.effects),
             "modes": self.setup.modes,
+            **({"modes_reason": self.setup.mode_choice.reason} if self.setup.mode_choice is not None else {}),
             "likelihood": self.setup.likelihood,
             "parameters": physical,
             "noise_sd": noise.get(NOISE_SD),
@@ -249,7 +250,7 @@ def prepare(
     *,
     window: tuple[float, float] | None = None,
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int = DEFAULT_MODES,
+    modes: int | str = DEFAULT_MODES,
     likelihood: str = "iid",
     extra_guesses: Iterable[dict[str, float]] = (),
     start: Mapping[str, float] | None = None,
@@ -359,7 +360,7 @@ def calibration_preview(
     *,
     window: tuple[float, float] | None = None,
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int = DEFAULT_MODES,
+    modes: int | str = DEFAULT_MODES,
     likelihood: str = "iid",
     extra_guesses: Iterable[dict[str, float]] = (),
     start: Mapping[str, float] | None = None,
@@ -376,7 +377,7 @@ def calibration_preview(
     effects : str or iterable of str
         Effects added to the base model (default air_damping, kelvin_voigt).
     modes : int
-        Retained modes (default 4).
+        Retained modes (default 4; "auto": chosen from the record's excited band, :func:`beam.calibration.modes.suggest_modes`).
     likelihood : {"iid", "ar1"}
         Noise model.
     extra_guesses : iterable of mapping
@@ -426,7 +427,7 @@ def calibration_stream(
     *,
     window: tuple[float, float] | None = None,
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int = DEFAULT_MODES,
+    modes: int | str = DEFAULT_MODES,
     likelihood: str = "iid",
     walkers: int | None = None,
     steps: int | None = None,
@@ -448,7 +449,7 @@ def calibration_stream(
     effects : str or iterable of str
         Effects added to the base model (default air_damping, kelvin_voigt).
     modes : int
-        Retained modes (default 4).
+        Retained modes (default 4; "auto": chosen from the record's excited band, :func:`beam.calibration.modes.suggest_modes`).
     likelihood : {"iid", "ar1"}
         Noise model.
     walkers : int, optional
