@@ -132,16 +132,20 @@ def _offset(result: CalibrationResult) -> float:
 def truncation_modes(result: CalibrationResult, floor: dx.NoiseFloor, residual: np.ndarray) -> tuple[int | None, float]:
     """Whether ``result``'s misfit is the truncation of its modal model, and how many modes to try.
 
-    Two signs, either suffices:
+    Two signs, either suffices; each must account for at least :data:`TRUNCATION_SHARE` of the
+    excess residual (the window's residual RMS above the noise, sqrt(rms² - floor²)), so that a
+    large misfit of another cause (a misplaced sensor: 190 × the noise) is not blamed on the modes:
 
     - the window's residual spectrum stands above the noise (:data:`~beam.calibration.modes.EXCITED_RATIO`
       × its density) up to a frequency above the highest retained mode's frequency (at the MAP)
       by more than :data:`~beam.calibration.modes.CLOSE_FRACTION`, or within that fraction of
-      the next mode: the record holds modes the model does not keep; the count to try is then
+      the next mode, and the residual power above that cut is that share of the excess power:
+      the record holds modes the model does not keep; the count to try is then
       :func:`~beam.calibration.modes.suggest_modes`' band rule applied to that frequency;
     - the record's own choice (:func:`~beam.calibration.modes.suggest_modes` on the same window
-      and effects) asks for more modes than retained (its truncation check sees in-band errors
-      of the dynamic correction that no peak shows).
+      and effects) asks for more modes than retained, and the nominal model's truncation error
+      with the retained count is that share of the excess RMS (its truncation check sees
+      in-band errors of the dynamic correction that no peak shows).
 
     Returns
     -------
@@ -154,7 +158,8 @@ def truncation_modes(result: CalibrationResult, floor: dx.NoiseFloor, residual: 
 
     setup = result.setup
     fs = setup.measurement.rate_Hz
-    excess = 0.0
+    excess_rms = float(np.sqrt(max(np.mean(residual**2) - floor.sd**2, 0.0)))
+    excess, frequency, psd = 0.0, np.zeros(0), np.zeros(0)
     if residual.size >= 64:
         frequency, psd = signal.welch(residual - np.median(residual), fs=fs, nperseg=int(min(256, residual.size // 4)),
                                       detrend="linear")
@@ -168,15 +173,23 @@ def truncation_modes(result: CalibrationResult, floor: dx.NoiseFloor, residual: 
         return None, excess
     highest, following = float(frequencies[setup.modes - 1]), float(frequencies[min(setup.modes, count - 1)])
     wanted = 0
-    if excess > min((1 + CLOSE_FRACTION) * highest, (1 - CLOSE_FRACTION) * following):
-        band = int(np.count_nonzero(frequencies < excess))
-        if band < frequencies.size and frequencies[band] <= (1 + CLOSE_FRACTION) * excess:
-            band += 1
-        wanted = band + MARGIN_MODES
+    cut = min((1 + CLOSE_FRACTION) * highest, (1 - CLOSE_FRACTION) * following)
+    if excess > cut:
+        density = np.clip(psd - floor.sd**2 / (0.5 * fs), 0.0, None)  # the residual's excess over the noise
+        step = float(frequency[1] - frequency[0])
+        if float(np.sum(density[frequency >= cut]) * step) >= TRUNCATION_SHARE * excess_rms**2:
+            band = int(np.count_nonzero(frequencies < excess))
+            if band < frequencies.size and frequencies[band] <= (1 + CLOSE_FRACTION) * excess:
+                band += 1
+            wanted = band + MARGIN_MODES
     try:
-        wanted = max(wanted, suggest_modes(setup.measurement, setup.window, setup.effects).modes)
+        choice = suggest_modes(setup.measurement, setup.window, setup.effects)
     except BeamInputError:
-        pass
+        choice = None
+    if choice is not None and choice.modes > setup.modes:
+        error = choice.truncation_error(setup.modes)
+        if error is not None and error >= TRUNCATION_SHARE * excess_rms:
+            wanted = max(wanted, choice.modes)
     wanted = min(wanted, setup.model.size)
     return (int(wanted) if wanted > setup.modes else None), excess
 
@@ -194,6 +207,11 @@ def remaining_error(result: CalibrationResult, floor: dx.NoiseFloor) -> Remainin
     if ratio > OUTSIDE_CATALOGUE_RATIO and not white.white:
         more, excess = truncation_modes(result, floor, residual)
     return Remaining(floor, ratio, bool(white.white), float(white.p_value), more, excess)
+
+
+#: Share of the excess residual (RMS, or power above the cut frequency) a truncation must account
+#: for to be named as the cause (:func:`truncation_modes`).
+TRUNCATION_SHARE = 0.5
 
 
 #: Two materially improving candidates whose log evidences differ by less than this (nats) and
