@@ -31,7 +31,7 @@ the record itself, in two measured steps:
 The nonlinear tip spring is left out of the nominal model (its stiffness has no nominal value);
 its force at the tip excites every mode, but the discarded ones answer it quasi-statically and
 the model adds that share (:func:`beam.physics.nonlinear._corrected_tip`): on lab_run_4 at its
-true parameters the held-out truncation error with 6 modes is 0.008 × the noise (2.6 × without
+true parameters the held-out truncation error with 6 modes is 0.006 × the noise (2.6 × without
 that correction).
 
 The larger of the two counts is retained, at most ``max_modes``. A free response (no input) keeps
