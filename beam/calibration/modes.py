@@ -164,7 +164,7 @@ def suggest_modes(measurement: Measurement, window: tuple[float, float] | None =
     Raises
     ------
     BeamInputError
-        A window outside the record or too short for a spectrum (fewer than 64 samples).
+        A window outside the record, or a record too short for a noise floor (fewer than 64 samples).
     """
     from scipy import signal  # slow import, only when asked
 
@@ -173,10 +173,9 @@ def suggest_modes(measurement: Measurement, window: tuple[float, float] | None =
     usable = ~measurement.clipped
     floor = noise_floor(t[usable], y[usable])
     inside = (t >= window[0] - 1e-12) & (t <= window[1] + 1e-12) & usable
-    if np.count_nonzero(inside) < 64:
-        raise BeamInputError(f"the window {window[0]:g}:{window[1]:g} s holds fewer than 64 samples: too few for a spectrum")
+    # a window too short for a spectrum: the band is read from the whole record
+    data = y[inside] if np.count_nonzero(inside) >= 64 else y[usable]
     fs = 1.0 / measurement.median_interval_s
-    data = y[inside]
     frequency, psd = signal.welch(data - np.median(data), fs=fs, nperseg=int(min(256, data.size // 4)), detrend="linear")
     edge = _excited_edge(frequency, psd, floor.sd**2 / (0.5 * fs))
 
@@ -191,7 +190,7 @@ def suggest_modes(measurement: Measurement, window: tuple[float, float] | None =
     band = max(1, band + MARGIN_MODES)
 
     truncation, errors = None, []
-    if not measurement.is_free and measurement.uniform:
+    if not measurement.is_free and measurement.uniform and np.count_nonzero(inside) >= 2:
         dt = measurement.sample_interval_s
         stop = int(np.nonzero(t <= window[1] + 1e-12)[0][-1]) + 1
         drive = measurement.input[:stop]

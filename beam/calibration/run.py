@@ -30,8 +30,10 @@ import numpy as np
 from beam.calibration.bands import fast_predictive_bands
 from beam.calibration.fit import fast_map
 from beam.calibration.free_starts import projected_starting_points
+from beam.calibration.modes import suggest_modes
 from beam.calibration.records import decimate_measurement
 from beam.calibration.setup import (
+    AUTO_MODES,
     DEFAULT_EFFECTS,
     DEFAULT_MODES,
     BeamCalibrationSetup,
@@ -267,7 +269,15 @@ def prepare(
     aliased; see :mod:`beam.io.limits`): ``setup.measurement`` is then the decimated record.
     """
     measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
+    choice = None
+    if modes is None or modes == AUTO_MODES:  # chosen from the record's excited band
+        try:
+            choice = suggest_modes(measurement, window, effects)
+            modes = choice.modes
+        except BeamInputError:  # too short for a spectrum (or a bad window, which make_setup reports)
+            modes = DEFAULT_MODES
     setup = make_setup(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)
+    setup.mode_choice = choice
     extra = [dict(g) for g in extra_guesses]
     warm = None if start is None else checked_start(start, setup.physical_names)
 

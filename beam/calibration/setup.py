@@ -208,7 +208,8 @@ class BeamCalibrationSetup:
     likelihood: str
     model: BeamModel
     forward: BeamForwardModel
-    #: How ``modes`` was chosen when asked for ``"auto"`` (:class:`beam.calibration.modes.ModeChoice`), else None.
+    #: How ``modes`` was chosen when asked for ``"auto"`` (:class:`beam.calibration.modes.ModeChoice`, set by
+    #: :func:`beam.calibration.run.prepare`), else None.
     mode_choice: object | None = None
 
     @property
@@ -258,15 +259,14 @@ def make_setup(
     *,
     window: tuple[float, float] | None = None,
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int | str | None = DEFAULT_MODES,
+    modes: int = DEFAULT_MODES,
     likelihood: str = "iid",
     intervals: int = DEFAULT_INTERVALS,
     knots: str = DEFAULT_KNOTS,
 ) -> BeamCalibrationSetup:
     """Validate the choices and build the model (BeamInputError on any bad choice).
 
-    ``modes="auto"`` (or None) chooses the number from the record's excited band
-    (:func:`beam.calibration.modes.suggest_modes`; the choice is kept as ``setup.mode_choice``).
+    ``modes`` is a number here; :func:`beam.calibration.run.prepare` also takes ``"auto"``.
 
     ``intervals`` and ``knots`` set the Galerkin mesh (:mod:`beam.physics.basis`; default: the patch
     knots, as ``beam simulate`` uses).
@@ -276,12 +276,6 @@ def make_setup(
     effects = parse_effects(effects)
     window = resolve_window(measurement, window)
     check_calibration_record(measurement, window)
-    choice = None
-    if modes is None or modes == "auto":
-        from beam.calibration.modes import suggest_modes  # it builds on this module
-
-        choice = suggest_modes(measurement, window, effects)
-        modes = choice.modes
     model = BeamModel(measurement.geometry, effects, intervals, knots, input_kind=measurement.input_kind)
     if isinstance(modes, bool) or int(modes) != modes or not 1 <= modes <= model.size:
         raise BeamInputError(f"modes must be between 1 and {model.size} (the mesh holds {model.size} modes), got {modes}")
@@ -301,7 +295,7 @@ def make_setup(
                                      measurement.output[mask], likelihood)
     else:
         forward = BeamForwardModel(model, measurement, int(modes))
-    setup = BeamCalibrationSetup(measurement, window, effects, int(modes), likelihood, model, forward, choice)
+    setup = BeamCalibrationSetup(measurement, window, effects, int(modes), likelihood, model, forward)
     _check_window_holds_a_period(setup)
     return setup
 
