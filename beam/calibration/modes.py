@@ -127,7 +127,7 @@ class ModeChoice:
             return (f"a free response: the library's {self.modes} modes ({text}, but the damping of so many "
                     "modes of a free decay is not identified)")
         if self.truncation_modes is not None:
-            text += f"; the nominal model's truncation error falls below the noise with {self.truncation_modes}"
+            text += f"; the nominal model's truncation error falls below {TRUNCATION_FRACTION:g}× the noise with {self.truncation_modes}"
         return text
 
     def to_json(self) -> dict:
