@@ -73,7 +73,7 @@ def test_request_publishes_preview_then_final(session):
     assert bands_csv(beam.result).getvalue().decode().count("\n") == beam.measurement.time_s.size + 1
     assert posterior_netcdf(beam.result).getvalue()[:4] == b"\x89HDF"
     assert posterior_netcdf(seen_results[0]) is None  # a preview has no posterior
-    assert filename(beam.result, "json") == "lab_run_1_w0-1.05_m4_air_damping+kelvin_voigt_iid.json"
+    assert filename(beam.result, "json") == "lab_run_1_w0-1.05_m7_air_damping+kelvin_voigt_iid.json"
 
 
 def test_newer_request_cancels_the_older_and_wins(session):
