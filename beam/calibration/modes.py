@@ -113,10 +113,11 @@ class ModeChoice:
 
     def truncation_error(self, modes: int) -> float | None:
         """RMS truncation error (output unit) of the nominal model in the window with ``modes``
-        modes (against all of them); None when not computed."""
+        modes (against all of them); None when not computed (a free or irregular record, or more
+        modes than were tried)."""
         if 1 <= modes <= len(self.truncation_errors):
             return self.truncation_errors[modes - 1]
-        return 0.0 if self.truncation_errors and modes > len(self.truncation_errors) else None
+        return None
 
     @property
     def reason(self) -> str:
