@@ -539,43 +539,52 @@ def diagnose(
         grid, (output,) = uniform_view(record, record.output, start_s=start)
         floor = dx.noise_floor(grid, output)
         remaining = remaining_error(ladder[-1].result, floor)
-        ladder, remaining = _climb_on(measurement, ladder, remaining, floor, mcmc=ladder_mcmc, seed=seed)
+        if len(ladder) > 1:  # something was added, and more may be missing on top of it
+            from beam.discovery.ranking import _step
+
+            climbed, remaining = climb_on(measurement, ladder[-1].result, remaining, floor, mcmc=ladder_mcmc, seed=seed)
+            ladder = [*ladder, *(_step(result, effect, ladder_mcmc) for effect, result in climbed)]
     except BeamInputError as exc:
         residuals.notes.append(f"no noise floor: {exc}")
     return DiagnosisReport(measurement, residuals, ranking, ladder, time.perf_counter() - t0, remaining)
 
 
-#: Most rungs the ladder climbs by re-ranking on top of its last rung (:func:`_climb_on`).
+#: Most rungs the ladder climbs by re-ranking on top of its last rung (:func:`climb_on`).
 MAX_CLIMB = 2
 
 
-def _climb_on(measurement: Measurement, ladder: list[LadderStep], remaining: Remaining, floor: dx.NoiseFloor, *,
-              mcmc: bool, seed: int) -> tuple[list[LadderStep], Remaining]:
-    """Before calling what remains "outside the catalogue": rank the candidates left on top of the
-    last rung, and climb while one materially improves it.
+def climb_on(measurement: Measurement, result: CalibrationResult, remaining: Remaining, floor: dx.NoiseFloor, *,
+             mcmc: bool = False, seed: int = 0) -> tuple[list[tuple[str, CalibrationResult]], Remaining]:
+    """Before calling what remains "outside the catalogue": rank the candidates left on top of
+    ``result`` (the last rung, a repaired model), and climb while one materially improves it.
 
     The ladder adds the candidates that improve the *base* model; a second effect whose share is
     small beside the first one's (lab_run_1: the patch's added damping beside its stiffening) shows
     only once the first is in. Measured on lab_run_1 (7 modes): after patch_stiffening 3.1× the
     noise remained; ranked on top of it, patch_damping gains 188 nats and leaves 1.1×.
-    """
-    from beam.calibration import calibrate, calibration_preview
-    from beam.discovery.ranking import _step, improves
 
-    climbed = 0
-    while remaining.outside_catalogue and climbed < MAX_CLIMB and len(ladder) > 1:
-        last = ladder[-1].result
+    Returns
+    -------
+    (list of (effect, CalibrationResult), Remaining)
+        The rungs climbed (at most :data:`MAX_CLIMB`) and the distance of the last one from the noise.
+    """
+    from beam.calibration import calibrate
+    from beam.discovery.ranking import improves
+
+    climbed: list[tuple[str, CalibrationResult]] = []
+    last = result
+    while remaining.outside_catalogue and len(climbed) < MAX_CLIMB:
         ranking = rank_candidates(measurement, base=last.setup.effects, modes=last.setup.modes, base_result=last)
         best = next((c for c in ranking.candidates if c.material), None)
         if best is None:
             break
-        result = ranking.results[best.effect]
-        if mcmc:
-            result = calibrate(measurement, window=last.setup.window, effects=result.setup.effects,
-                               modes=last.setup.modes, seed=seed)
-        elif not improves(last, result):
+        step = ranking.results[best.effect]
+        if not improves(last, step):
             break
-        ladder = [*ladder, _step(result, best.effect, mcmc)]
-        remaining = remaining_error(result, floor)
-        climbed += 1
-    return ladder, remaining
+        if mcmc:
+            step = calibrate(measurement, window=last.setup.window, effects=step.setup.effects,
+                             modes=last.setup.modes, seed=seed)
+        climbed.append((best.effect, step))
+        remaining = remaining_error(step, floor)
+        last = step
+    return climbed, remaining
