@@ -348,8 +348,8 @@ def scale_unit_modes(
         Index of each set's unit solution.
     unit_modes : tuple of arrays
         omega2 (U, m) (rad²/s² at unit scale), projections (U, P, m, m) of the P damping parts,
-        force (U, m) per unit coupling, sensor (U, m), tip (U, m), static (U, 2) (m per unit
-        coupling at sensor and tip, per unit EI).
+        force (U, m) per unit coupling, sensor (U, m), tip (U, m), static (U, 2) or (U, 4) (m per
+        unit coupling at sensor and tip, per unit EI; then m per unit tip force at sensor and tip).
     scales : (3 + P, B)
         Per set: rho (mass scale, kg/m), EI (stiffness scale, N m²), the force coefficient
         (N m/V for the patch, 1 for a point force in N) and the coefficient of each of the P
@@ -359,7 +359,7 @@ def scale_unit_modes(
 
     Returns
     -------
-    omega2 (B, m), damping (B, m, m) (1/s), force (B, m), sensor (B, m), tip (B, m), static (B, 2).
+    omega2 (B, m), damping (B, m, m) (1/s), force (B, m), sensor (B, m), tip (B, m), static (B, 2 or 4).
     """
     ratios = _ratios(modal_ratios, which.shape[0], unit_modes[0].shape[1])
     return _scale_unit_modes(which, *unit_modes, scales, ratios)
@@ -375,7 +375,7 @@ def _scale_unit_modes(which, omega2_u, projections_u, force_u, sensor_u, tip_u, 
     force = np.empty((batch, m))
     sensor = np.empty((batch, m))
     tip = np.empty((batch, m))
-    static = np.empty((batch, 2))
+    static = np.empty((batch, static_u.shape[1]))
     for b in range(batch):
         u = which[b]
         mass_scale, stiff_scale, force_coef = scales[0, b], scales[1, b], scales[2, b]
@@ -393,6 +393,8 @@ def _scale_unit_modes(which, omega2_u, projections_u, force_u, sensor_u, tip_u, 
             damping[b, i, i] += 2.0 * ratios[b, i] * np.sqrt(max(omega2[b, i], 0.0))
         for k in range(2):
             static[b, k] = static_u[u, k] * (force_coef / stiff_scale)
+        for k in range(2, static_u.shape[1]):  # per unit tip force (N), not per unit input
+            static[b, k] = static_u[u, k] / stiff_scale
     return omega2, damping, force, sensor, tip, static
 
 

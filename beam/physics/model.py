@@ -479,7 +479,10 @@ class BeamModel:
         dropped = shapes[:, :, n_modes:]
         outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
         per_mode = (outputs @ dropped) * ((self._input_vector @ dropped) / omega2[:, n_modes:])[:, None, :]
-        residual_static = per_mode.sum(axis=2)  # (U, 2): sensor, tip
+        # … and the same for a unit force at the tip (the cubic spring's): its quasi-static share
+        # at the sensor and at the tip, m/N at unit EI
+        per_mode_tip = (outputs @ dropped) * ((self.parts.tip_values @ dropped) / omega2[:, n_modes:])[:, None, :]
+        residual_static = np.concatenate([per_mode.sum(axis=2), per_mode_tip.sum(axis=2)], axis=1)  # (U, 4)
         kept_t = np.swapaxes(kept, 1, 2)
         projections = np.stack([kept_t @ getattr(self.parts, name) @ kept for name in _DAMPING_PARTS], axis=1)
         force = kept.transpose(0, 2, 1) @ self._input_vector
