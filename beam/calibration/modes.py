@@ -52,7 +52,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from beam.calibration.setup import DEFAULT_EFFECTS, DEFAULT_MODES, prior_centre, resolve_window
-from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.physics.effects import parse_effects
 from beam.physics.model import BeamModel
