@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+import re
 import math
 
 import numpy as np
@@ -83,6 +84,8 @@ def test_the_missing_effect_scores_highest(record):
         assert fp["ljung_box_p_value"] < 1e-6
     sentences = explain(fp)
     assert list(sentences) == list(CANDIDATE_EFFECTS) and all(isinstance(s, str) and s for s in sentences.values())
+    # a direction is worded once: never "low by +2.6 %" nor "(by -1.0 %"
+    assert not any(re.search(r"(low|high|lower|higher|by) [+-−]\d", s) for s in sentences.values()), sentences
     json.dumps(jsonable(fp), allow_nan=False)
 
 

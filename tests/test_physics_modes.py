@@ -298,3 +298,27 @@ def test_uniform_knots_converge_only_at_first_order_on_the_stepped_beam():
     assert errors[16].max() < 0.015
     assert errors[128].max() < 0.002
     assert np.all(errors[128] < errors[32]) and np.all(errors[32] < errors[16])
+
+
+@pytest.mark.parametrize("effect, parameter", [("tip_mass", "tip_mass_kg"), ("sensor_mass", "sensor_mass_kg")])
+def test_point_mass_modes_of_a_free_model_match_the_dense_eigensolver(effect, parameter, monkeypatch):
+    """The tridiagonal point-mass path (one factorisation for every mass) against the dense
+    eigenproblem of each M, K (the same normalised matrices) and, for a tip mass, the
+    characteristic equation."""
+    model = BeamModel(GEOMETRY, [effect], 32, input_kind=None)
+    dense = BeamModel(GEOMETRY, [effect], 32, input_kind=None)
+    monkeypatch.setattr(dense, "_point_mass_modes", lambda *args: None)
+    ratios = np.array([0.0, 0.2, 1.0, 3.0])
+    values = {"bending_stiffness_Nm2": np.full(ratios.size, STIFFNESS), parameter: ratios * DENSITY * LENGTH}
+    reduced, _, _ = model.reduced_system(values, 4)
+    expected, _, _ = dense.reduced_system(values, 4)
+    assert model._point_mass_factors and not dense._point_mass_factors  # each took its path
+    for name in ("omega2", "sensor", "tip", "damping"):
+        np.testing.assert_allclose(reduced[name], expected[name], rtol=1e-12, atol=1e-12 * np.abs(expected[name]).max())
+    for i, ratio in enumerate(ratios):  # one set at a time: the same numbers as the batch
+        single, _, _ = model.reduced_system({"bending_stiffness_Nm2": STIFFNESS, parameter: float(ratio * DENSITY * LENGTH)}, 4)
+        np.testing.assert_allclose(single["omega2"][0], reduced["omega2"][i], rtol=1e-14)
+        if effect == "tip_mass":
+            exact = cantilever_beta_l() if ratio == 0 else tip_mass_beta_l(ratio)
+            beta = (reduced["omega2"][i] * DENSITY * LENGTH**4 / STIFFNESS) ** 0.25
+            np.testing.assert_allclose(beta, exact, rtol=1e-5)

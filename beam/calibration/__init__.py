@@ -10,7 +10,9 @@ from beam.calibration.run import (
     calibration_stream,
     prepare,
 )
+from beam.calibration.modes import ModeChoice, suggest_modes
 from beam.calibration.setup import (
+    AUTO_MODES,
     DEFAULT_EFFECTS,
     DEFAULT_MODES,
     DEFAULT_WINDOW_FRACTION,
@@ -22,6 +24,9 @@ from beam.calibration.setup import (
 )
 
 __all__ = [
+    "AUTO_MODES",
+    "ModeChoice",
+    "suggest_modes",
     "DEFAULT_EFFECTS",
     "DEFAULT_MODES",
     "DEFAULT_WINDOW_FRACTION",

@@ -46,11 +46,20 @@ def spectral_scales(frequencies_Hz: np.ndarray, spectrum: tuple[np.ndarray, np.n
     frequencies, power = spectrum
     nyquist = frequencies[-1]
     model = np.atleast_2d(frequencies_Hz)
+    rows, inverse = np.unique(model, axis=0, return_inverse=True)
+    if rows.shape[0] < model.shape[0]:  # e.g. a design over damping ratios alone: one row of frequencies
+        return spectral_scales(rows, spectrum)[inverse.ravel()]
     floor = power.max() * 1e-12 + 1e-300
     usable = (model > 0) & (model < 0.8 * nyquist)
     scaled = np.sqrt(SCALE_GRID)[None, :, None] * model[:, None, :]
     inside = (scaled < 0.95 * nyquist) & usable[:, None, :]
-    score = np.where(inside, np.log(np.interp(scaled, frequencies, power) + floor), np.log(floor)).sum(axis=2)
+    # linear interpolation of the power on its uniform grid (np.interp's values, without its
+    # binary search per query: 190 design rows x 1201 scales x 4 modes took 30 ms so)
+    position = np.clip(scaled / frequencies[1], 0.0, frequencies.size - 1.0)
+    index = np.minimum(position.astype(np.int64), frequencies.size - 2)
+    fraction = position - index
+    interpolated = power[index] * (1.0 - fraction) + power[index + 1] * fraction
+    score = np.where(inside, np.log(interpolated + floor), np.log(floor)).sum(axis=2)
     return SCALE_GRID[np.argmax(score, axis=1)]
 
 

@@ -30,8 +30,10 @@ import numpy as np
 from beam.calibration.bands import fast_predictive_bands
 from beam.calibration.fit import fast_map
 from beam.calibration.free_starts import projected_starting_points
+from beam.calibration.modes import suggest_modes
 from beam.calibration.records import decimate_measurement
 from beam.calibration.setup import (
+    AUTO_MODES,
     DEFAULT_EFFECTS,
     DEFAULT_MODES,
     BeamCalibrationSetup,
@@ -200,6 +202,7 @@ class CalibrationResult:
             "window_s": list(self.setup.window),
             "effects": list(self.setup.effects),
             "modes": self.setup.modes,
+            **({"modes_reason": self.setup.mode_choice.reason} if self.setup.mode_choice is not None else {}),
             "likelihood": self.setup.likelihood,
             "parameters": physical,
             "noise_sd": noise.get(NOISE_SD),
@@ -249,7 +252,7 @@ def prepare(
     *,
     window: tuple[float, float] | None = None,
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int = DEFAULT_MODES,
+    modes: int | str = DEFAULT_MODES,
     likelihood: str = "iid",
     extra_guesses: Iterable[dict[str, float]] = (),
     start: Mapping[str, float] | None = None,
@@ -266,7 +269,15 @@ def prepare(
     aliased; see :mod:`beam.io.limits`): ``setup.measurement`` is then the decimated record.
     """
     measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
+    choice = None
+    if modes is None or modes == AUTO_MODES:  # chosen from the record's excited band
+        try:
+            choice = suggest_modes(measurement, window, effects)
+            modes = choice.modes
+        except BeamInputError:  # too short for a spectrum (or a bad window, which make_setup reports)
+            modes = DEFAULT_MODES
     setup = make_setup(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)
+    setup.mode_choice = choice
     extra = [dict(g) for g in extra_guesses]
     warm = None if start is None else checked_start(start, setup.physical_names)
 
@@ -359,7 +370,7 @@ def calibration_preview(
     *,
     window: tuple[float, float] | None = None,
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int = DEFAULT_MODES,
+    modes: int | str = DEFAULT_MODES,
     likelihood: str = "iid",
     extra_guesses: Iterable[dict[str, float]] = (),
     start: Mapping[str, float] | None = None,
@@ -376,7 +387,7 @@ def calibration_preview(
     effects : str or iterable of str
         Effects added to the base model (default air_damping, kelvin_voigt).
     modes : int
-        Retained modes (default 4).
+        Retained modes (default 4; "auto": chosen from the record's excited band, :func:`beam.calibration.modes.suggest_modes`).
     likelihood : {"iid", "ar1"}
         Noise model.
     extra_guesses : iterable of mapping
@@ -426,7 +437,7 @@ def calibration_stream(
     *,
     window: tuple[float, float] | None = None,
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int = DEFAULT_MODES,
+    modes: int | str = DEFAULT_MODES,
     likelihood: str = "iid",
     walkers: int | None = None,
     steps: int | None = None,
@@ -448,7 +459,7 @@ def calibration_stream(
     effects : str or iterable of str
         Effects added to the base model (default air_damping, kelvin_voigt).
     modes : int
-        Retained modes (default 4).
+        Retained modes (default 4; "auto": chosen from the record's excited band, :func:`beam.calibration.modes.suggest_modes`).
     likelihood : {"iid", "ar1"}
         Noise model.
     walkers : int, optional

@@ -54,6 +54,9 @@ from beam.physics.model import BeamModel
 
 DEFAULT_EFFECTS: tuple[str, ...] = ("air_damping", "kelvin_voigt")
 DEFAULT_MODES = 4
+#: The number of modes chosen from the record (:func:`beam.calibration.modes.suggest_modes`): the
+#: default of ``beam calibrate``, ``beam diagnose`` and the dashboard.
+AUTO_MODES = "auto"
 #: The default calibration window: the first 30 % of the record.
 DEFAULT_WINDOW_FRACTION = 0.3
 #: Fewest samples a calibration window may hold.
@@ -205,6 +208,9 @@ class BeamCalibrationSetup:
     likelihood: str
     model: BeamModel
     forward: BeamForwardModel
+    #: How ``modes`` was chosen when asked for ``"auto"`` (:class:`beam.calibration.modes.ModeChoice`, set by
+    #: :func:`beam.calibration.run.prepare`), else None.
+    mode_choice: object | None = None
 
     @property
     def window_mask(self) -> np.ndarray:
@@ -259,6 +265,8 @@ def make_setup(
     knots: str = DEFAULT_KNOTS,
 ) -> BeamCalibrationSetup:
     """Validate the choices and build the model (BeamInputError on any bad choice).
+
+    ``modes`` is a number here; :func:`beam.calibration.run.prepare` also takes ``"auto"``.
 
     ``intervals`` and ``knots`` set the Galerkin mesh (:mod:`beam.physics.basis`; default: the patch
     knots, as ``beam simulate`` uses).

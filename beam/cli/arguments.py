@@ -53,6 +53,13 @@ def non_negative_int(text: str) -> int:
     return _integer(text, 0, "an integer >= 0")
 
 
+def modes_choice(text: str) -> int | str:
+    """A positive integer, or ``auto`` (chosen from the record's excited band)."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    return _integer(text, 1, "a positive integer or 'auto'")
+
+
 def time_window(text: str) -> tuple[float, float]:
     """``START:END`` in seconds, START < END."""
     start_text, colon, end_text = text.partition(":")

@@ -11,6 +11,7 @@ from beam.cli.arguments import (
     HelpFormatter,
     effects_epilog,
     measurement_path,
+    modes_choice,
     non_negative_int,
     positive_int,
     time_window,
@@ -25,7 +26,8 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
                         help="measurement: NAME.csv, NAME.toml or NAME; a bundled run (e.g. lab_run_1) by its name")
     parser.add_argument("--window", type=time_window, default=None, metavar="START:END",
                         help="calibration window in seconds, e.g. 0:1.5 (default: the first 30 %% of the record)")
-    parser.add_argument("--modes", type=positive_int, default=4, metavar="N", help="retained modes (default 4)")
+    parser.add_argument("--modes", type=modes_choice, default="auto", metavar="N",
+                        help="retained modes, or auto (default: chosen from the record's excited band)")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -100,6 +102,7 @@ def format_summary(summary: dict) -> str:
     lines = [
         f"{summary['measurement']}: calibration window {format_window(summary['window_s'])}, "
         f"{summary['modes']} modes, effects: {', '.join(summary['effects']) or 'none'}, likelihood {summary['likelihood']}",
+        *([f"modes: {summary['modes']}, chosen: {summary['modes_reason']}"] if summary.get("modes_reason") else []),
         "",
         f"{'parameter':32s} {'mean':>12s} {'sd':>11s} {'2.5 %':>12s} {'97.5 %':>12s}",
     ]

@@ -56,6 +56,7 @@ def format_report(summary: dict) -> str:
     lines = [
         f"{summary['measurement']}: window {summary['window_s'][0]:g}-{summary['window_s'][1]:g} s, {summary['modes']} modes, "
         f"base model: {', '.join(summary['base']) or 'bare beam'}",
+        *([f"modes: {summary['modes']}, chosen: {summary['modes_reason']}"] if summary.get("modes_reason") else []),
         f"held-out RMSE of the base model {_m(summary['rmse_prediction_base'])} {summary.get('output_unit', 'm')}, coverage of its 95% band "
         f"{_m(summary['coverage95_prediction_base'])}",
         "",

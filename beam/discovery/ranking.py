@@ -164,7 +164,7 @@ def rank_candidates(
     *,
     base: Iterable[str] | str = DEFAULT_EFFECTS,
     window: tuple[float, float] | None = None,
-    modes: int = DEFAULT_MODES,
+    modes: int | str = DEFAULT_MODES,
     candidates: Iterable[str] | None = None,
     explain: Explainer | None = None,
     base_result: CalibrationResult | None = None,
@@ -174,7 +174,7 @@ def rank_candidates(
     base = parse_effects(base)
     if base_result is None:
         base_result = calibration_preview(measurement, window=window, effects=base, modes=modes)
-    window = base_result.setup.window
+    window, modes = base_result.setup.window, base_result.setup.modes  # "auto" resolved once, for every candidate
     names = candidate_effects(base, measurement) if candidates is None else parse_effects(candidates)
     if set(names) & set(base):
         raise BeamInputError(f"candidate {sorted(set(names) & set(base))[0]!r} is already in the model")

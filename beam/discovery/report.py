@@ -19,8 +19,8 @@ import numpy as np
 
 import beam.residuals as dx
 from beam.calibration import (
+    AUTO_MODES,
     DEFAULT_EFFECTS,
-    DEFAULT_MODES,
     CalibrationResult,
     calibration_preview,
 )
@@ -72,17 +72,35 @@ class Remaining:
         Whether the last rung's residuals in the calibration window are white (Ljung–Box).
     ljung_box_p : float
         Their Ljung–Box p-value.
+    more_modes : int or None
+        When the remaining error is a truncation of the modal model (see :func:`remaining_error`):
+        the number of modes to try; None otherwise.
+    excess_Hz : float
+        Highest frequency where the window's residual spectrum stands above the noise
+        (:data:`beam.calibration.modes.EXCITED_RATIO` × its density; 0 when nowhere).
     """
 
     noise_floor: dx.NoiseFloor
     remaining_error_ratio: float
     white: bool
     ljung_box_p: float
+    more_modes: int | None = None
+    excess_Hz: float = 0.0
+
+    @property
+    def above_noise(self) -> bool:
+        """The last rung is still well above the noise and its residuals are not white."""
+        return bool(self.remaining_error_ratio > OUTSIDE_CATALOGUE_RATIO and not self.white)
+
+    @property
+    def truncated(self) -> bool:
+        """Well above the noise, and the misfit is the modal truncation: try more modes."""
+        return self.above_noise and self.more_modes is not None
 
     @property
     def outside_catalogue(self) -> bool:
-        """The last rung is still well above the noise and its residuals are not white."""
-        return bool(self.remaining_error_ratio > OUTSIDE_CATALOGUE_RATIO and not self.white)
+        """Well above the noise, residuals not white, and not a truncation of the modes."""
+        return self.above_noise and self.more_modes is None
 
 
 def uniform_view(measurement: Measurement, *series: np.ndarray, start_s: float | None = None
@@ -111,15 +129,89 @@ def _offset(result: CalibrationResult) -> float:
     return 0.0 if linear is None else float(linear["output_offset"])
 
 
+def truncation_modes(result: CalibrationResult, floor: dx.NoiseFloor, residual: np.ndarray) -> tuple[int | None, float]:
+    """Whether ``result``'s misfit is the truncation of its modal model, and how many modes to try.
+
+    Two signs, either suffices; each must account for at least :data:`TRUNCATION_SHARE` of the
+    excess residual (the window's residual RMS above the noise, sqrt(rms² - floor²)), so that a
+    large misfit of another cause (a misplaced sensor: 190 × the noise) is not blamed on the modes:
+
+    - the window's residual spectrum stands above the noise (:data:`~beam.calibration.modes.EXCITED_RATIO`
+      × its density) up to a frequency above the highest retained mode's frequency (at the MAP)
+      by more than :data:`~beam.calibration.modes.CLOSE_FRACTION`, or within that fraction of
+      the next mode, and the residual power above that cut is that share of the excess power:
+      the record holds modes the model does not keep; the count to try is then
+      :func:`~beam.calibration.modes.suggest_modes`' band rule applied to that frequency;
+    - the record's own choice (:func:`~beam.calibration.modes.suggest_modes` on the same window
+      and effects) asks for more modes than retained, and the nominal model's truncation error
+      with the retained count is that share of the excess RMS (its truncation check sees
+      in-band errors of the dynamic correction that no peak shows).
+
+    Returns
+    -------
+    (int or None, float)
+        Modes to try (None: not a truncation) and the highest excess frequency (Hz).
+    """
+    from scipy import signal
+
+    from beam.calibration.modes import CLOSE_FRACTION, EXCITED_RATIO, MARGIN_MODES, MAX_MODES, suggest_modes
+
+    setup = result.setup
+    fs = setup.measurement.rate_Hz
+    excess_rms = float(np.sqrt(max(np.mean(residual**2) - floor.sd**2, 0.0)))
+    excess, frequency, psd = 0.0, np.zeros(0), np.zeros(0)
+    if residual.size >= 64:
+        frequency, psd = signal.welch(residual - np.median(residual), fs=fs, nperseg=int(min(256, residual.size // 4)),
+                                      detrend="linear")
+        above = np.nonzero((psd > EXCITED_RATIO * floor.sd**2 / (0.5 * fs)) & (frequency > 0))[0]
+        excess = float(frequency[above[-1]]) if above.size else 0.0
+    values = {k: float(v) for k, v in result.laplace.map.values.items() if k in setup.physical_names}
+    count = min(max(setup.modes + 1, MAX_MODES + 1), setup.model.size)
+    try:
+        frequencies = setup.model.natural_modes(values, count)[0]
+    except (BeamInputError, KeyError, ValueError):  # a per-mode effect knows only its retained modes
+        return None, excess
+    highest, following = float(frequencies[setup.modes - 1]), float(frequencies[min(setup.modes, count - 1)])
+    wanted = 0
+    cut = min((1 + CLOSE_FRACTION) * highest, (1 - CLOSE_FRACTION) * following)
+    if excess > cut:
+        density = np.clip(psd - floor.sd**2 / (0.5 * fs), 0.0, None)  # the residual's excess over the noise
+        step = float(frequency[1] - frequency[0])
+        if float(np.sum(density[frequency >= cut]) * step) >= TRUNCATION_SHARE * excess_rms**2:
+            band = int(np.count_nonzero(frequencies < excess))
+            if band < frequencies.size and frequencies[band] <= (1 + CLOSE_FRACTION) * excess:
+                band += 1
+            wanted = band + MARGIN_MODES
+    try:
+        choice = suggest_modes(setup.measurement, setup.window, setup.effects)
+    except BeamInputError:
+        choice = None
+    if choice is not None and choice.modes > setup.modes:
+        error = choice.truncation_error(setup.modes)
+        if error is not None and error >= TRUNCATION_SHARE * excess_rms:
+            wanted = max(wanted, choice.modes)
+    wanted = min(wanted, setup.model.size)
+    return (int(wanted) if wanted > setup.modes else None), excess
+
+
 def remaining_error(result: CalibrationResult, floor: dx.NoiseFloor) -> Remaining:
-    """How far ``result`` (a rung's calibration) is from the noise ``floor``."""
+    """How far ``result`` (a rung's calibration) is from the noise ``floor``, and whether what remains
+    is a truncation of its modes (:func:`truncation_modes`; only asked when well above the noise)."""
     measurement = result.setup.measurement
     window = result.setup.fit_mask
     residual = (measurement.output - result.map_prediction())[window]
     white = dx.residual_whiteness(residual, sample_interval_s=measurement.rate_Hz ** -1,
                                   fitted_parameters=result.problem.ndim)
     ratio = float(result.rmse_prediction_map / floor.sd) if floor.sd > 0 else float("inf")
-    return Remaining(floor, ratio, bool(white.white), float(white.p_value))
+    more, excess = None, 0.0
+    if ratio > OUTSIDE_CATALOGUE_RATIO and not white.white:
+        more, excess = truncation_modes(result, floor, residual)
+    return Remaining(floor, ratio, bool(white.white), float(white.p_value), more, excess)
+
+
+#: Share of the excess residual (RMS, or power above the cut frequency) a truncation must account
+#: for to be named as the cause (:func:`truncation_modes`).
+TRUNCATION_SHARE = 0.5
 
 
 #: Two materially improving candidates whose log evidences differ by less than this (nats) and
@@ -182,7 +274,8 @@ def indistinguishable(ranking: Ranking, visible_modes: int = 0) -> list[str]:
 
 def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float, rmse_after_m: float,
                      remaining: Remaining | None, *, unit: str = "m", alternatives: Iterable[str] = (),
-                     partly: Iterable[tuple[str, int]] = (), error_label: str = "held-out RMSE") -> str:
+                     partly: Iterable[tuple[str, int]] = (), error_label: str = "held-out RMSE",
+                     then: Iterable[str] = ()) -> str:
     """The one-sentence verdict of a diagnosis (the command line's and the dashboard's).
 
     Parameters
@@ -205,13 +298,18 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
     error_label : str
         What the two RMSE are ("held-out RMSE"; a free decay's verdict quotes the calibration
         window's, by which its candidates are judged).
+    then : iterable of str
+        Effects the ladder added after ``missing`` (ranked on top of it); ``rmse_after_m`` is then
+        the last rung's.
     """
     alternatives = list(alternatives)
     partly = list(partly)
     floor = "" if remaining is None else (
         f"{remaining.remaining_error_ratio:.1f}× the noise floor ({remaining.noise_floor.sd:.3g} {unit})")
     if missing is not None:
-        head = f"missing: {missing} (+{gain_nats:.0f} nats; {error_label} {rmse_before_m:.3g} -> {rmse_after_m:.3g} {unit})"
+        then = list(then)
+        added = missing + "".join(f", then {effect}" for effect in then)
+        head = f"missing: {added} (+{gain_nats:.0f} nats; {error_label} {rmse_before_m:.3g} -> {rmse_after_m:.3g} {unit})"
         if alternatives:
             head += (f"; the data cannot tell it from {' or '.join(alternatives)}: the same frequencies of the "
                      "modes the record shows, the same repair by another cause")
@@ -219,10 +317,14 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
             head += (f"; {effect} places modes 1-{count} as well, only mode {count + 1} tells them apart")
         if remaining is None:
             return head
+        if remaining.truncated:
+            return f"{head}: it explains part of the misfit, but {floor} remains: {_more_modes(remaining)}"
         if remaining.outside_catalogue:
             return (f"{head}: it explains part of the misfit, but {floor} remains and the residuals are not white: "
                     "something outside the catalogue")
         return f"{head}; what remains is {floor}"
+    if remaining is not None and remaining.truncated:
+        return f"nothing in the catalogue is missing, but the held-out error is {floor}: {_more_modes(remaining)}"
     if remaining is not None and remaining.outside_catalogue:
         return (f"nothing in the catalogue is missing, but the held-out error is {floor} and the residuals are not "
                 "white: the discrepancy is outside the catalogue")
@@ -232,6 +334,12 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
         return f"nothing in the catalogue is missing; the residuals are white (Ljung-Box p = {remaining.ljung_box_p:.2g})"
     return (f"nothing in the catalogue is missing; the residuals are not quite white (Ljung-Box p = "
             f"{remaining.ljung_box_p:.2g}) but the held-out error is {floor}")
+
+
+def _more_modes(remaining: Remaining) -> str:
+    where = (f"the residuals hold power up to {remaining.excess_Hz:.0f} Hz, " if remaining.excess_Hz > 0 else "")
+    return (f"{where}the record excites more modes than the model keeps: try more modes "
+            f"({remaining.more_modes}) before looking outside the catalogue")
 
 
 @dataclass
@@ -267,7 +375,8 @@ class DiagnosisReport:
             error(last.result) if last is not None and last.result is not None else float("nan"),
             self.remaining, unit=self.measurement.output_unit, alternatives=self.indistinguishable,
             partly=self.partly_indistinguishable,
-            error_label="calibration-window RMSE" if free else "held-out RMSE")
+            error_label="calibration-window RMSE" if free else "held-out RMSE",
+            then=[step.added for step in self.ladder[2:] if step.added is not None])
 
     @property
     def visible_modes(self) -> int:
@@ -309,6 +418,7 @@ class DiagnosisReport:
             "measurement": self.measurement.name,
             "window_s": list(base.setup.window),
             "modes": base.setup.modes,
+            **({"modes_reason": base.setup.mode_choice.reason} if base.setup.mode_choice is not None else {}),
             "base": list(base.setup.effects),
             "rmse_calibration_base": base.rmse_calibration,
             "rmse_prediction_base": base.rmse_prediction_map,
@@ -322,6 +432,7 @@ class DiagnosisReport:
             "noise_floor": None if self.remaining is None else self.remaining.noise_floor.sd,
             "remaining_error_ratio": None if self.remaining is None else self.remaining.remaining_error_ratio,
             "outside_catalogue": self.outside_catalogue,
+            "try_modes": None if self.remaining is None else self.remaining.more_modes,
             "ladder": [step.to_json() for step in self.ladder],
             "modes_table": [dx.jsonable(asdict(row)) for row in self.residuals.comparison],
             "exceedances": [dx.jsonable(asdict(interval)) for interval in self.residuals.band.intervals],
@@ -404,15 +515,20 @@ def diagnose(
     measurement: Measurement,
     *,
     window: tuple[float, float] | None = None,
-    modes: int = DEFAULT_MODES,
+    modes: int | str = AUTO_MODES,
     base: Iterable[str] | str = DEFAULT_EFFECTS,
     ladder_mcmc: bool = False,
     seed: int = 0,
 ) -> DiagnosisReport:
-    """Diagnose a record from the ``base`` model: residuals, ranked candidates, error ladder."""
+    """Diagnose a record from the ``base`` model: residuals, ranked candidates, error ladder.
+
+    ``modes`` defaults to ``"auto"``: chosen from the record's excited band
+    (:func:`beam.calibration.modes.suggest_modes`), as the command line and the dashboard do.
+    """
     t0 = time.perf_counter()
     base_result = calibration_preview(measurement, window=window, effects=base, modes=modes)
     residuals = residual_report(base_result)
+    modes = base_result.setup.modes
     ranking = rank_candidates(measurement, base=base_result.setup.effects, modes=modes, base_result=base_result,
                               explain=explainer(residuals))
     ladder = error_ladder(measurement, ranking, mcmc=ladder_mcmc, seed=seed)
@@ -423,6 +539,52 @@ def diagnose(
         grid, (output,) = uniform_view(record, record.output, start_s=start)
         floor = dx.noise_floor(grid, output)
         remaining = remaining_error(ladder[-1].result, floor)
+        if len(ladder) > 1:  # something was added, and more may be missing on top of it
+            from beam.discovery.ranking import _step
+
+            climbed, remaining = climb_on(measurement, ladder[-1].result, remaining, floor, mcmc=ladder_mcmc, seed=seed)
+            ladder = [*ladder, *(_step(result, effect, ladder_mcmc) for effect, result in climbed)]
     except BeamInputError as exc:
         residuals.notes.append(f"no noise floor: {exc}")
     return DiagnosisReport(measurement, residuals, ranking, ladder, time.perf_counter() - t0, remaining)
+
+
+#: Most rungs the ladder climbs by re-ranking on top of its last rung (:func:`climb_on`).
+MAX_CLIMB = 2
+
+
+def climb_on(measurement: Measurement, result: CalibrationResult, remaining: Remaining, floor: dx.NoiseFloor, *,
+             mcmc: bool = False, seed: int = 0) -> tuple[list[tuple[str, CalibrationResult]], Remaining]:
+    """Before calling what remains "outside the catalogue": rank the candidates left on top of
+    ``result`` (the last rung, a repaired model), and climb while one materially improves it.
+
+    The ladder adds the candidates that improve the *base* model; a second effect whose share is
+    small beside the first one's (lab_run_1: the patch's added damping beside its stiffening) shows
+    only once the first is in. Measured on lab_run_1 (7 modes): after patch_stiffening 3.1× the
+    noise remained; ranked on top of it, patch_damping gains 188 nats and leaves 1.1×.
+
+    Returns
+    -------
+    (list of (effect, CalibrationResult), Remaining)
+        The rungs climbed (at most :data:`MAX_CLIMB`) and the distance of the last one from the noise.
+    """
+    from beam.calibration import calibrate
+    from beam.discovery.ranking import improves
+
+    climbed: list[tuple[str, CalibrationResult]] = []
+    last = result
+    while remaining.outside_catalogue and len(climbed) < MAX_CLIMB:
+        ranking = rank_candidates(measurement, base=last.setup.effects, modes=last.setup.modes, base_result=last)
+        best = next((c for c in ranking.candidates if c.material), None)
+        if best is None:
+            break
+        step = ranking.results[best.effect]
+        if not improves(last, step):
+            break
+        if mcmc:
+            step = calibrate(measurement, window=last.setup.window, effects=step.setup.effects,
+                             modes=last.setup.modes, seed=seed)
+        climbed.append((best.effect, step))
+        remaining = remaining_error(step, floor)
+        last = step
+    return climbed, remaining

@@ -246,6 +246,12 @@ def _pct(value: float, signed: bool = True) -> str:
     return f"{rounded:+.1f} %" if signed and rounded != 0 else f"{rounded:.1f} %"
 
 
+def _low(value: float) -> str:
+    """A deficit worded once, without a sign: ``0.026`` -> ``"2.6 % low"``, ``-0.01`` -> ``"1.0 % high"``, ``1e-5`` -> ``"0.0 % off"``."""
+    shown = _pct(abs(value), False)
+    return f"{shown} off" if shown == "0.0 %" else f"{shown} {'low' if value > 0 else 'high'}"
+
+
 def explain(fp: Mapping[str, float]) -> dict[str, str]:
     """One sentence per effect id of :data:`beam.physics.effects.CANDIDATE_EFFECTS`, quoting the fingerprints.
 
@@ -286,7 +292,7 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
             f"mode 1 is {_pct(deficit, False)} low relative to modes 2–3 (frequency errors {errors_text}): "
             "a mass at the tip lowers the first mode most"
             if scores["tip_mass"] >= 1 else
-            f"mode 1 is not clearly low relative to modes 2–3 (by {_pct(deficit)}; frequency errors {errors_text}): "
+            f"mode 1 is not clearly low relative to modes 2–3 (it is {_low(deficit)}; frequency errors {errors_text}): "
             "no sign of a missing tip mass"
         )
         out["clamp_compliance"] = (
@@ -296,7 +302,7 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
             f"the modes are {_pct(-mean_error, False)} low on average but not alike (mode 1 a further "
             f"{_pct(deficit, False)} low relative to modes 2–3): the pattern fits a tip mass better than a compliant clamp"
             if -mean_error >= THRESHOLDS["clamp_compliance"] and deficit > 0 else
-            f"the modes are not lowered alike (mean frequency error {_pct(mean_error)}, mode 1 low by {_pct(deficit)} "
+            f"the modes are not lowered alike (mean frequency error {_pct(mean_error)}, mode 1 {_low(deficit)} "
             "relative to modes 2–3): no sign of a compliant clamp"
         )
     else:
@@ -308,7 +314,8 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
     out_of_line = _get(fp, "mode2_out_of_line")
     if math.isfinite(out_of_line):
         out["patch_stiffening"] = (
-            f"mode 2 is out of line with modes 1 and 3 by {_pct(out_of_line)} ({errors_text}): "
+            f"mode 2 is out of line with modes 1 and 3, {_pct(abs(out_of_line), False)} "
+            f"{'lower' if out_of_line < 0 else 'higher'} than their range ({errors_text}): "
             "added mass and stiffness on the patch region shift the modes unevenly"
             if scores["patch_stiffening"] >= 1 else
             f"the frequency errors change smoothly with mode number ({errors_text}): "

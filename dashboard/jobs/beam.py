@@ -41,6 +41,7 @@ from beam.discovery.ranking import (
 from beam.discovery.report import (
     Remaining,
     ResidualReport,
+    climb_on,
     explainer,
     remaining_error,
     residual_report,
@@ -257,6 +258,10 @@ class Diagnosis:
     pending: list[str] = field(default_factory=list)
     #: Distance of the best model reached from the noise floor (set when the ranking is complete).
     remaining: Remaining | None = None
+    #: Effects found missing on top of the best candidate (:func:`beam.discovery.report.climb_on`), with the
+    #: held-out RMSE of the last one.
+    climbed: list[str] = field(default_factory=list)
+    climbed_rmse: float = math.nan
 
     @property
     def missing(self) -> str | None:
@@ -269,8 +274,9 @@ class Diagnosis:
         if self.pending:
             return f"ranking the candidates: {len(self.pending)} to go"
         best = self.candidates[0] if self.candidates else None
+        after = self.climbed_rmse if self.climbed else (best.rmse_prediction if best else math.nan)
         return verdict_sentence(self.missing, best.delta_log_evidence if best else math.nan,
-                                self.base.rmse_prediction_map, best.rmse_prediction if best else math.nan, self.remaining)
+                                self.base.rmse_prediction_map, after, self.remaining, then=self.climbed)
 
 
 def _rank_key(c: Candidate):
@@ -319,7 +325,13 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> Iterator[
         yield sch.partial(diagnosis, 0.25 + 0.75 * done / max(len(names), 1), f"ranked {done} of {len(names)} candidates")
     try:  # how far the best model reached is from the record's noise (as the command line's verdict)
         best = fits.get(diagnosis.missing) if diagnosis.missing is not None else base
-        diagnosis.remaining = remaining_error(best, noise_floor(measurement.time_s, measurement.output))
+        floor = noise_floor(measurement.time_s, measurement.output)
+        diagnosis.remaining = remaining_error(best, floor)
+        if diagnosis.missing is not None and diagnosis.remaining.outside_catalogue:
+            yield sch.progress(0.95, f"ranking the candidates on top of {diagnosis.missing}")
+            climbed, diagnosis.remaining = climb_on(measurement, best, diagnosis.remaining, floor)
+            diagnosis.climbed = [effect for effect, _ in climbed]
+            diagnosis.climbed_rmse = climbed[-1][1].rmse_prediction_map if climbed else math.nan
     except BeamInputError:
         pass
     yield sch.final(diagnosis, "diagnosis")

@@ -25,7 +25,9 @@ from functools import partial as bind
 
 import param
 
-from beam.calibration import DEFAULT_EFFECTS, CalibrationResult
+from beam.calibration import DEFAULT_EFFECTS, CalibrationResult, suggest_modes
+from beam.calibration.modes import MAX_MODES
+from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS
 from dashboard.jobs.beam import (
@@ -55,8 +57,10 @@ _INPUTS = ("window_s", "modes", "effects", "likelihood", "seed", "target_ess")
 #: The real strip record: a 0–2 s window of the free decay, a damping ratio per mode as the base
 #: model and the 4 modes of ``beam diagnose RECORD --window 0:2 --base modal_damping`` (the
 #: library's default; README "Real measurements").
+#: The number of modes of every dataset is chosen from the record on its default window (and effects), as the
+#: library's ``modes="auto"`` (:func:`beam.calibration.suggest_modes`; a free decay keeps 4).
 DATASET_DEFAULTS: dict[str, dict] = {
-    "adxl_50cm_114655": {"window_s": (0.0, 2.0), "effects": ["modal_damping"], "modes": 4},
+    "adxl_50cm_114655": {"window_s": (0.0, 2.0), "effects": ["modal_damping"]},
 }
 #: What Reveal says for a record without a known answer (a real one or an upload).
 NO_ANSWER = ("No known answer: this is a real record (or an upload), not a simulation — nobody knows its "
@@ -133,7 +137,8 @@ class BeamState(_Runs):
                              doc="Bundled lab run or an uploaded measurement.")
     window_s = param.Range(default=(0.0, 1.0), bounds=(0.0, 10.0), label="Calibration window (s)",
                            doc="The model is calibrated on this part of the record; the rest is held out.")
-    modes = param.Integer(4, bounds=(1, 8), label="Number of modes (1)", doc="Modes kept in the modal model.")
+    modes = param.Integer(4, bounds=(1, MAX_MODES), label="Number of modes (1)",
+                          doc="Modes kept in the modal model (a dataset starts with the number chosen from its record).")
     effects = param.ListSelector(default=list(DEFAULT_EFFECTS), objects=list(EFFECTS), label="Effects in the model",
                                  doc="Physical effects added to the bare beam (EI, k_p).")
     likelihood = param.Selector(default="iid", objects=LIKELIHOODS, label="Likelihood (noise model)")
@@ -180,6 +185,13 @@ class BeamState(_Runs):
         values = dict(DATASET_DEFAULTS.get(name, {}))
         if not values and previous in DATASET_DEFAULTS:
             values = {k: self.param[k].default for k in DATASET_DEFAULTS[previous] if k != "window_s"}
+        if "modes" not in keep:  # chosen from the record on its default window, as the library's "auto"
+            effects = values.get("effects", self.effects)
+            window = values.get("window_s", self.window_s)
+            try:
+                values["modes"] = suggest_modes(self.measurement, tuple(window), effects).modes
+            except BeamInputError:
+                values["modes"] = self.param.modes.default
         values = {k: v for k, v in values.items() if k not in keep}
         if not values:
             return

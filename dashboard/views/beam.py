@@ -31,7 +31,7 @@ from dashboard.views.panes import (
     alert_html,
     status_html,
 )
-from dashboard.views.texts import BEAM_GUIDE
+from dashboard.views.texts import beam_guide
 
 __all__ = ["BeamCalibrationView"]
 
@@ -182,7 +182,10 @@ class BeamCalibrationView(pn.viewable.Viewer):
 
     def _build_side(self) -> None:
         self._left.extend([self._compare_buttons(), self._reveal(), self._downloads()])
-        self._right.append(pn.Card(Markdown(BEAM_GUIDE, sizing_mode="stretch_width"), title="For the class",
+        beam, d = self._beam, self.session.diagnosis
+        guide = pn.bind(lambda name, measurement: beam_guide(measurement, simulated=d.has_answer()),
+                        beam.param.dataset, beam.param.measurement)
+        self._right.append(pn.Card(Markdown(guide, sizing_mode="stretch_width"), title="For the class",
                                    collapsible=True, collapsed=False, sizing_mode="stretch_width",
                                    css_classes=["beam-class-guide"]))
 

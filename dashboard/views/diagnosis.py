@@ -237,7 +237,6 @@ class DiagnosisView(pn.viewable.Viewer):
             return
         cards = []
         u = bs.output_units(diagnosis)
-        now = u.scale * diagnosis.base.rmse_prediction_map
         for c in diagnosis.candidates:
             present = c.effect in beam.effects
             title = effect_title(c.effect)
@@ -246,10 +245,9 @@ class DiagnosisView(pn.viewable.Viewer):
                                        stylesheets=BUTTON_WRAP, disabled=present or bool(d.adding),
                                        css_classes=[f"diag-add-{c.effect}"])
             button.on_click(lambda e, effect=c.effect: d.add(effect))
-            after = u.scale * c.rmse_prediction
             params = "; ".join(f"{parameter_label(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
             text = (f"**{title}**{' — materially better' if c.material else ''}<br>"
-                    f"held-out error {fmt_value(after)} {u.unit} ({bs.change_words(after, now)} than now), "
+                    f"{_errors_words(c, diagnosis, u)}, "
                     f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
                     f"<span title='{bs.GLOSSES['log evidence']}'>{evidence_words(c.delta_log_evidence)}</span>"
                     f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
@@ -305,3 +303,23 @@ def _backbone_text(diagnosis) -> str:
     shift = 100 * bb.relative_shift
     change = "does not change" if abs(shift) < 0.05 else f"changes by {abs(shift):.2f} % ({'up' if shift > 0 else 'down'})"
     return f"The mode-1 frequency {change} over the amplitudes seen: {bb.verdict}."
+
+
+def _change(after: float, before: float) -> str:
+    """``"(13 % higher than now)"``, ``"(unchanged)"``."""
+    words = bs.change_words(after, before)
+    return f"({words})" if words in ("unchanged", "–") else f"({words} than now)"
+
+
+def _errors_words(candidate, diagnosis, u) -> str:
+    """The errors a candidate is judged on, in the output's unit: the held-out error, and for a free
+    decay first the calibration window's (a decay's candidates are judged on the window: the held-out
+    part extrapolates each mode's damping; :func:`beam.discovery.ranking.improves`)."""
+    base = diagnosis.base
+    held = u.scale * candidate.rmse_prediction
+    text = f"held-out error {fmt_value(held)} {u.unit} {_change(held, u.scale * base.rmse_prediction_map)}"
+    if base.setup.is_free:
+        window = u.scale * candidate.rmse_calibration
+        text = (f"calibration-window error {fmt_value(window)} {u.unit} "
+                f"{_change(window, u.scale * base.rmse_calibration_map)}; {text}")
+    return text

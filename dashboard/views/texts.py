@@ -122,6 +122,53 @@ sampler's chains agree (1.00 is perfect).
 Brynjarsdóttir & O'Hagan (2014).</small>
 """
 
+RECORD_GUIDE = """
+**The set-up.** A measured record: {setup}. The model (a beam with a few vibration modes,
+plus the effects ticked on the left) is calibrated on the shaded window and judged on the
+rest of the record (the *held-out* data). Nobody knows the true parameters: judge the model by
+its residuals, the noise it needs and the evidence.
+
+**Try this.**
+
+1. *Read the numbers.* Compare the noise the model needs with the sensor's noise floor
+   (estimated from the record alone): many times larger means **the model is missing
+   something**.
+2. Open the **Diagnosis** tab. {free_step}
+3. *Add* the best candidate and read the error in the window again.
+4. *Move the window later in the record* and watch the damping estimates: if they change with
+   the window, the damping depends on the amplitude — a linear model has one damping ratio per
+   mode, so that is outside the catalogue.
+
+**Words.** *Posterior*: the parameter values that fit the data, with their uncertainty.
+*95 % prediction band*: where new measurements should fall if the model were right.
+*RMSE*: root-mean-square error. *ESS*: how many independent draws the sampler's chain is
+worth. *R-hat*: whether the sampler's chains agree (1.00 is perfect).
+
+<small>Errors in the output's unit ({unit}).</small>
+"""
+
+#: The output quantities of a record, as words.
+_OUTPUT_WORDS = {"displacement": "displacement", "velocity": "velocity", "acceleration": "acceleration"}
+_INPUT_WORDS = {"voltage": "a piezo patch drives the beam", "force": "a point force drives the beam"}
+
+
+def beam_guide(measurement, simulated: bool) -> str:
+    """The beam view's "For the class" text for ``measurement``: the class script of the simulated
+    lab runs, or the set-up and steps of a measured record (its input, output quantity and unit)."""
+    if simulated or measurement is None:
+        return BEAM_GUIDE
+    output = _OUTPUT_WORDS.get(measurement.output_kind, measurement.output_kind)
+    drive = (_INPUT_WORDS.get(measurement.input_kind, "the beam is driven") if not measurement.is_free
+             else "the beam was released and rings down freely (no input)")
+    setup = f"{drive}; a sensor records its {output} ({measurement.output_unit})"
+    free_step = ("In a free decay, candidates are judged on the error in the calibration window (the rest "
+                 "of a decay extrapolates each mode's damping). Several mass-like repairs can place the "
+                 "modes the record shows equally well: the verdict says which mode tells them apart."
+                 if measurement.is_free else
+                 "It ranks the catalogue's effects by the evidence and the held-out error.")
+    return RECORD_GUIDE.format(setup=setup, free_step=free_step, unit=measurement.output_unit)
+
+
 DIAGNOSIS_GUIDE = """
 The diagnosis looks at the beam view's current model (record, window, modes, effects) over
 the **whole** record:
@@ -136,11 +183,11 @@ the **whole** record:
 * **Backbone** — a frequency that changes with amplitude is a nonlinearity (a hardening spring).
 
 Each candidate effect is calibrated on the same window and scored two ways: the **held-out
-error** (µm) and the **evidence** — how much better the model explains the data, paying for
+error** (in the output's unit; for a free decay, the error in the window) and the **evidence** — how much better the model explains the data, paying for
 its extra parameters. It is given in nats: a gain of Δ nats means odds of e^Δ : 1 for the
 effect (5 nats ≈ 150 : 1 counts as material). Press **Add** on the best one: the beam view
 re-calibrates, the diagnosis re-runs for the new model and the **error ladder** gets a new
 step. Is anything else missing?
 
-*Reveal* (teacher) shows what the record was simulated with.
+*Reveal* (teacher) shows what a simulated record was simulated with (a real record has no known answer).
 """

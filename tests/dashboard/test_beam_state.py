@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from beam.calibration import suggest_modes
 from dashboard.jobs import beam as beam_jobs
 from dashboard.jobs.beam import CalibrationKey, calibration_run, load_upload
 from dashboard.outputs.beam import (
@@ -18,6 +19,7 @@ from dashboard.outputs.beam import (
     posterior_netcdf,
     summary_json,
 )
+from dashboard.state.beam import BeamState
 from dashboard.state.session import SessionState
 
 FAST = 200.0  # target ESS for the tests (the app uses 1000)
@@ -40,9 +42,18 @@ def test_defaults_are_lab_run_1_with_its_window_and_default_effects(session):
     beam = session.beam
     assert beam.dataset == "lab_run_1" and beam.measurement.name == "lab_run_1"
     assert beam.window_s == (0.0, 1.05) and beam.param.window_s.bounds == (0.0, pytest.approx(3.499))
-    assert beam.effects == ["air_damping", "kelvin_voigt"] and beam.modes == 4 and beam.likelihood == "iid"
+    assert beam.effects == ["air_damping", "kelvin_voigt"] and beam.likelihood == "iid"
+    # the modes chosen from the record, as the library's "auto" (7: a 4-mode model truncates its chirp)
+    assert beam.modes == suggest_modes(beam.measurement, (0.0, 1.05)).modes == 7
     assert "lab_run_2 — Aluminium strip" in beam.dataset_label("lab_run_2")
     assert "(N s/m²)" in next(iter(beam.effect_options())) or any("kg" in k for k in beam.effect_options())
+
+
+def test_each_dataset_starts_with_the_modes_of_its_record_and_keeps_an_override():
+    for name in ("lab_run_2", "lab_run_3", "lab_run_4", "lab_run_5"):
+        state = BeamState(dataset=name)
+        assert state.modes == suggest_modes(state.measurement, tuple(state.window_s)).modes
+    assert BeamState(dataset="lab_run_1", modes=3).modes == 3
 
 
 def test_request_publishes_preview_then_final(session):
@@ -62,7 +73,7 @@ def test_request_publishes_preview_then_final(session):
     assert bands_csv(beam.result).getvalue().decode().count("\n") == beam.measurement.time_s.size + 1
     assert posterior_netcdf(beam.result).getvalue()[:4] == b"\x89HDF"
     assert posterior_netcdf(seen_results[0]) is None  # a preview has no posterior
-    assert filename(beam.result, "json") == "lab_run_1_w0-1.05_m4_air_damping+kelvin_voigt_iid.json"
+    assert filename(beam.result, "json") == "lab_run_1_w0-1.05_m7_air_damping+kelvin_voigt_iid.json"
 
 
 def test_newer_request_cancels_the_older_and_wins(session):

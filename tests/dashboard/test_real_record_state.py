@@ -39,7 +39,7 @@ def test_real_record_calibrates_and_diagnoses_in_its_unit(pool):
     try:
         beam, diag = s.beam, s.diagnosis
         beam.dataset = REAL
-        # the library's `beam diagnose RECORD --window 0:2 --base modal_damping` (4 modes by default)
+        # the library's `beam diagnose RECORD --window 0:2 --base modal_damping` ('auto': a free decay keeps 4 modes)
         assert beam.window_s == (0.0, 2.0) and beam.effects == ["modal_damping"] and beam.modes == 4
         assert beam.measurement.output_kind == "acceleration"
         previews = []

@@ -219,3 +219,17 @@ def test_try_this_presets_set_the_inputs_of_their_step(session):
     for label, settings in expected.items():
         buttons[label].clicks += 1
         assert {name: getattr(session.toy, name) for name in settings} == settings, label
+
+
+def test_class_guide_follows_the_record():
+    """The simulated lab runs get the class script; a measured record its own set-up, in its unit."""
+    from dashboard.jobs.beam import load_bundled
+    from dashboard.views.texts import BEAM_GUIDE, beam_guide
+
+    lab = load_bundled("lab_run_1")
+    assert beam_guide(lab, simulated=True) == BEAM_GUIDE
+    real = beam_guide(load_bundled("adxl_50cm_114655"), simulated=False)
+    assert "released and rings down freely" in real and "acceleration (m/s²)" in real
+    assert "judged on the error in the calibration window" in real and "piezo" not in real
+    forced = beam_guide(lab, simulated=False)  # the same record uploaded: a measured displacement under a patch
+    assert "a piezo patch drives the beam" in forced and "displacement (m)" in forced

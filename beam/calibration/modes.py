@@ -1,0 +1,210 @@
+"""How many modes to retain: chosen from the record's excited band (the default of every front end).
+
+A modal model that keeps too few modes cannot follow what the record excites: the noise sd then
+absorbs the truncation error, the prediction band is too wide and the diagnosis blames "something
+outside the catalogue" for what is only a truncation. :func:`suggest_modes` reads the number from
+the record itself, in two measured steps:
+
+1. **The excited band.** The Welch spectrum of the output in the calibration window is compared
+   with the record's model-free noise floor (:func:`beam.residuals.noise.noise_floor`, white
+   density sd² / f_Nyquist). The band edge is the highest frequency where the spectrum exceeds
+   :data:`EXCITED_RATIO` (4, 6 dB) times that density. Measured on the bundled records (window =
+   the dashboard's default): noise-only bins stay below 3 × (2.5 × at most in lab_run_1 above
+   140 Hz), while the weakest real content — lab_run_3's fifth mode at 379 Hz, excited by the 4 ms
+   pulse — stands 10 × above. Edges: lab_run_1 121 Hz, lab_run_2 77 Hz, lab_run_3 387 Hz,
+   lab_run_4 359 Hz (the spring's odd harmonics), lab_run_5 160 Hz; the real free decays
+   adxl_50cm_114655 / 114759 ~ 1–2 kHz (an accelerometer weights the high modes by ω²). The
+   nominal model (the record's geometry and nominal values, the linear effects asked for) then
+   gives every mode below the edge, plus the next one when the edge lies within
+   :data:`CLOSE_FRACTION` (15 %) of it (a nominal frequency is only known to ±15 %: lab_run_3's
+   true mode 5 is at 379 Hz, its nominal one at 416 Hz), plus :data:`MARGIN_MODES` (one) more.
+2. **The truncation error** (driven records with uniform stamps). Inside the band, a truncated
+   mode still responds (quasi-statically, corrected by the static correction, and dynamically,
+   which is not): the nominal model is driven by the record's own input with all its Galerkin
+   modes and with n modes, and the smallest n whose difference in the window stays below
+   :data:`TRUNCATION_FRACTION` (0.3) of the noise floor is taken (an error 0.3 × the noise adds
+   4 % to the fitted noise sd). Measured at the true parameters of the bundled records (RMS
+   truncation error / true noise in the window, 4 / 5 / 6 modes): lab_run_1 1.17 / 0.55 / 0.33,
+   lab_run_2 0.18 / 0.17 / 0.05, lab_run_3 1.59 / 0.94 / 0.09, lab_run_5 0.19 / 0.19 / 0.14: the
+   chirp of lab_run_1 needs 6 modes although its spectrum ends below the fourth.
+
+The nonlinear tip spring is left out of the nominal model (its stiffness has no nominal value);
+its force at the tip excites every mode, but the discarded ones answer it quasi-statically and
+the model adds that share (:func:`beam.physics.nonlinear._corrected_tip`): on lab_run_4 at its
+true parameters the held-out truncation error with 6 modes is 0.006 × the noise (2.6 × without
+that correction).
+
+The larger of the two counts is retained, at most ``max_modes``. A free response (no input) keeps
+the library's :data:`~beam.calibration.setup.DEFAULT_MODES` (4): the band rule asks for 10-12 modes
+on the real free decays (an accelerometer sees the high modes), and the calibration of
+adxl_50cm_114655 (window 0-2 s, modal damping) with 12 modes fails (its Laplace Gaussian lies
+outside the prior: the damping of the short-lived high modes is not identified), so the rule is
+not applied there yet.
+Cost: one Welch spectrum, one eigenproblem and, for a driven record, at most ``max_modes + 1``
+modal responses (milliseconds each).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from beam.calibration.setup import DEFAULT_EFFECTS, DEFAULT_MODES, prior_centre, resolve_window
+from beam.io.measurement import Measurement
+from beam.physics.effects import parse_effects
+from beam.physics.model import BeamModel
+from beam.residuals.noise import noise_floor
+
+__all__ = ["CLOSE_FRACTION", "EXCITED_RATIO", "MARGIN_MODES", "MAX_MODES", "TRUNCATION_FRACTION", "ModeChoice",
+           "suggest_modes"]
+
+#: Spectrum / white-noise density above which a frequency is excited (see the module notes).
+EXCITED_RATIO = 4.0
+#: A nominal mode whose frequency is within this fraction above the band edge counts as in the band.
+CLOSE_FRACTION = 0.15
+#: Modes kept beyond the excited band.
+MARGIN_MODES = 1
+#: Largest truncation error (RMS in the window, fraction of the noise floor) accepted.
+TRUNCATION_FRACTION = 0.3
+#: Effects left out of the nominal model (no nominal value sets their frequencies).
+LEFT_OUT = ("modal_damping", "tip_cubic_spring")
+#: Most modes suggested (the dashboard's widget bound).
+MAX_MODES = 12
+
+
+@dataclass(frozen=True)
+class ModeChoice:
+    """The number of modes chosen for a record, and why.
+
+    Attributes
+    ----------
+    modes : int
+        Modes to retain.
+    band_edge_Hz : float
+        Highest frequency where the window's spectrum stands :data:`EXCITED_RATIO` × above the noise
+        (0 when nothing does).
+    band_modes : int
+        Modes the band asks for (nominal modes below the edge, the close next one, the margin).
+    truncation_modes : int or None
+        Fewest modes whose truncation error of the nominal model stays below
+        :data:`TRUNCATION_FRACTION` × the noise (None: a free or irregular record, not checked).
+    nominal_Hz : tuple of float
+        The nominal model's frequencies of the first ``max_modes + 1`` modes (Hz).
+    noise_sd : float
+        The record's noise floor (output unit).
+    free : bool
+        A free response (the library's default count is kept, see the module notes).
+    truncation_errors : tuple of float
+        RMS truncation error of the nominal model in the window (output unit) with 1, 2, ...
+        modes (driven records with uniform stamps; empty otherwise).
+    """
+
+    modes: int
+    band_edge_Hz: float
+    band_modes: int
+    truncation_modes: int | None
+    nominal_Hz: tuple[float, ...]
+    noise_sd: float
+    free: bool = False
+    truncation_errors: tuple[float, ...] = ()
+
+    def truncation_error(self, modes: int) -> float | None:
+        """RMS truncation error (output unit) of the nominal model in the window with ``modes``
+        modes (against all of them); None when not computed (a free or irregular record, or more
+        modes than were tried)."""
+        if 1 <= modes <= len(self.truncation_errors):
+            return self.truncation_errors[modes - 1]
+        return None
+
+    @property
+    def reason(self) -> str:
+        """One sentence: how the number was chosen."""
+        text = (f"the record's spectrum stands above its noise up to {self.band_edge_Hz:.0f} Hz "
+                f"({self.band_modes} modes with the margin)")
+        if self.free:
+            return (f"a free response: the library's {self.modes} modes ({text}, but the damping of so many "
+                    "modes of a free decay is not identified)")
+        if self.truncation_modes is not None:
+            text += f"; the nominal model's truncation error falls below {TRUNCATION_FRACTION:g}× the noise with {self.truncation_modes}"
+        return text
+
+    def to_json(self) -> dict:
+        return {"modes": self.modes, "band_edge_Hz": self.band_edge_Hz, "band_modes": self.band_modes,
+                "truncation_modes": self.truncation_modes, "reason": self.reason}
+
+
+def _excited_edge(frequency_Hz: np.ndarray, psd: np.ndarray, noise_density: float) -> float:
+    above = np.nonzero(psd > EXCITED_RATIO * noise_density)[0]
+    above = above[frequency_Hz[above] > 0]
+    return float(frequency_Hz[above[-1]]) if above.size else 0.0
+
+
+def suggest_modes(measurement: Measurement, window: tuple[float, float] | None = None,
+                  effects: Iterable[str] | str = DEFAULT_EFFECTS, *, max_modes: int = MAX_MODES) -> ModeChoice:
+    """The number of modes to retain for ``measurement`` calibrated on ``window`` (see the module notes).
+
+    Parameters
+    ----------
+    measurement : Measurement
+        The record (its geometry and nominal values give the nominal model).
+    window : (float, float) or None
+        Calibration window (s); default the library's (the first 30 % of the record).
+    effects : iterable of str or str
+        Effects of the model; the linear ones enter the nominal model (``modal_damping`` and
+        ``tip_cubic_spring`` are left out: no nominal frequencies depend on them).
+    max_modes : int
+        Most modes suggested.
+
+    Returns
+    -------
+    ModeChoice
+
+    Raises
+    ------
+    BeamInputError
+        A window outside the record, or a record too short for a noise floor (fewer than 64 samples).
+    """
+    from scipy import signal  # slow import, only when asked
+
+    window = resolve_window(measurement, window)
+    t, y = measurement.time_s, measurement.output
+    usable = ~measurement.clipped
+    floor = noise_floor(t[usable], y[usable])
+    inside = (t >= window[0] - 1e-12) & (t <= window[1] + 1e-12) & usable
+    # a window too short for a spectrum: the band is read from the whole record
+    data = y[inside] if np.count_nonzero(inside) >= 64 else y[usable]
+    fs = 1.0 / measurement.median_interval_s
+    frequency, psd = signal.welch(data - np.median(data), fs=fs, nperseg=int(min(256, data.size // 4)), detrend="linear")
+    edge = _excited_edge(frequency, psd, floor.sd**2 / (0.5 * fs))
+
+    linear = [e for e in parse_effects(effects) if e not in LEFT_OUT]
+    model = BeamModel(measurement.geometry, linear, input_kind=measurement.input_kind)
+    count = int(min(max_modes + 1, model.size))
+    centres = {name: prior_centre(name, measurement.nominal) for name in model.parameter_names_for(count)}
+    nominal, _ = model.natural_modes(centres, count)
+    band = int(np.count_nonzero(nominal < edge))
+    if band < nominal.size and nominal[band] <= (1 + CLOSE_FRACTION) * edge:
+        band += 1
+    band = max(1, band + MARGIN_MODES)
+
+    truncation, errors = None, []
+    if not measurement.is_free and measurement.uniform and np.count_nonzero(inside) >= 2:
+        dt = measurement.sample_interval_s
+        stop = int(np.nonzero(t <= window[1] + 1e-12)[0][-1]) + 1
+        drive = measurement.input[:stop]
+        kind = measurement.output_kind
+        reference = model.response(centres, drive, dt, None, output=kind)[inside[:stop]]
+        errors = []
+        for n in range(1, count + 1):
+            error = model.response(centres, drive, dt, n, output=kind)[inside[:stop]] - reference
+            errors.append(float(np.sqrt(np.mean(error**2))))
+        below = [n for n, e in enumerate(errors, start=1) if e <= TRUNCATION_FRACTION * floor.sd]
+        truncation = below[0] if below else count
+    if measurement.is_free:  # see the module notes: the band rule is not used for a free response (yet)
+        modes = int(min(DEFAULT_MODES, model.size))
+    else:
+        modes = int(min(max(band, truncation or 0), max_modes, model.size))
+    return ModeChoice(modes, edge, band, truncation, tuple(float(f) for f in nominal), float(floor.sd),
+                      bool(measurement.is_free), tuple(errors))
