@@ -72,6 +72,7 @@ from scipy.stats import qmc
 from beam.calibration.fit import internal_starts, levenberg_marquardt
 from beam.calibration.setup import (
     BeamCalibrationSetup,
+    DEFAULT_EFFECTS,
     BeamForwardModel,
     build_problem,
     prior_centre,
@@ -428,7 +429,10 @@ def nested_starts(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[st
     with that effect barely on (see the module notes); a pure damping effect only when the
     model without it still has an effect that changes the modes (whose optimum may lie in a
     basin no design point of the model with it reaches: lab_run_1, 30 % window, clamp
-    compliance + patch damping ended 9 nats below the clamp-only optimum)."""
+    compliance + patch damping ended 9 nats below the clamp-only optimum), and never the default
+    damping (air, Kelvin-Voigt), which every model has: dropping it only made each preview fit
+    its sub-models recursively (lab_run_1, 7 modes, + patch stiffening: 6.2 s, 4.5 s of it in
+    sub-model fits)."""
     from beam.physics.effects import EFFECTS
 
     def damping_only(effect: str) -> bool:
@@ -436,8 +440,9 @@ def nested_starts(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[st
 
     out = []
     for effect in setup.effects:
-        if damping_only(effect) and all(damping_only(e) for e in setup.effects if e != effect):
-            continue
+        if damping_only(effect) and (effect in DEFAULT_EFFECTS
+                                     or all(damping_only(e) for e in setup.effects if e != effect)):
+            continue  # the default damping is in every model: dropping it finds no new basin
         values = submodel_map(setup, tuple(e for e in setup.effects if e != effect))
         guess = {name: values.get(name, barely_on(problem, name)) for name in setup.physical_names}
         out.append(_clip_to_prior(problem, guess))
@@ -460,18 +465,26 @@ def searched_design(problem: Problem, guesses: list[dict[str, float]], keep: int
     return out
 
 
+def searched_starts(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[str, float]]:
+    """The ends of the searched stratified design (step 6 of the module notes; empty for a model
+    whose effects only damp)."""
+    strata = stratified_design(problem, setup)
+    return searched_design(problem, strata) if strata else []
+
+
 def starting_points(problem: Problem, setup: BeamCalibrationSetup,
-                    warm: Mapping[str, float] | None = None) -> list[dict[str, float]]:
+                    warm: Mapping[str, float] | None = None, search: bool = True) -> list[dict[str, float]]:
     """The start strategy of every beam calibration (natural units, physical parameters): the
     short-window MAP (or a caller's ``warm`` start in its place), the spectral starts, the
-    nested starts, the screened design over the effects and the searched stratified design
-    (see the module notes)."""
+    nested starts, the screened design over the effects and, with ``search``, the searched
+    stratified design (see the module notes). Without ``search`` (the first, quick stage of
+    :func:`beam.calibration.run.calibration_stream`) the caller adds :func:`searched_starts`
+    later."""
     spectral = spectral_guesses(problem, setup)
     nested = nested_starts(problem, setup)
     design = screened_design(problem, setup)
-    strata = stratified_design(problem, setup)
-    if strata:
-        design = design + searched_design(problem, strata)
+    if search:
+        design = design + searched_starts(problem, setup)
     if warm is not None:
         return [dict(warm)] + nested + spectral + design
     short = _short_window_problem(setup)
