@@ -367,6 +367,13 @@ def preview_fit(problem: Problem) -> LaplaceResult:
     return result
 
 
+#: Log-posterior gain (nats) by which the searched design's MAP must beat the quick stage's to
+#: replace it: far below the 1 nat that tells optima apart, far above the search's tolerance,
+#: so that the same basin keeps the preview's MAP exactly (the CLI's, the dashboard's preview's and
+#: final's, the diagnosis's candidates' MAPs are then one; tests/dashboard/test_one_engine.py).
+SEARCH_GAIN_NATS = 1e-3
+
+
 def _searched_laplace(problem: Problem, setup: BeamCalibrationSetup, quick: LaplaceResult) -> LaplaceResult:
     """``quick`` (the preview's MAP + Laplace), or the Laplace approximation at a better MAP found
     from the searched stratified design and ``quick``'s MAP together."""
@@ -378,8 +385,8 @@ def _searched_laplace(problem: Problem, setup: BeamCalibrationSetup, quick: Lapl
     t0 = time.perf_counter()
     current = {name: float(v) for name, v in quick.map.values.items() if name in setup.physical_names}
     found = fast_map(problem, [current] + extra)
-    if not found.log_posterior > quick.map.log_posterior + 1e-6:
-        return quick
+    if not found.log_posterior > quick.map.log_posterior + SEARCH_GAIN_NATS:
+        return quick  # the same basin (or worse): the preview's MAP stands, to the last digit
     result = laplace(problem, found)
     result.seconds = quick.seconds + time.perf_counter() - t0
     return result
@@ -424,8 +431,8 @@ def calibration_preview(
     """
     t0 = time.perf_counter()
     setup, problem = prepare(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood,
-                             extra_guesses=extra_guesses, start=start)
-    laplace_result = preview_fit(problem)
+                             extra_guesses=extra_guesses, start=start, search=False)
+    laplace_result = _searched_laplace(problem, setup, preview_fit(problem))  # the two stages of calibration_stream
     bands = preview_bands(laplace_result, setup.measurement.time_s, seed)
     return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0)
 
@@ -503,8 +510,9 @@ def calibration_stream(
     (:func:`beam.calibration.starts.searched_starts`), which costs 0.5-1.5 s with an effect that
     changes the modes (lab_run_1, 7 modes); the search then continues from those starts and the
     preview's MAP, and the sampler starts at the better of the two: the final result's MAP is
-    the one :func:`calibration_preview` finds with every start at once (the same basin; the
-    fast search's tolerance apart). Without a mode-changing effect both stages are the same.
+    the one :func:`calibration_preview` finds (it runs the same two stages); the quick MAP stands
+    unless the search beats it by :data:`SEARCH_GAIN_NATS`. Without a mode-changing effect both
+    stages are the same.
     """
     if walkers is not None and (isinstance(walkers, bool) or walkers < 2):
         raise BeamInputError(f"walkers must be an integer >= 2, got {walkers}")

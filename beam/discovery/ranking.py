@@ -32,6 +32,8 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from beam.calibration import (
     DEFAULT_EFFECTS,
     DEFAULT_MODES,
@@ -128,6 +130,10 @@ class Ranking:
     base: CalibrationResult
     candidates: list[Candidate]
     results: dict[str, CalibrationResult] = field(repr=False, default_factory=dict)
+    #: MAP natural frequencies (Hz) of each candidate's fit, all its retained modes: what the
+    #: verdict compares when the fits themselves are not at hand (the dashboard receives the
+    #: ranking from a worker process without them).
+    frequencies_Hz: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
 
     @property
     def missing(self) -> str | None:

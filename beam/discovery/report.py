@@ -232,19 +232,31 @@ SAME_FREQUENCY = 0.002
 INDISTINGUISHABLE_RMSE_CALIBRATION = 0.25
 
 
-def _map_frequencies(result: CalibrationResult, count: int) -> np.ndarray:
+def map_frequencies(result: CalibrationResult, count: int | None = None) -> np.ndarray:
+    """Natural frequencies (Hz) of ``result``'s model at its MAP: the first ``count`` (default all
+    retained modes)."""
     values = {k: float(v) for k, v in result.laplace.map.values.items() if k in result.setup.physical_names}
-    return result.setup.model.natural_modes(values, count)[0]
+    return result.setup.model.natural_modes(values, count or result.setup.modes)[0]
+
+
+def _has_fit(ranking: Ranking, effect: str) -> bool:
+    return effect in ranking.results or effect in ranking.frequencies_Hz
+
+
+def _map_frequencies(ranking: Ranking, effect: str, count: int) -> np.ndarray:
+    if effect in ranking.frequencies_Hz:
+        return np.asarray(ranking.frequencies_Hz[effect])[:count]
+    return map_frequencies(ranking.results[effect], count)
 
 
 def same_modes(ranking: Ranking, effect: str, visible_modes: int) -> int:
     """How many of the first ``visible_modes`` modes the fit with ``effect`` places where the best
     material candidate's fit does (within :data:`SAME_FREQUENCY`), counted from mode 1."""
     material = [c for c in ranking.candidates if c.material]
-    if not material or effect not in ranking.results or material[0].effect not in ranking.results:
+    if not material or not _has_fit(ranking, effect) or not _has_fit(ranking, material[0].effect):
         return 0
-    fa = _map_frequencies(ranking.results[material[0].effect], visible_modes)
-    fb = _map_frequencies(ranking.results[effect], visible_modes)
+    fa = _map_frequencies(ranking, material[0].effect, visible_modes)
+    fb = _map_frequencies(ranking, effect, visible_modes)
     same = np.abs(fb - fa) <= SAME_FREQUENCY * fa
     return int(np.argmin(same)) if not same.all() else int(same.size)
 
@@ -262,11 +274,11 @@ def indistinguishable(ranking: Ranking, visible_modes: int = 0) -> list[str]:
     for c in material[1:]:
         close = (best.delta_log_evidence - c.delta_log_evidence < INDISTINGUISHABLE_LOG_EVIDENCE
                  and abs(c.rmse_prediction - best.rmse_prediction) <= INDISTINGUISHABLE_RMSE * best.rmse_prediction)
-        if not close and visible_modes > 0 and best.effect in ranking.results and c.effect in ranking.results:
-            a, b = ranking.results[best.effect], ranking.results[c.effect]
-            fa, fb = _map_frequencies(a, visible_modes), _map_frequencies(b, visible_modes)
+        if not close and visible_modes > 0 and _has_fit(ranking, best.effect) and _has_fit(ranking, c.effect):
+            fa = _map_frequencies(ranking, best.effect, visible_modes)
+            fb = _map_frequencies(ranking, c.effect, visible_modes)
             close = bool(np.all(np.abs(fb - fa) <= SAME_FREQUENCY * fa)
-                         and b.rmse_calibration <= (1 + INDISTINGUISHABLE_RMSE_CALIBRATION) * a.rmse_calibration)
+                         and c.rmse_calibration <= (1 + INDISTINGUISHABLE_RMSE_CALIBRATION) * best.rmse_calibration)
         if close:
             out.append(c.effect)
     return out
@@ -342,8 +354,41 @@ def _more_modes(remaining: Remaining) -> str:
             f"({remaining.more_modes}) before looking outside the catalogue")
 
 
+class VerdictFacts:
+    """What a verdict says beyond the best candidate, from ``ranking``, ``residuals`` and ``base``
+    (shared by :class:`DiagnosisReport` and the dashboard's diagnosis: one rule for both)."""
+
+    @property
+    def visible_modes(self) -> int:
+        """The model's modes matched by an identified mode of the record, from mode 1 on."""
+        visible = 0
+        for row in self.residuals.comparison:
+            if row.frequency_data_Hz is None or not np.isfinite(row.frequency_data_Hz):
+                break
+            visible += 1
+        return min(visible, self.base.setup.modes)
+
+    @property
+    def partly_indistinguishable(self) -> list[tuple[str, int]]:
+        """Material candidates (not indistinguishable) whose fits place at least the first two modes
+        where the missing effect's fit does: which mode tells them apart."""
+        visible = self.visible_modes
+        out = []
+        for c in self.ranking.candidates[1:]:
+            if c.material and c.effect not in self.indistinguishable and visible > 2:
+                count = same_modes(self.ranking, c.effect, visible)
+                if 2 <= count < visible:
+                    out.append((c.effect, count))
+        return out
+
+    @property
+    def indistinguishable(self) -> list[str]:
+        """Candidates the data cannot tell from the missing one (:func:`indistinguishable`)."""
+        return indistinguishable(self.ranking, self.visible_modes)
+
+
 @dataclass
-class DiagnosisReport:
+class DiagnosisReport(VerdictFacts):
     """The diagnosis of one record: residuals, ranked candidates, error ladder, distance to the noise."""
 
     measurement: Measurement
@@ -377,34 +422,6 @@ class DiagnosisReport:
             partly=self.partly_indistinguishable,
             error_label="calibration-window RMSE" if free else "held-out RMSE",
             then=[step.added for step in self.ladder[2:] if step.added is not None])
-
-    @property
-    def visible_modes(self) -> int:
-        """The model's modes matched by an identified mode of the record, from mode 1 on."""
-        visible = 0
-        for row in self.residuals.comparison:
-            if row.frequency_data_Hz is None or not np.isfinite(row.frequency_data_Hz):
-                break
-            visible += 1
-        return min(visible, self.base.setup.modes)
-
-    @property
-    def partly_indistinguishable(self) -> list[tuple[str, int]]:
-        """Material candidates (not indistinguishable) whose fits place at least the first two modes
-        where the missing effect's fit does: which mode tells them apart."""
-        visible = self.visible_modes
-        out = []
-        for c in self.ranking.candidates[1:]:
-            if c.material and c.effect not in self.indistinguishable and visible > 2:
-                count = same_modes(self.ranking, c.effect, visible)
-                if 2 <= count < visible:
-                    out.append((c.effect, count))
-        return out
-
-    @property
-    def indistinguishable(self) -> list[str]:
-        """Candidates the data cannot tell from the missing one (:func:`indistinguishable`)."""
-        return indistinguishable(self.ranking, self.visible_modes)
 
     @property
     def outside_catalogue(self) -> bool:

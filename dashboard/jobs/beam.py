@@ -41,8 +41,10 @@ from beam.discovery.ranking import (
 from beam.discovery.report import (
     Remaining,
     ResidualReport,
+    VerdictFacts,
     climb_on,
     explainer,
+    map_frequencies,
     remaining_error,
     residual_report,
     verdict_sentence,
@@ -234,7 +236,7 @@ def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: 
 
 # -- diagnosis --------------------------------------------------------------------------------
 @dataclass
-class Diagnosis:
+class Diagnosis(VerdictFacts):
     """What the diagnosis view shows: the base fit, its residual report and the ranking so far.
 
     Attributes
@@ -259,14 +261,26 @@ class Diagnosis:
     #: Distance of the best model reached from the noise floor (set when the ranking is complete).
     remaining: Remaining | None = None
     #: Effects found missing on top of the best candidate (:func:`beam.discovery.report.climb_on`), with the
-    #: held-out RMSE of the last one.
+    #: error (:meth:`Diagnosis.errors`) of the last one.
     climbed: list[str] = field(default_factory=list)
     climbed_rmse: float = math.nan
+    #: MAP natural frequencies (Hz) of each candidate's fit (:attr:`beam.discovery.ranking.Ranking.frequencies_Hz`).
+    frequencies_Hz: dict = field(default_factory=dict)
+
+    @property
+    def ranking(self) -> Ranking:
+        """The candidates ranked so far, over the base fit."""
+        return Ranking(self.base, self.candidates, frequencies_Hz=self.frequencies_Hz)
 
     @property
     def missing(self) -> str | None:
         """The best materially improving candidate, or None."""
-        return Ranking(self.base, self.candidates).missing if not self.pending else None
+        return self.ranking.missing if not self.pending else None
+
+    def errors(self, result) -> float:
+        """The error a verdict quotes for ``result``: the held-out RMSE, or for a free decay the
+        calibration window's (by which its candidates are judged)."""
+        return result.rmse_calibration_map if self.base.setup.is_free else result.rmse_prediction_map
 
     @property
     def verdict(self) -> str:
@@ -274,9 +288,14 @@ class Diagnosis:
         if self.pending:
             return f"ranking the candidates: {len(self.pending)} to go"
         best = self.candidates[0] if self.candidates else None
-        after = self.climbed_rmse if self.climbed else (best.rmse_prediction if best else math.nan)
+        free = self.base.setup.is_free
+        after = self.climbed_rmse if self.climbed else (
+            (best.rmse_calibration if free else best.rmse_prediction) if best else math.nan)
         return verdict_sentence(self.missing, best.delta_log_evidence if best else math.nan,
-                                self.base.rmse_prediction_map, after, self.remaining, then=self.climbed)
+                                self.errors(self.base), after, self.remaining, unit=self.base.setup.measurement.output_unit,
+                                alternatives=self.indistinguishable if self.missing else (),
+                                partly=self.partly_indistinguishable if self.missing else (),
+                                error_label="calibration-window RMSE" if free else "held-out RMSE", then=self.climbed)
 
 
 def _rank_key(c: Candidate):
@@ -314,14 +333,16 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> Iterator[
     explain = explainer(residuals)
     ranked: list[Candidate] = []
     fits: dict[str, CalibrationResult] = {}
+    frequencies: dict = {}
     for i in range(0, len(names), 2):
         chunk = names[i:i + 2]
         ranking = rank_candidates(measurement, base=base.setup.effects, modes=key.modes, base_result=base,
                                   candidates=chunk, explain=explain, workers=2)
         ranked = sorted(ranked + ranking.candidates, key=_rank_key)
         fits.update(ranking.results)
+        frequencies.update({effect: map_frequencies(fit) for effect, fit in ranking.results.items()})
         done = min(i + 2, len(names))
-        diagnosis = Diagnosis(key, base, residuals, ranked, names[done:])
+        diagnosis = Diagnosis(key, base, residuals, ranked, names[done:], frequencies_Hz=dict(frequencies))
         yield sch.partial(diagnosis, 0.25 + 0.75 * done / max(len(names), 1), f"ranked {done} of {len(names)} candidates")
     try:  # how far the best model reached is from the record's noise (as the command line's verdict)
         best = fits.get(diagnosis.missing) if diagnosis.missing is not None else base
@@ -331,7 +352,7 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> Iterator[
             yield sch.progress(0.95, f"ranking the candidates on top of {diagnosis.missing}")
             climbed, diagnosis.remaining = climb_on(measurement, best, diagnosis.remaining, floor)
             diagnosis.climbed = [effect for effect, _ in climbed]
-            diagnosis.climbed_rmse = climbed[-1][1].rmse_prediction_map if climbed else math.nan
+            diagnosis.climbed_rmse = diagnosis.errors(climbed[-1][1]) if climbed else math.nan
     except BeamInputError:
         pass
     yield sch.final(diagnosis, "diagnosis")

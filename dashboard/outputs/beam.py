@@ -469,7 +469,11 @@ def verdict_text(diagnosis) -> str:
     tail = ""
     if remaining is not None:
         ratio, floor = remaining.remaining_error_ratio, u.scale * remaining.noise_floor.sd
-        if remaining.outside_catalogue:
+        if getattr(remaining, "truncated", False):
+            tail = (f" Still, the held-out error is **{ratio:.1f}× the sensor's noise** ({fmt_value(floor)} {u.unit}), "
+                    "and the record excites more modes than the model keeps: **try "
+                    f"{remaining.more_modes} modes** before looking outside the catalogue.")
+        elif remaining.outside_catalogue:
             tail = (f" Still, the held-out error is **{ratio:.1f}× the sensor's noise** ({fmt_value(floor)} {u.unit}, "
                     "estimated from the record alone) and the residuals are not white: **something outside the "
                     "catalogue** is at work.")
@@ -477,10 +481,25 @@ def verdict_text(diagnosis) -> str:
             tail = f" What remains is {ratio:.1f}× the sensor's noise ({fmt_value(floor)} {u.unit}): the model predicts to the noise."
     if missing is not None:
         best = diagnosis.candidates[0]
-        before, after = u.scale * diagnosis.base.rmse_prediction_map, u.scale * best.rmse_prediction
-        return (f"**Missing: {effect_title(missing)}.** With it the held-out error is {fmt_value(after)} {u.unit} instead of "
-                f"{fmt_value(before)} {u.unit} ({change_words(after, before)}); evidence {evidence_words(best.delta_log_evidence)}."
-                + tail)
+        climbed = list(getattr(diagnosis, "climbed", []))
+        free = diagnosis.base.setup.is_free
+        what = "the error in the calibration window" if free else "the held-out error"
+        before = u.scale * diagnosis.errors(diagnosis.base)
+        after = u.scale * (diagnosis.climbed_rmse if climbed else (best.rmse_calibration if free else best.rmse_prediction))
+        names = ", then ".join(effect_title(e) for e in [missing, *climbed])
+        text = (f"**Missing: {names}.** With {'them' if climbed else 'it'} {what} is {fmt_value(after)} {u.unit} instead "
+                f"of {fmt_value(before)} {u.unit} ({change_words(after, before)}); evidence "
+                f"{evidence_words(best.delta_log_evidence)}.")
+        if climbed:
+            text += (f" ({effect_title(climbed[0])} shows only once {effect_title(missing)} is in the model: "
+                     "the diagnosis ranked the candidates again on top of it.)")
+        alternatives = diagnosis.indistinguishable
+        if alternatives:
+            text += (f" The data cannot tell it from {' or '.join(effect_title(e) for e in alternatives)}: the same "
+                     "frequencies of the modes the record shows, the same repair by another cause.")
+        for effect, count in diagnosis.partly_indistinguishable:
+            text += f" {effect_title(effect)} places modes 1–{count} as well; only mode {count + 1} tells them apart."
+        return text + tail
     if remaining is not None and remaining.outside_catalogue:
         return "**Nothing in the catalogue helps.**" + tail
     if white.white:

@@ -31,7 +31,9 @@ def test_real_record_calibrates_in_its_unit_and_has_no_answer(page, tmp_path):
     open_tab(page, "Beam calibration")
     wait_for_status(page, BEAM_FINAL)
     select = page.locator(".beam-dataset select")
-    label = next(o for o in select.locator("option").all_inner_texts() if o.startswith(REAL))
+    options = select.evaluate("s => Array.from(s.options).map(o => o.text)")
+    label = next((o for o in options if o.startswith(REAL)), None)
+    assert label is not None, options
     assert "Real aluminium strip" in label
     select.select_option(label=label)
     state = wait_for_status(page, BEAM_FINAL + f" && s.dataset === '{REAL}'", timeout_ms=240000)

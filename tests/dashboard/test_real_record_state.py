@@ -80,6 +80,10 @@ def test_real_record_calibrates_and_diagnoses_in_its_unit(pool):
         assert names[0] in ("sensor_mass", "tip_mass")
         text = verdict_text(d)
         assert "m/s²" in text and "µm" not in text
+        # as the command line's verdict: a decay judged on its window, the look-alike repairs named
+        assert "the error in the calibration window is" in text
+        assert "only mode 3 tells them apart" in text or "The data cannot tell it from" in text, text
+        assert "calibration-window RMSE" in d.verdict
         assert diag.ladder[0]["unit"] == "m/s²"
         assert diag.ladder[0]["rmse_prediction"] == pytest.approx(beam.final.rmse_prediction)
         plots = DiagnosisPlots()
