@@ -14,7 +14,7 @@ dashboard/app.py``, opens it in Debian's headless chromium and measures, *in the
   posterior drawn (target 5 s).
 
 * a teacher's script on the bundled record lab_run_1 (beam view, after its first posterior):
-  end of the window moved, modes 4 -> 5, "Tip mass" ticked, then unticked (its earlier result
+  end of the window moved, one more mode (7 -> 8 on lab_run_1), "Tip mass" ticked, then unticked (its earlier result
   comes from the cache), the Diagnosis tab opened (-> diagnosis complete, target 8 s), **Add** of
   the top candidate (-> final posterior drawn, and -> the diagnosis re-run for the new model
   complete), **Reveal** (-> the true noise drawn on the beam plot). Target per calibration
@@ -168,7 +168,7 @@ def bench_teacher(page) -> list[tuple[str, str, float]]:
 
     tip_mass = ".beam-effects label"
     for action, act in (("window end +0.05 s", key(".beam-cal-window .noUi-handle", 1)),
-                        ("modes 4 -> 5", key(".beam-modes .noUi-handle")),
+                        ("modes +1 (7 -> 8)", key(".beam-modes .noUi-handle")),
                         ("tick Tip mass", click(tip_mass, has_text="Tip mass")),
                         ("untick Tip mass (cached)", click(tip_mass, has_text="Tip mass"))):
         times = timed_action(page, act, final=CAL_FINAL_NEW)
