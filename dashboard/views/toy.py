@@ -267,7 +267,7 @@ class ToyView(pn.viewable.Viewer):
                 continue
             buttons = []
             for label, settings in presets:
-                button = pn.widgets.Button(label=f"{k}. {label}", button_type="light", sizing_mode="stretch_width",
+                button = pn.widgets.Button(label=f"{k}. {label}", color="light", sizing_mode="stretch_width",
                                            margin=(2, 4), description=f"Step {k} ({title}): sets the inputs of the step",
                                            css_classes=["beam-preset"])
                 button.on_click(lambda event, s=dict(settings): toy.param.update(**s))
