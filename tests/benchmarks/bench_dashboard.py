@@ -286,7 +286,7 @@ def main(argv: list[str] | None = None) -> int:
         row("server: request -> final published", known, None)
     if beam_previews:
         row(f"beam: window end -> preview drawn ({args.beam_moves} moves)", beam_previews, 0.5)
-        row("beam: window end -> final posterior drawn (4 modes)", beam_finals, 5.0)
+        row("beam: window end -> final posterior drawn (default modes)", beam_finals, 5.0)
     print(f"stage seen at the first redraw: {', '.join(sorted(set(stages)))}; last stage: {state['stage']}")
     if not args.no_teacher:
         _print_teacher(teacher, load_before)
