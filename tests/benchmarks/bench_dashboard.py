@@ -9,7 +9,7 @@ dashboard/app.py``, opens it in Debian's headless chromium and measures, *in the
 * window slider moved by one step -> the server's acknowledgement (status "queued" for the
   new request: the round trip, for information) and -> preview drawn (target 0.5 s);
 * window slider moved by one step -> final MCMC posterior drawn (target 2 s);
-* beam calibration view (lab_run_1, 4 modes, air damping + Kelvin-Voigt): end of the
+* beam calibration view (lab_run_1, its default (chosen) modes, air damping + Kelvin-Voigt): end of the
   calibration window moved by one step (0.05 s) -> preview drawn (target 0.5 s) and -> final
   posterior drawn (target 5 s).
 
