@@ -8,7 +8,9 @@ from beam.calibration.run import (
     calibrate,
     calibration_preview,
     calibration_stream,
+    known_map,
     prepare,
+    remember_maps,
 )
 from beam.calibration.modes import ModeChoice, suggest_modes
 from beam.calibration.setup import (
@@ -37,7 +39,9 @@ __all__ = [
     "calibrate",
     "calibration_preview",
     "calibration_stream",
+    "known_map",
     "make_setup",
     "parameter_prior",
     "prepare",
+    "remember_maps",
 ]

@@ -40,12 +40,13 @@ from beam.calibration.setup import (
     build_problem,
     make_setup,
 )
-from beam.calibration.starts import searched_starts, starting_points
+from beam.calibration.starts import SEARCH_GAIN_NATS, recall_map, remember_map, searched_map, starting_points  # noqa: F401
 from beam.errors import BeamInputError
 from beam.inference import (
     NOISE_SD,
     EnsembleRun,
     LaplaceResult,
+    MapResult,
     PosteriorResult,
     PredictiveBands,
     Problem,
@@ -100,6 +101,7 @@ class CalibrationResult:
     bands: PredictiveBands
     seconds: float
     _draws: dict[str, np.ndarray] = field(default=None, repr=False)
+    _map_output: np.ndarray = field(default=None, repr=False)
 
     # -- draws ------------------------------------------------------------------------------
     @property
@@ -146,9 +148,15 @@ class CalibrationResult:
         return self.bands.coverage(self.setup.measurement.output, self.held_out_mask)
 
     def map_prediction(self) -> np.ndarray:
-        """The MAP model's output over the whole record (m, m/s or m/s²): the point prediction."""
-        values = {name: np.atleast_1d(v) for name, v in self.laplace.map.values.items()}
-        return self.problem.predict(values, self.setup.measurement.time_s)[0]
+        """The MAP model's output over the whole record (m, m/s or m/s²): the point prediction
+        (computed once, read-only: a result computed in a worker process carries it, so the
+        dashboard's server never runs the model)."""
+        if self._map_output is None:
+            values = {name: np.atleast_1d(v) for name, v in self.laplace.map.values.items()}
+            output = np.array(self.problem.predict(values, self.setup.measurement.time_s)[0])
+            output.flags.writeable = False
+            self._map_output = output
+        return self._map_output
 
     @property
     def rmse_prediction_map(self) -> float:
@@ -367,29 +375,58 @@ def preview_fit(problem: Problem) -> LaplaceResult:
     return result
 
 
-#: Log-posterior gain (nats) by which the searched design's MAP must beat the quick stage's to
-#: replace it: far below the 1 nat that tells optima apart, far above the search's tolerance,
-#: so that the same basin keeps the preview's MAP exactly (the CLI's, the dashboard's preview's and
-#: final's, the diagnosis's candidates' MAPs are then one; tests/dashboard/test_one_engine.py).
-SEARCH_GAIN_NATS = 1e-3
-
-
 def _searched_laplace(problem: Problem, setup: BeamCalibrationSetup, quick: LaplaceResult) -> LaplaceResult:
     """``quick`` (the preview's MAP + Laplace), or the Laplace approximation at a better MAP found
-    from the searched stratified design and ``quick``'s MAP together."""
+    from the searched stratified design and ``quick``'s MAP together (:func:`searched_map`)."""
     if "patch_coupling_NmV" not in setup.physical_names:  # free response / point force: projected starts
         return quick
-    extra = searched_starts(problem, setup)
-    if not extra:
-        return quick
     t0 = time.perf_counter()
-    current = {name: float(v) for name, v in quick.map.values.items() if name in setup.physical_names}
-    found = fast_map(problem, [current] + extra)
-    if not found.log_posterior > quick.map.log_posterior + SEARCH_GAIN_NATS:
+    found = searched_map(problem, setup, quick.map)
+    if found is None:
         return quick  # the same basin (or worse): the preview's MAP stands, to the last digit
     result = laplace(problem, found)
     result.seconds = quick.seconds + time.perf_counter() - t0
     return result
+
+
+def _recalled_laplace(problem: Problem, setup: BeamCalibrationSetup, cold: bool) -> LaplaceResult | None:
+    """For a cold start: the Laplace approximation at the remembered MAP of this very model (found
+    by the same two stages in this process, or told by another: :func:`remember_maps`), or None when none is
+    remembered: the same MAP, to the last digit. The diagnosis's candidates are what **Add**
+    calibrates next: measured on lab_run_1 (7 modes, + patch stiffening) the two stages took
+    1.6-1.9 s of the calibration."""
+    if not cold or "patch_coupling_NmV" not in setup.physical_names:
+        return None
+    found = recall_map(setup)
+    if found is None:
+        return None
+    t0 = time.perf_counter()
+    result = laplace(problem, found)
+    result.seconds = time.perf_counter() - t0
+    return result
+
+
+def _remember(setup: BeamCalibrationSetup, found: MapResult, cold: bool) -> None:
+    """Share a cold-started driven calibration's MAP with the nested starts of larger models."""
+    if cold and "patch_coupling_NmV" in setup.physical_names:
+        remember_map(setup, found)
+
+
+def known_map(result: CalibrationResult) -> tuple[tuple[str, ...], MapResult]:
+    """``(effects, MAP)`` of a cold-started preview or calibration, for :func:`remember_maps`
+    in another process."""
+    return tuple(result.setup.effects), result.laplace.map
+
+
+def remember_maps(measurement: Measurement, *, window: tuple[float, float], modes: int,
+                  maps: Iterable[tuple[tuple[str, ...], MapResult]], likelihood: str = "iid") -> None:
+    """Share MAPs found in another process (:func:`known_map` of cold-started calibrations of this
+    record, window, modes and likelihood) with this process's nested starts
+    (:func:`beam.calibration.starts.submodel_map`): what the process would have found itself."""
+    measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
+    for effects, found in maps:
+        setup = make_setup(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)
+        _remember(setup, found, cold=True)
 
 
 def calibration_preview(
@@ -430,9 +467,14 @@ def calibration_preview(
         Seed of the Laplace draws behind the predictive bands.
     """
     t0 = time.perf_counter()
+    extra_guesses = tuple(extra_guesses)
     setup, problem = prepare(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood,
                              extra_guesses=extra_guesses, start=start, search=False)
-    laplace_result = _searched_laplace(problem, setup, preview_fit(problem))  # the two stages of calibration_stream
+    cold = start is None and not extra_guesses
+    laplace_result = _recalled_laplace(problem, setup, cold)
+    if laplace_result is None:
+        laplace_result = _searched_laplace(problem, setup, preview_fit(problem))  # the two stages of calibration_stream
+        _remember(setup, laplace_result.map, cold)
     bands = preview_bands(laplace_result, setup.measurement.time_s, seed)
     return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0)
 
@@ -522,13 +564,16 @@ def calibration_stream(
     # the quick stage: every start but the searched stratified design, shown as the preview ...
     setup, problem = prepare(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood,
                              start=start, search=False)
-    laplace_result = preview_fit(problem)
+    recalled = _recalled_laplace(problem, setup, cold=start is None)  # this model's MAP, found before
+    laplace_result = preview_fit(problem) if recalled is None else recalled
     time_s = setup.measurement.time_s
     yield CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, time_s, seed),
                             time.perf_counter() - t0)
-    # ... then the searched design (0.5-1.5 s with a mode-changing effect), from which the MAP
-    # search continues together with the preview's MAP: the sampler starts in the best basin found
-    laplace_result = _searched_laplace(problem, setup, laplace_result)
+    if recalled is None:
+        # ... then the searched design (0.5-1.5 s with a mode-changing effect), from which the MAP
+        # search continues together with the preview's MAP: the sampler starts in the best basin found
+        laplace_result = _searched_laplace(problem, setup, laplace_result)
+        _remember(setup, laplace_result.map, cold=start is None)
     if walkers is not None and walkers < 2 * problem.ndim:
         raise BeamInputError(f"walkers must be at least 2 x {problem.ndim} parameters = {2 * problem.ndim}, got {walkers}")
     run = EnsembleRun(problem, laplace_result, n_walkers=walkers or default_walkers(problem.ndim), seed=seed)

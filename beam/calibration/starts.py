@@ -25,9 +25,10 @@ local optimum (each cycle of phase error is a new basin). So:
 5. **Nested starts** (:func:`nested_starts`) — for each effect of the model that changes its mass,
    stiffness or linearity (a pure damping effect only if the model without it still has such an
    effect: a model of damping effects alone has no new basin to offer, and the default model's
-   preview stays one fit), the MAP of the model without it (found by this same strategy, recursively, to the lock-step search's coarse
-   tolerance, cached per record, window, modes, likelihood and effect set) with that effect
-   barely on. The model with the effect nests the model without it, so its MAP is then at least
+   preview stays one fit), the MAP of the model without it (found by this same strategy and the
+   same two stages as every calibration, recursively; remembered per record, window, modes,
+   likelihood and effect set, and shared with the previews and calibrations of that model, see
+   :func:`submodel_map`) with that effect barely on. The model with the effect nests the model without it, so its MAP is then at least
    as good as every smaller model's, whatever the effects: under a gross misfit (a tip mass
    standing in for a missing patch) the residual RMS of a design point says little about where
    its search ends (measured on lab_run_1, 20 % window: the basin 18 nats above the engine's
@@ -63,13 +64,14 @@ effects and likelihood.
 from __future__ import annotations
 
 import hashlib
+import threading
 from collections import OrderedDict
 from collections.abc import Mapping
 
 import numpy as np
 from scipy.stats import qmc
 
-from beam.calibration.fit import internal_starts, levenberg_marquardt
+from beam.calibration.fit import fast_map, internal_starts, levenberg_marquardt
 from beam.calibration.setup import (
     BeamCalibrationSetup,
     DEFAULT_EFFECTS,
@@ -77,7 +79,7 @@ from beam.calibration.setup import (
     build_problem,
     prior_centre,
 )
-from beam.inference import Problem
+from beam.inference import MapResult, Problem
 from beam.physics.model import BeamModel
 
 #: Stiffness scale factors searched: a factor 5 either way of the prior centre.
@@ -377,9 +379,16 @@ def _batched_scales(setup: BeamCalibrationSetup, batch: Mapping[str, np.ndarray]
     return SCALE_GRID[np.argmax(score, axis=1)]
 
 
-#: Sub-model optima kept by :func:`submodel_map` (least recently used dropped first).
+#: Model optima kept by :func:`submodel_map` / :func:`remember_map` (least recently used dropped first).
 SUBMODEL_CACHE_SIZE = 256
-_SUBMODEL_CACHE: OrderedDict[tuple, dict[str, float]] = OrderedDict()
+_SUBMODEL_CACHE: OrderedDict[tuple, MapResult] = OrderedDict()
+_SUBMODEL_LOCK = threading.Lock()  # the diagnosis fits candidates in threads
+
+#: Log-posterior gain (nats) by which the searched design's MAP must beat the quick stage's to
+#: replace it: far below the 1 nat that tells optima apart, far above the search's tolerance,
+#: so that the same basin keeps the quick stage's MAP exactly (the CLI's, the dashboard's preview's
+#: and final's, the diagnosis's candidates' MAPs are then one; tests/dashboard/test_one_engine.py).
+SEARCH_GAIN_NATS = 1e-3
 
 
 def _record_key(setup: BeamCalibrationSetup) -> tuple:
@@ -391,27 +400,75 @@ def _record_key(setup: BeamCalibrationSetup) -> tuple:
     return digest.hexdigest(), tuple(setup.window), setup.modes, setup.likelihood
 
 
-def submodel_map(setup: BeamCalibrationSetup, effects: tuple[str, ...]) -> dict[str, float]:
-    """Physical parameters (natural units) of the optimum of the model with ``effects`` on the
-    setup's record and window: the lock-step search from :func:`starting_points` of that model
-    (recursively nested), to its coarse tolerance, no Newton polish. Cached (see
-    :data:`SUBMODEL_CACHE_SIZE`), so the dashboard, the diagnosis and the ladder reuse it."""
-    key = _record_key(setup) + (tuple(effects),)
-    cached = _SUBMODEL_CACHE.get(key)
-    if cached is not None:
+def _model_key(setup: BeamCalibrationSetup, effects: tuple[str, ...]) -> tuple:
+    from beam.physics.effects import EFFECTS
+
+    chosen = set(effects)
+    return _record_key(setup) + (tuple(e for e in EFFECTS if e in chosen),)
+
+
+def searched_map(problem: Problem, setup: BeamCalibrationSetup, quick: MapResult) -> MapResult | None:
+    """The second stage of every beam MAP: the search from the searched stratified design
+    (:func:`searched_starts`) together with the quick stage's MAP ``quick``; its MAP when it
+    beats ``quick`` by :data:`SEARCH_GAIN_NATS`, else None (``quick`` stands, to the last digit)."""
+    extra = searched_starts(problem, setup)
+    if not extra:
+        return None
+    current = {name: float(v) for name, v in quick.values.items() if name in setup.physical_names}
+    found = fast_map(problem, [current] + extra)
+    return found if found.log_posterior > quick.log_posterior + SEARCH_GAIN_NATS else None
+
+
+def remember_map(setup: BeamCalibrationSetup, found: MapResult) -> None:
+    """Keep the MAP ``found`` of the setup's model, found by the two stages of
+    :func:`submodel_map` from the cold starts (a caller's warm start or extra guesses may end
+    elsewhere: never remember those), for the nested starts of every larger model (the
+    diagnosis's candidates, base + each effect, are the sub-models of the climb's fits) and for
+    a later calibration of the same model (:func:`recall_map`)."""
+    key = _model_key(setup, setup.effects)
+    with _SUBMODEL_LOCK:
+        _SUBMODEL_CACHE[key] = found
         _SUBMODEL_CACHE.move_to_end(key)
-        return dict(cached)
+        while len(_SUBMODEL_CACHE) > SUBMODEL_CACHE_SIZE:
+            _SUBMODEL_CACHE.popitem(last=False)
+
+
+def recall_map(setup: BeamCalibrationSetup) -> MapResult | None:
+    """The remembered MAP of the setup's own model (:func:`remember_map`), or None."""
+    key = _model_key(setup, setup.effects)
+    with _SUBMODEL_LOCK:
+        cached = _SUBMODEL_CACHE.get(key)
+        if cached is not None:
+            _SUBMODEL_CACHE.move_to_end(key)
+        return cached
+
+
+def submodel_map(setup: BeamCalibrationSetup, effects: tuple[str, ...]) -> dict[str, float]:
+    """Physical parameters (natural units) of the MAP of the model with ``effects`` on the
+    setup's record and window: the same two stages as every calibration (the quick stage from
+    :func:`starting_points` without the search, recursively nested, then :func:`searched_map`),
+    so the value is the MAP :func:`beam.calibration.run.calibration_preview` finds for that
+    model. Cached (see :data:`SUBMODEL_CACHE_SIZE`) and shared with the previews and
+    calibrations (:func:`remember_map`): the dashboard, the diagnosis and the ladder reuse it.
+
+    Measured on lab_run_1 (7 modes, 0-1.05 s): a climb fit (base + patch stiffening + clamp
+    compliance) spent 2.6 s of its 5.6 s refitting the two sub-models the diagnosis's ranking
+    had just fitted (when the sub-models were found to the coarse tolerance by a search of
+    their own, not shared with the previews)."""
+    key = _model_key(setup, effects)
+    with _SUBMODEL_LOCK:
+        cached = _SUBMODEL_CACHE.get(key)
+        if cached is not None:
+            _SUBMODEL_CACHE.move_to_end(key)
+            return {name: float(v) for name, v in cached.values.items()}  # extra (noise) names: ignored by callers
     model = BeamModel(setup.measurement.geometry, effects, setup.model.intervals)
     sub = BeamCalibrationSetup(setup.measurement, setup.window, model.effects, setup.modes, setup.likelihood, model,
                                BeamForwardModel(model, setup.measurement, setup.modes))
     problem = build_problem(sub)
-    result = levenberg_marquardt(problem, internal_starts(problem, starting_points(problem, sub)))
-    values = problem.from_internal(result.z[result.best])
-    out = {name: float(v[0]) for name, v in values.items() if name not in problem.noise_names}
-    _SUBMODEL_CACHE[key] = out
-    while len(_SUBMODEL_CACHE) > SUBMODEL_CACHE_SIZE:
-        _SUBMODEL_CACHE.popitem(last=False)
-    return dict(out)
+    quick = fast_map(problem, starting_points(problem, sub, search=False))
+    best = searched_map(problem, sub, quick) or quick
+    remember_map(sub, best)
+    return {name: float(best.values[name]) for name in sub.physical_names}
 
 
 def barely_on(problem: Problem, name: str) -> float:

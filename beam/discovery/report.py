@@ -571,7 +571,8 @@ MAX_CLIMB = 2
 
 
 def climb_on(measurement: Measurement, result: CalibrationResult, remaining: Remaining, floor: dx.NoiseFloor, *,
-             mcmc: bool = False, seed: int = 0) -> tuple[list[tuple[str, CalibrationResult]], Remaining]:
+             mcmc: bool = False, seed: int = 0, fitter=None,
+             remaining_of=None) -> tuple[list[tuple[str, CalibrationResult]], Remaining]:
     """Before calling what remains "outside the catalogue": rank the candidates left on top of
     ``result`` (the last rung, a repaired model), and climb while one materially improves it.
 
@@ -579,6 +580,10 @@ def climb_on(measurement: Measurement, result: CalibrationResult, remaining: Rem
     small beside the first one's (lab_run_1: the patch's added damping beside its stiffening) shows
     only once the first is in. Measured on lab_run_1 (7 modes): after patch_stiffening 3.1× the
     noise remained; ranked on top of it, patch_damping gains 188 nats and leaves 1.1×.
+
+    ``fitter`` fits each rung's candidates (see :data:`beam.discovery.ranking.Fitter`; default threads);
+    ``remaining_of(result)`` is :func:`remaining_error` of a rung against ``floor`` (the dashboard
+    computes it in a worker process).
 
     Returns
     -------
@@ -591,7 +596,8 @@ def climb_on(measurement: Measurement, result: CalibrationResult, remaining: Rem
     climbed: list[tuple[str, CalibrationResult]] = []
     last = result
     while remaining.outside_catalogue and len(climbed) < MAX_CLIMB:
-        ranking = rank_candidates(measurement, base=last.setup.effects, modes=last.setup.modes, base_result=last)
+        ranking = rank_candidates(measurement, base=last.setup.effects, modes=last.setup.modes, base_result=last,
+                                  fitter=fitter)
         best = next((c for c in ranking.candidates if c.material), None)
         if best is None:
             break
@@ -602,6 +608,6 @@ def climb_on(measurement: Measurement, result: CalibrationResult, remaining: Rem
             step = calibrate(measurement, window=last.setup.window, effects=step.setup.effects,
                              modes=last.setup.modes, seed=seed)
         climbed.append((best.effect, step))
-        remaining = remaining_error(step, floor)
+        remaining = remaining_error(step, floor) if remaining_of is None else remaining_of(step)
         last = step
     return climbed, remaining

@@ -12,10 +12,12 @@ Pure Python on top of the public ``beam`` API (no UI import).
     :func:`beam.calibration.calibration_stream`. Leaving the generator cancels the sampler.
 :func:`diagnosis_run`
     The diagnosis of :func:`beam.discovery.report.diagnose` in cancellable steps: base preview,
-    residual report (``partial``), candidates two at a time, then ``final``.
+    residual report (``partial``), each candidate as its fit ends, the climb, then ``final``.
 
-The computations (:func:`calibration_stages`, :func:`diagnosis_stages`) run in a worker
-process of the pool (:func:`dashboard.runtime.scheduler.offload`); the jobs around them look up and fill
+The computations run in the worker processes of the pool: a calibration
+(:func:`calibration_stages`) in one (:func:`dashboard.runtime.scheduler.offload`), a diagnosis's
+fits spread over all of them (:func:`dashboard.runtime.scheduler.offload_map`, see
+:func:`diagnosis_stages`); the jobs around them look up and fill
 the caches in the server process. Final results are deterministic for their inputs, so they are
 kept in small process-wide LRU caches shared by all sessions (bundled datasets only: an upload
 is private to a session). :func:`warm_worker` prepares a new worker process (the app hands it to the pool with
@@ -31,12 +33,15 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
-from beam.calibration import CalibrationResult, calibration_preview, calibration_stream
+from beam.calibration import CalibrationResult, calibration_preview, calibration_stream, known_map, remember_maps
 from beam.discovery.ranking import (
+    FIT_ERRORS,
     Candidate,
+    Fitter,
     Ranking,
     candidate_effects,
-    rank_candidates,
+    rank_fits,
+    with_effect,
 )
 from beam.discovery.report import (
     Remaining,
@@ -187,7 +192,7 @@ def _stage_message(result: CalibrationResult) -> str:
 
 
 def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int = 25,
-                    use_cache: bool = True) -> Iterator[sch.Stage[CalibrationResult]]:
+                    use_cache: bool = True, known: tuple = ()) -> Iterator[sch.Stage[CalibrationResult]]:
     """Preview, streamed MCMC and final calibration (a scheduler job).
 
     Parameters
@@ -200,6 +205,10 @@ def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int
         Ensemble steps between two progress reports (the cancellation points).
     use_cache : bool
         Publish a cached final result at once when there is one (bundled datasets).
+    known : tuple
+        MAPs a diagnosis found on this record, window, modes and likelihood
+        (:attr:`Diagnosis.known_maps`): the calibration of one of those models starts from its
+        MAP instead of searching again (the same MAP, see :func:`beam.calibration.remember_maps`).
 
     Yields
     ------
@@ -212,11 +221,15 @@ def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int
     if cached is not None:
         yield sch.final(cached, "posterior (cached)")
         return
-    yield from cached_stages(CALIBRATIONS, key if cacheable else None, calibration_stages, key, measurement, every=every)
+    yield from cached_stages(CALIBRATIONS, key if cacheable else None, calibration_stages, key, measurement, every=every,
+                             known=known)
 
 
-def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: int = 25) -> Iterator[sch.Stage[CalibrationResult]]:
+def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: int = 25,
+                       known: tuple = ()) -> Iterator[sch.Stage[CalibrationResult]]:
     """The computation of :func:`calibration_run` (in a worker process; no cache)."""
+    if known:
+        remember_maps(measurement, window=key.window, modes=key.modes, maps=known, likelihood=key.likelihood)
     stream = calibration_stream(measurement, window=key.window, effects=key.effects, modes=key.modes,
                                 likelihood=key.likelihood, seed=key.seed, target_ess=key.target_ess, every=every)
     done = 0.0
@@ -266,6 +279,9 @@ class Diagnosis(VerdictFacts):
     climbed_rmse: float = math.nan
     #: MAP natural frequencies (Hz) of each candidate's fit (:attr:`beam.discovery.ranking.Ranking.frequencies_Hz`).
     frequencies_Hz: dict = field(default_factory=dict)
+    #: ``(effects, MapResult)`` of every model the diagnosis calibrated (:func:`beam.calibration.known_map`),
+    #: for **Add** and the next diagnosis (see :func:`calibration_run`'s ``known``).
+    known_maps: tuple = ()
 
     @property
     def ranking(self) -> Ranking:
@@ -298,18 +314,18 @@ class Diagnosis(VerdictFacts):
                                 error_label="calibration-window RMSE" if free else "held-out RMSE", then=self.climbed)
 
 
-def _rank_key(c: Candidate):
-    return (not c.material, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
-
-
-def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: bool = True) -> Iterator[sch.Stage[Diagnosis]]:
-    """The diagnosis of the beam view's model on its window (a scheduler job).
+def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: bool = True,
+                  known: tuple = ()) -> Iterator[sch.Stage[Diagnosis]]:
+    """The diagnosis of the beam view's model on its window (a scheduler job); ``known``: MAPs an
+    earlier diagnosis found on the same record, window, modes and likelihood (after **Add**, the
+    new model and its candidates were the earlier diagnosis's best candidate and climb).
 
     Yields
     ------
     Stage
         ``progress`` (base calibration), ``partial`` :class:`Diagnosis` with the residual report,
-        ``partial`` after every two ranked candidates (cancellation points), ``final``.
+        ``partial`` after every ranked candidate, ``progress`` while the climb ranks the candidates
+        left on top of the best, ``final``.
     """
     cacheable = use_cache and key.dataset in bundled_datasets()
     dkey = (key.dataset, key.window, key.effects, key.modes)
@@ -317,45 +333,117 @@ def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: b
     if cached is not None:
         yield sch.final(cached, "diagnosis (cached)")
         return
-    yield from cached_stages(DIAGNOSES, dkey if cacheable else None, diagnosis_stages, key, measurement)
+    try:
+        for stage in diagnosis_stages(key, measurement, known):
+            if stage.kind == "final" and cacheable:
+                DIAGNOSES.put(dkey, stage.value)
+            yield stage
+    except sch.Cancelled:
+        return  # a newer request (or a closed page) cancelled it: nothing to publish
 
 
-def diagnosis_stages(key: CalibrationKey, measurement: Measurement) -> Iterator[sch.Stage[Diagnosis]]:
-    """The computation of :func:`diagnosis_run` (in a worker process; no cache)."""
+def diagnosis_stages(key: CalibrationKey, measurement: Measurement, known: tuple = ()) -> Iterator[sch.Stage[Diagnosis]]:
+    """The computation of :func:`diagnosis_run` (no cache), as :func:`beam.discovery.report.diagnose`
+    computes it: the base fit and its residual report in one worker process, then the candidates'
+    fits spread over the pool's worker processes (:func:`dashboard.runtime.scheduler.offload_map`;
+    the slowest candidate, the nonlinear spring, first), then the climb on top of the best, its
+    fits spread the same way. Each fit's process is told the MAPs found so far (the base's, the
+    candidates'), which are the sub-models of the climb's fits: their nested starts are then what
+    one process would have computed (:func:`beam.calibration.remember_maps`)."""
     yield sch.progress(0.02, "calibrating the current model (preview)")
-    warm_up()  # no half-imported ArviZ under the diagnostics (see dashboard.jobs.toy.warm_up)
-    base = calibration_preview(measurement, window=key.window, effects=key.effects, modes=key.modes)
-    yield sch.progress(0.1, "residual diagnostics: band, spectrum, whiteness, modes, backbone")
-    residuals = residual_report(base)
+    base, residuals = _final(sch.offload(diagnosis_base, key, measurement, known))
     names = list(candidate_effects(base.setup.effects, measurement))  # fits the record: sensor_mass for an accelerometer
     diagnosis = Diagnosis(key, base, residuals, [], list(names))
     yield sch.partial(diagnosis, 0.25, f"ranking {len(names)} candidate effects")
-    explain = explainer(residuals)
-    ranked: list[Candidate] = []
-    fits: dict[str, CalibrationResult] = {}
+    window, modes = base.setup.window, base.setup.modes
+    known = [*known, known_map(base)]
+    order = sorted(names, key=lambda e: not EFFECTS[e].nonlinear)  # the slowest fit first
+    calls = [((measurement, window, with_effect(base.setup.effects, e), modes, tuple(known)), {}) for e in order]
+    fits: dict[str, CalibrationResult | Exception] = {}
     frequencies: dict = {}
-    for i in range(0, len(names), 2):
-        chunk = names[i:i + 2]
-        ranking = rank_candidates(measurement, base=base.setup.effects, modes=key.modes, base_result=base,
-                                  candidates=chunk, explain=explain, workers=2)
-        ranked = sorted(ranked + ranking.candidates, key=_rank_key)
-        fits.update(ranking.results)
-        frequencies.update({effect: map_frequencies(fit) for effect, fit in ranking.results.items()})
-        done = min(i + 2, len(names))
-        diagnosis = Diagnosis(key, base, residuals, ranked, names[done:], frequencies_Hz=dict(frequencies))
-        yield sch.partial(diagnosis, 0.25 + 0.75 * done / max(len(names), 1), f"ranked {done} of {len(names)} candidates")
-    try:  # how far the best model reached is from the record's noise (as the command line's verdict)
+    explain = explainer(residuals)
+    try:
+        for i, (result, freqs) in sch.offload_map(candidate_fit, calls):
+            effect = order[i]
+            fits[effect] = result
+            if freqs is not None:
+                frequencies[effect] = freqs
+            done = [e for e in names if e in fits]
+            ranking = rank_fits(base, done, {e: fits[e] for e in done}, explain)
+            diagnosis = Diagnosis(key, base, residuals, ranking.candidates, [e for e in names if e not in fits],
+                                  frequencies_Hz=dict(frequencies))
+            yield sch.partial(diagnosis, 0.25 + 0.6 * len(done) / max(len(names), 1),
+                              f"ranked {len(done)} of {len(names)} candidates")
+        known += [known_map(r) for r in fits.values() if not isinstance(r, Exception)]
         best = fits.get(diagnosis.missing) if diagnosis.missing is not None else base
         floor = noise_floor(measurement.time_s, measurement.output)
-        diagnosis.remaining = remaining_error(best, floor)
+
+        def remaining_of(result: CalibrationResult) -> Remaining:  # in a worker: it may run the model
+            return _final(sch.offload(remaining_stage, result, floor))
+
+        diagnosis.remaining = remaining_of(best)
         if diagnosis.missing is not None and diagnosis.remaining.outside_catalogue:
-            yield sch.progress(0.95, f"ranking the candidates on top of {diagnosis.missing}")
-            climbed, diagnosis.remaining = climb_on(measurement, best, diagnosis.remaining, floor)
+            yield sch.progress(0.9, f"ranking the candidates on top of {diagnosis.missing}")
+            fitter = process_fitter(measurement, window, modes, known)
+            climbed, diagnosis.remaining = climb_on(measurement, best, diagnosis.remaining, floor, fitter=fitter,
+                                                    remaining_of=remaining_of)
             diagnosis.climbed = [effect for effect, _ in climbed]
             diagnosis.climbed_rmse = diagnosis.errors(climbed[-1][1]) if climbed else math.nan
     except BeamInputError:
         pass
+    diagnosis.known_maps = tuple(known)
     yield sch.final(diagnosis, "diagnosis")
+
+
+def remaining_stage(result: CalibrationResult, floor) -> Iterator[sch.Stage[Remaining]]:
+    """:func:`beam.discovery.report.remaining_error` of ``result`` (in a worker process)."""
+    yield sch.final(remaining_error(result, floor))
+
+
+def diagnosis_base(key: CalibrationKey, measurement: Measurement,
+                   known: tuple = ()) -> Iterator[sch.Stage[tuple[CalibrationResult, ResidualReport]]]:
+    """The base model's preview and its residual report (in a worker process)."""
+    remember_maps(measurement, window=key.window, modes=key.modes, maps=known, likelihood=key.likelihood)
+    warm_up()  # no half-imported ArviZ under the diagnostics (see dashboard.jobs.toy.warm_up)
+    base = calibration_preview(measurement, window=key.window, effects=key.effects, modes=key.modes)
+    base.map_prediction()  # computed here, carried to the server with the result
+    yield sch.progress(0.5, "residual diagnostics: band, spectrum, whiteness, modes, backbone")
+    yield sch.final((base, residual_report(base)))
+
+
+def candidate_fit(measurement: Measurement, window: tuple[float, float], effects: tuple[str, ...], modes: int,
+                  known: tuple = ()) -> Iterator[sch.Stage[tuple]]:
+    """One candidate's preview (in a worker process): ``(result or the exception of a failed fit,
+    its MAP natural frequencies in Hz or None)``. ``known``: MAPs found elsewhere
+    (:func:`beam.calibration.known_map`) for the nested starts."""
+    remember_maps(measurement, window=window, modes=modes, maps=known)
+    try:
+        result = calibration_preview(measurement, window=window, effects=effects, modes=modes)
+    except FIT_ERRORS as exc:  # a failed fit: ranked last
+        yield sch.final((exc, None))
+        return
+    result.map_prediction()  # computed here, carried to the server with the result
+    yield sch.final((result, map_frequencies(result)))
+
+
+def process_fitter(measurement: Measurement, window: tuple[float, float], modes: int, known: list) -> Fitter:
+    """A :data:`beam.discovery.ranking.Fitter` over the pool's worker processes (inside a job)."""
+    def fitter(effect_sets: list[tuple[str, ...]]) -> list[CalibrationResult | Exception]:
+        order = sorted(range(len(effect_sets)), key=lambda i: not any(EFFECTS[e].nonlinear for e in effect_sets[i]))
+        calls = [((measurement, window, effect_sets[i], modes, tuple(known)), {}) for i in order]
+        out: list = [None] * len(effect_sets)
+        for j, value in sch.offload_map(candidate_fit, calls):
+            out[order[j]] = value if isinstance(value, Exception) else value[0]
+        known.extend(known_map(r) for r in out if not isinstance(r, Exception))
+        return out
+
+    return fitter
+
+
+def _final(stages: Iterator[sch.Stage]):
+    """The value of the final stage of ``stages`` (:class:`~dashboard.runtime.scheduler.Cancelled`
+    when there is none: the job was cancelled)."""
+    return sch.final_value(stages)
 
 
 def effect_label(effect: str) -> str:

@@ -67,6 +67,8 @@ NO_ANSWER = ("No known answer: this is a real record (or an upload), not a simul
              "true parameters. Judge the model by the residuals, the held-out error and the evidence.")
 #: Default calibration window: this fraction of the record from its start (as the library).
 WINDOW_FRACTION = 0.3
+#: Record/window/modes/likelihood contexts whose diagnosis MAPs a session keeps (:meth:`BeamState.remember`).
+KNOWN_CONTEXTS = 4
 
 
 def _default_window(measurement) -> tuple[float, float]:
@@ -160,6 +162,7 @@ class BeamState(_Runs):
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._keys: dict[int, CalibrationKey] = {}
+        self._known: dict[tuple, list] = {}  # (dataset, window, modes, likelihood) -> [(effects, MapResult)]
         self._quiet = False
         self._previous = self.dataset
         m = self._load(self.dataset)
@@ -259,10 +262,27 @@ class BeamState(_Runs):
         if not self._quiet:
             self.request()
 
+    def known_maps(self, key: CalibrationKey | None = None) -> tuple:
+        """MAPs the diagnoses found on the record, window, modes and likelihood of ``key`` (default
+        the current inputs): what a calibration or diagnosis of one of those models starts from."""
+        key = key or self.key()
+        return tuple(self._known.get((key.dataset, key.window, key.modes, key.likelihood), ()))
+
+    def remember(self, key: CalibrationKey, maps: tuple) -> None:
+        """Keep a diagnosis's MAPs (:attr:`dashboard.jobs.beam.Diagnosis.known_maps`) of ``key``'s
+        record, window, modes and likelihood (the last :data:`KNOWN_CONTEXTS` contexts)."""
+        context = (key.dataset, key.window, key.modes, key.likelihood)
+        seen = {effects: found for effects, found in self._known.pop(context, ())}
+        seen.update({effects: found for effects, found in maps})
+        self._known[context] = list(seen.items())
+        while len(self._known) > KNOWN_CONTEXTS:
+            self._known.pop(next(iter(self._known)))
+
     def request(self, *, debounce: bool = True) -> int:
         """Calibrate with the current inputs (preview, MCMC, final); returns the request id."""
         key = self.key()
-        rid = self._slot.request(bind(calibration_run, key, self.measurement), debounce_s=None if debounce else 0.0)
+        rid = self._slot.request(bind(calibration_run, key, self.measurement, known=self.known_maps(key)),
+                                 debounce_s=None if debounce else 0.0)
         self._keys[rid] = key
         if len(self._keys) > 50:
             self._keys.pop(min(self._keys))
@@ -349,7 +369,8 @@ class DiagnosisState(_Runs):
     def request(self) -> int:
         """Diagnose the beam view's current dataset, window, modes and effects; returns the request id."""
         key = self.beam.key()
-        rid = self._slot.request(bind(diagnosis_run, key, self.beam.measurement), debounce_s=0.0)
+        rid = self._slot.request(bind(diagnosis_run, key, self.beam.measurement, known=self.beam.known_maps(key)),
+                                 debounce_s=0.0)
         with param.edit_constant(self):
             self.param.update(requested=rid, stage="queued", progress=0.0, status="diagnosing the current model")
         return rid
@@ -372,6 +393,7 @@ class DiagnosisState(_Runs):
                 self.param.update(stage="preview", error="", diagnosis=update.value, shown=update.request,
                                   progress=update.fraction or 0.0, status=update.message)
             else:
+                self.beam.remember(update.value.key, update.value.known_maps)
                 self.param.update(stage="final", error="", diagnosis=update.value, shown=update.request,
                                   progress=1.0, status=f"{update.message}: ready in {update.elapsed_s:.1f} s",
                                   ladder=self._ladder_for(update.value), adding="")

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import recorder
-from worker_jobs import counting, dying, failing, offloaded
+from worker_jobs import counting, dying, failing, mapped, offloaded
 
 from beam.toy import ToyScenario
 from dashboard.jobs.toy import toy_run, toy_stages
@@ -150,3 +150,37 @@ def test_a_stop_that_arrives_during_a_run_ends_the_worker_after_it():
         assert not worker._process.is_alive() and worker._process.exitcode == 0  # left on its own
     finally:
         worker.stop(timeout=2)
+
+
+def test_offload_map_runs_the_calls_on_both_processes_at_once(proc_pool):
+    slot, rec = make_slot(proc_pool)
+    calls = [((3, f"t{i}"), {"pause_s": 0.2}) for i in range(4)]
+    rid = slot.request(mapped(counting, calls))
+    assert slot.wait(60)
+    out = rec.of(rid)[-1].value
+    assert sorted(i for i, _ in out) == [0, 1, 2, 3]
+    assert all(value["tag"] == f"t{i}" for i, value in out)  # each index with its own call's value
+    assert {value["pid"] for _, value in out} == set(proc_pool.process_ids)  # both processes took calls
+
+
+def test_offload_map_hands_back_a_call_s_error_as_its_value(proc_pool):
+    slot, rec = make_slot(proc_pool)
+    rid = slot.request(mapped(failing, [(("user",), {}), ((), {"kind": "bug"})]))
+    assert slot.wait(60)
+    values = dict(rec.of(rid)[-1].value)
+    assert "shorter than the horizon" in str(values[0]) and isinstance(values[1], ZeroDivisionError)
+
+
+def test_offload_map_stops_every_call_when_the_job_is_cancelled(proc_pool, tmp_path):
+    slot, rec = make_slot(proc_pool)
+    markers = [str(tmp_path / f"m{i}") for i in range(2)]
+    first = slot.request(mapped(counting, [((400, i), {"pause_s": 0.01, "marker": markers[i]}) for i in range(2)]))
+    time.sleep(1.0)
+    t0 = time.monotonic()
+    second = slot.request(offloaded(counting, 1, "new"))
+    assert slot.wait(60)
+    while not all(os.path.exists(m + ".closed") for m in markers) and time.monotonic() - t0 < 5:
+        time.sleep(0.01)
+    assert all(os.path.exists(m + ".closed") for m in markers), "both mapped calls must stop in their workers"
+    assert "final" not in [u.kind for u in rec.of(first)]
+    assert rec.of(second)[-1].kind == "final"

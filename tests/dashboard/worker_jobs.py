@@ -53,3 +53,15 @@ def dying():
 def offloaded(fn, *args, **kwargs):
     """A job that hands ``fn`` to a worker process (what the dashboard's jobs do)."""
     return lambda: sch.offload(fn, *args, **kwargs)
+
+
+def mapped(fn, calls):
+    """A job that spreads ``fn`` over the pool's worker processes (:func:`dashboard.runtime.scheduler.offload_map`)
+    and finishes with ``[(index, value), ...]`` in completion order."""
+    def job():
+        out = []
+        for i, value in sch.offload_map(fn, calls):
+            out.append((i, value))
+            yield sch.partial(list(out))
+        yield sch.final(out)
+    return job
