@@ -6,6 +6,8 @@ search of :mod:`beam.calibration.fit` and computes the bands with the compiled k
 :func:`beam.inference.predictive_bands` on the same problem, the same starts and the same draws.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy import special
@@ -170,3 +172,21 @@ def test_final_bands_are_the_posterior_predictive_bands():
     noise = result.summary()["noise_sd"]["mean"]
     for name in ("prediction_lower", "prediction_upper"):
         assert np.abs(getattr(result.bands, name) - getattr(reference, name)).max() < 1e-3 * noise
+
+
+def test_a_preview_with_many_parameters_on_their_bounds_still_draws_its_bands():
+    """lab_run_1 with clamp compliance, patch damping and a damping ratio per mode (a set a user
+    can tick): the MAP has six parameters on their bounds, rejection from the Laplace Gaussian
+    accepted too few draws ("lies almost entirely outside the prior support"); the rest now
+    come from the truncated Gaussian by Gibbs sampling, inside the support."""
+    from beam.io.measurement import read_measurement
+
+    record = read_measurement(Path(__file__).resolve().parents[1] / "assets" / "measurements" / "lab_run_1.csv")
+    result = calibration_preview(record, effects=("clamp_compliance", "patch_damping", "modal_damping"), modes=4)
+    assert any("prior bound" in w for w in result.laplace.warnings)
+    draws = result.draws()
+    z = result.problem.to_internal(draws)
+    assert z.shape[0] == 4000 and np.all(result.problem.in_support(z))
+    bands = result.bands
+    assert np.all(np.isfinite(bands.mean)) and np.all(bands.prediction_lower <= bands.prediction_upper)
+    assert np.isfinite(result.rmse_prediction) and result.rmse_prediction_map < 2e-3

@@ -86,7 +86,11 @@ class LaplaceResult:
 
     def draws_internal(self, n: int, rng: np.random.Generator, *, scale: float = 1.0, max_rounds: int = 50) -> np.ndarray:
         """``n`` draws of ``N(mean, scale² C)`` restricted to the prior support, shape (n, ndim),
-        with C the covariance capped at the priors' scales (:meth:`draw_covariance`)."""
+        with C the covariance capped at the priors' scales (:meth:`draw_covariance`): by
+        rejection, and where ``max_rounds`` rounds of rejection leave fewer than ``n`` (the
+        Gaussian's mass inside the support is tiny: a MAP with many parameters on their bounds,
+        e.g. lab_run_1 with clamp compliance, patch damping and a damping ratio per mode, where
+        each bound halves it) the rest by :func:`truncated_gaussian_gibbs`."""
         chol = np.linalg.cholesky(self.draw_covariance()) * scale
         out, have = [], 0
         for _ in range(max_rounds):
@@ -97,8 +101,10 @@ class LaplaceResult:
             if have >= n:
                 break
         z = np.concatenate(out)[:n]
-        if z.shape[0] < n:
-            raise RuntimeError("the Laplace Gaussian lies almost entirely outside the prior support")
+        if z.shape[0] < n:  # rejection fails where many parameters sit on their bounds: Gibbs
+            z = np.concatenate([z, truncated_gaussian_gibbs(self.mean, self.draw_covariance() * scale**2,
+                                                             self.problem._lower, self.problem._upper,
+                                                             n - z.shape[0], rng)])
         return z
 
     def draws(self, n: int = 4000, seed: int = 0) -> dict[str, np.ndarray]:
@@ -113,6 +119,41 @@ class LaplaceResult:
     def predict(self, time_s: np.ndarray, *, n_draws: int = 400, seed: int = 0, level: float = 0.95) -> PredictiveBands:
         """Credible and prediction bands from ``n_draws`` draws pushed through the model."""
         return predictive_bands(self.problem, self.draws(n_draws, seed), time_s, level=level)
+
+
+#: Gibbs sweeps of :func:`truncated_gaussian_gibbs` (each chain's last state is one draw).
+GIBBS_SWEEPS = 100
+
+
+def truncated_gaussian_gibbs(mean: np.ndarray, cov: np.ndarray, lower: np.ndarray, upper: np.ndarray, n: int,
+                             rng: np.random.Generator, sweeps: int = GIBBS_SWEEPS) -> np.ndarray:
+    """``n`` draws of ``N(mean, cov)`` truncated to the box ``[lower, upper]``, shape (n, d): the
+    last state of ``n`` independent Gibbs chains (:data:`GIBBS_SWEEPS` sweeps from the mean
+    clipped into the box), each coordinate drawn from its conditional, a univariate truncated
+    normal (:data:`scipy.stats.truncnorm`, which stays accurate far in the tails where rejection
+    from the joint Gaussian accepts almost nothing).
+
+    Hand-written because neither numpy nor scipy draws a box-truncated multivariate normal; the
+    chains run in lock-step (one vectorised conditional per coordinate and sweep: 0.1-0.2 s for
+    400 draws of 15 parameters).
+    """
+    from scipy.stats import truncnorm
+
+    mean = np.asarray(mean, dtype=float)
+    d = mean.size
+    precision = np.linalg.inv(cov)
+    diagonal = np.diag(precision)
+    sd = 1.0 / np.sqrt(diagonal)
+    width = upper - lower
+    inside = np.where(np.isfinite(width), 1e-9 * width, 0.0)
+    z = np.tile(np.clip(mean, lower + inside, upper - inside), (n, 1))
+    for _ in range(sweeps):
+        for i in range(d):
+            centred = z - mean
+            m = mean[i] - (centred @ precision[:, i] - diagonal[i] * centred[:, i]) / diagonal[i]
+            a, b = (lower[i] - m) / sd[i], (upper[i] - m) / sd[i]
+            z[:, i] = np.clip(truncnorm.rvs(a, b, loc=m, scale=sd[i], random_state=rng), lower[i], upper[i])
+    return z
 
 
 def laplace(problem: Problem, map_result: MapResult | None = None, *, guesses: Sequence[Mapping[str, float]] | None = None) -> LaplaceResult:
