@@ -73,6 +73,8 @@ def has_offset(output_kind: str) -> bool:
 
 #: Quanta tried for the time stamps (s): a logger writes its stamps with finitely many decimals.
 STAMP_QUANTA = tuple(10.0 ** -d for d in range(2, 10))
+#: Entries of a power table between exact anchors (:func:`_fill_powers`).
+_ANCHOR_EVERY = 512
 #: Most table entries per level (the two-level table below): larger spans use the direct kernel.
 MAX_TABLE = 1 << 15
 
@@ -156,15 +158,18 @@ def free_prediction_at(poles: np.ndarray, amplitudes: np.ndarray, time_s: np.nda
 
 
 @numba.njit(cache=True, nogil=True)
-def _fill_powers(table, pole, origin, step):  # pragma: no cover - jitted
-    """table[i] = exp(pole (origin + i step)) by four interleaved recurrences (independent
-    products: four times the throughput of one chain), each entry at most 15 products from an
-    exact anchor (re-anchored at the first four entries of every 64)."""
+def _fill_powers(table, pole, origin, step, scale):  # pragma: no cover - jitted
+    """table[i] = scale exp(pole (origin + i step)) by four interleaved recurrences (independent
+    products: four times the throughput of one chain), each entry at most
+    ``_ANCHOR_EVERY / 4 - 1`` products from an exact anchor (re-anchored at the first four entries of
+    every block of :data:`_ANCHOR_EVERY`)."""
     ratio = np.exp(pole * (4.0 * step))
-    for i in range(table.size):
-        if i % 64 < 4:
-            table[i] = np.exp(pole * (origin + step * i))
-        else:
+    n = table.size
+    for start in range(0, n, _ANCHOR_EVERY):
+        stop = min(start + _ANCHOR_EVERY, n)
+        for i in range(start, min(start + 4, stop)):
+            table[i] = scale * np.exp(pole * (origin + step * i))
+        for i in range(start + 4, stop):
             table[i] = table[i - 4] * ratio
 
 
@@ -172,7 +177,7 @@ def _fill_powers(table, pole, origin, step):  # pragma: no cover - jitted
 def _table_kernel(poles, amplitudes, high, low, tau_min, q, size, offset, basis, out_basis, out):  # pragma: no cover
     """exp(lambda tau_k) = H[high_k] L[low_k], H[i] = exp(lambda (tau_min + i S q)), L[i] = exp(lambda i q),
     both by recurrence (:func:`_fill_powers`); fills the basis (``basis``) or the prediction,
-    for which H is multiplied by (c - i d) first: c Re z + d Im z = Re(z (c - i d))."""
+    for which H is filled multiplied by (c - i d): c Re z + d Im z = Re(z (c - i d))."""
     batch, count = poles.shape
     n = high.size
     lo_table = np.empty(size, dtype=np.complex128)
@@ -186,9 +191,9 @@ def _table_kernel(poles, amplitudes, high, low, tau_min, q, size, offset, basis,
         while j < count:
             pole = poles[b, j]
             pair = _is_pair(pole.real, pole.imag) and j + 1 < count
-            _fill_powers(lo_table, pole, 0.0, q)
-            _fill_powers(hi_table, pole, tau_min, q * size)
+            _fill_powers(lo_table, pole, 0.0, q, 1.0 + 0.0j)
             if basis:
+                _fill_powers(hi_table, pole, tau_min, q * size, 1.0 + 0.0j)
                 for k in range(n):
                     z = hi_table[high[k]] * lo_table[low[k]]
                     out_basis[b, j, k] = z.real
@@ -196,8 +201,7 @@ def _table_kernel(poles, amplitudes, high, low, tau_min, q, size, offset, basis,
                         out_basis[b, j + 1, k] = z.imag
             else:
                 weight = complex(amplitudes[b, j], -amplitudes[b, j + 1] if pair else 0.0)
-                for i in range(size):
-                    hi_table[i] *= weight
+                _fill_powers(hi_table, pole, tau_min, q * size, weight)
                 for k in range(n):
                     h = hi_table[high[k]]
                     lo = lo_table[low[k]]
