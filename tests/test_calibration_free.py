@@ -244,3 +244,31 @@ def test_a_mode_the_model_cannot_place_is_damped_away_at_the_map():
                                     "damping_ratio_mode_4": 0.074}])
     assert found.log_posterior == pytest.approx(reference.log_posterior, abs=0.01)
     assert float(found.values["damping_ratio_mode_3"]) > 0.25
+
+
+def test_tabulated_basis_and_prediction_match_the_closed_form_on_a_long_irregular_record():
+    """On logger stamps (1 µs quantum, 20 s, irregular steps) the tabulated columns and
+    predictions (power tables re-anchored every few hundred entries, a term left out where its
+    envelope is below 1e-13 of its largest) equal exp(lambda tau) evaluated directly, for a light,
+    a moderate and a heavy damping and an overdamped (real) pole pair."""
+    from beam.calibration.free import free_prediction_at, free_rows_at
+
+    rng = np.random.default_rng(11)
+    t = np.round(np.cumsum(rng.uniform(0.9e-3, 1.1e-3, 19_000)), 6) + 0.25
+    poles = np.array([[-0.19 + 38.0j, -0.19 - 38.0j, -1.2 + 245.0j, -1.2 - 245.0j, -12.0 + 694.0j, -12.0 - 694.0j,
+                       -370.0 + 1360.0j, -370.0 - 1360.0j, -50.0 + 0.0j, -900.0 + 0.0j]])
+    reference = t[0]
+    tau = t - reference
+    columns = []
+    for j in (0, 2, 4, 6):
+        z = np.exp(poles[0, j] * tau)
+        columns += [z.real, z.imag]
+    columns += [np.exp(poles[0, 8].real * tau), np.exp(poles[0, 9].real * tau)]
+    exact = np.array(columns)
+    rows = free_rows_at(poles, t, reference, 1)[0]
+    np.testing.assert_allclose(rows[:-1], exact, rtol=0, atol=1e-12)
+    assert np.all(rows[-1] == 1.0)
+    amplitudes = rng.normal(size=(1, 11))
+    predicted = free_prediction_at(poles, amplitudes, t, reference, offset=True)[0]
+    np.testing.assert_allclose(predicted, amplitudes[0, :10] @ exact + amplitudes[0, 10], rtol=0,
+                               atol=1e-12 * np.abs(amplitudes).sum())
