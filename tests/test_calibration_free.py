@@ -272,3 +272,27 @@ def test_tabulated_basis_and_prediction_match_the_closed_form_on_a_long_irregula
     predicted = free_prediction_at(poles, amplitudes, t, reference, offset=True)[0]
     np.testing.assert_allclose(predicted, amplitudes[0, :10] @ exact + amplitudes[0, 10], rtol=0,
                                atol=1e-12 * np.abs(amplitudes).sum())
+
+
+def test_spectral_scales_maximise_the_interpolated_log_power():
+    """Each row's EI scale is the grid point maximising the summed log of the record's power at
+    sqrt(scale) x its modes (np.interp of the power; modes beyond 0.8 x Nyquist or scaled beyond
+    0.95 x Nyquist score the floor), by a direct numpy evaluation."""
+    from beam.calibration.free_starts import record_spectrum, spectral_scales
+    from beam.calibration.starts import SCALE_GRID
+
+    record = read_measurement(REAL / "adxl_50cm_114655.csv")
+    inside = record.time_s < 2.0
+    frequencies, power = record_spectrum(record.time_s[inside], record.output[inside])
+    rng = np.random.default_rng(4)
+    model = np.sort(rng.uniform(3.0, 300.0, (40, 4)), axis=1)
+    model[:, 3] *= 3.0  # some modes beyond Nyquist (499 Hz)
+    nyquist = frequencies[-1]
+    floor = power.max() * 1e-12 + 1e-300
+    expected = []
+    for row in model:
+        scaled = np.sqrt(SCALE_GRID)[:, None] * row[None, :]
+        ok = (row > 0) & (row < 0.8 * nyquist) & (scaled < 0.95 * nyquist)
+        score = np.where(ok, np.log(np.interp(scaled, frequencies, power) + floor), np.log(floor)).sum(axis=1)
+        expected.append(SCALE_GRID[np.argmax(score)])
+    np.testing.assert_allclose(spectral_scales(model, (frequencies, power)), expected, rtol=1e-12)
