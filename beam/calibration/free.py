@@ -74,7 +74,8 @@ def has_offset(output_kind: str) -> bool:
 #: Quanta tried for the time stamps (s): a logger writes its stamps with finitely many decimals.
 STAMP_QUANTA = tuple(10.0 ** -d for d in range(2, 10))
 #: A decaying term of the free response is left out where its envelope has fallen below this
-#: fraction of its largest value (:func:`_table_kernel`): a perturbation of the order of round-off.
+#: fraction of its value at the reference time (:func:`_table_kernel`): a perturbation of the
+#: order of round-off.
 _NEGLIGIBLE = 1e-13
 _LOG_NEGLIGIBLE = math.log(_NEGLIGIBLE)
 #: Entries of a power table between exact anchors (:func:`_fill_powers`).
@@ -201,9 +202,12 @@ def _table_kernel(poles, amplitudes, high, low, tau_min, q, size, offset, basis,
     for which H is filled multiplied by (c - i d): c Re z + d Im z = Re(z (c - i d)).
 
     A decaying term is left out (0 in the basis) from the first table row H[i] at which its
-    envelope exp(sigma (tau - tau_min)) is below :data:`_NEGLIGIBLE` of its value at tau_min (and
-    so of its largest): on the strip record, modes 3-4 of the 20 s prediction die within the
-    first 0.1-2 s and mode 4 of the 2 s window within 0.1 s, so their tables and lookups stop there.
+    envelope exp(sigma tau) is below :data:`_NEGLIGIBLE` of its value at max(tau_min, 0): of its
+    value at the reference (where the amplitudes are fitted; samples before it, e.g. before the
+    release of a record that starts at rest, keep every term), or of its largest when every
+    sample follows the reference. On the strip record, modes 3-4 of the 20 s prediction die
+    within the first 0.1-2 s and mode 4 of the 2 s window within 0.1 s, so their tables and
+    lookups stop there.
     """
     batch, count = poles.shape
     n = high.size
@@ -221,7 +225,7 @@ def _table_kernel(poles, amplitudes, high, low, tau_min, q, size, offset, basis,
             pair = _is_pair(pole.real, pole.imag) and j + 1 < count
             rows = size  # H rows in use: those of tau - tau_min < log(_NEGLIGIBLE) / sigma
             if pole.real < 0.0:
-                reach = _LOG_NEGLIGIBLE / pole.real / step
+                reach = (max(tau_min, 0.0) - tau_min + _LOG_NEGLIGIBLE / pole.real) / step
                 if reach < size:
                     rows = int(reach) + 1
             _fill_powers(lo_table, pole, 0.0, q, 1.0 + 0.0j)
