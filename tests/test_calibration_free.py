@@ -244,3 +244,65 @@ def test_a_mode_the_model_cannot_place_is_damped_away_at_the_map():
                                     "damping_ratio_mode_4": 0.074}])
     assert found.log_posterior == pytest.approx(reference.log_posterior, abs=0.01)
     assert float(found.values["damping_ratio_mode_3"]) > 0.25
+
+
+def test_tabulated_basis_and_prediction_match_the_closed_form_on_a_long_irregular_record():
+    """On logger stamps (1 µs quantum, 20 s, irregular steps) the tabulated columns and
+    predictions (power tables re-anchored every few hundred entries, a term left out where its
+    envelope is below 1e-13 of its value at the reference) equal exp(lambda tau) evaluated directly, for a light,
+    a moderate and a heavy damping and an overdamped (real) pole pair."""
+    rng = np.random.default_rng(11)
+    t = np.round(np.cumsum(rng.uniform(0.9e-3, 1.1e-3, 19_000)), 6) + 0.25
+    poles = np.array([[-0.19 + 38.0j, -0.19 - 38.0j, -1.2 + 245.0j, -1.2 - 245.0j, -12.0 + 694.0j, -12.0 - 694.0j,
+                       -370.0 + 1360.0j, -370.0 - 1360.0j, -50.0 + 0.0j, -900.0 + 0.0j]])
+    reference = t[0]
+    tau = t - reference
+    _check_tabulated(poles, t, reference, tau, rng)
+    # a reference after the first samples (a record that starts at rest: the fit starts at the
+    # release): before it the decaying terms grow backwards and must not set what is negligible
+    _check_tabulated(poles, t, t[400], t - t[400], rng)
+
+
+def _check_tabulated(poles, t, reference, tau, rng):
+    from beam.calibration.free import free_prediction_at, free_rows_at
+
+    columns = []
+    for j in (0, 2, 4, 6):
+        z = np.exp(poles[0, j] * tau)
+        columns += [z.real, z.imag]
+    columns += [np.exp(poles[0, 8].real * tau), np.exp(poles[0, 9].real * tau)]
+    exact = np.array(columns)
+    # the error allowed: 1e-12 of each column's envelope, at least 1e-12 (a term left out after
+    # the reference is below 1e-13)
+    envelope = np.maximum(np.exp(np.repeat(poles[0, [0, 2, 4, 6, 8, 9]].real, [2, 2, 2, 2, 1, 1])[:, None] * tau), 1.0)
+    rows = free_rows_at(poles, t, reference, 1)[0]
+    assert np.all(np.abs(rows[:-1] - exact) <= 1e-12 * envelope)
+    assert np.all(rows[-1] == 1.0)
+    amplitudes = rng.normal(size=(1, 11))
+    predicted = free_prediction_at(poles, amplitudes, t, reference, offset=True)[0]
+    expected = amplitudes[0, :10] @ exact + amplitudes[0, 10]
+    assert np.all(np.abs(predicted - expected) <= 1e-12 * (np.abs(amplitudes[0, :10]) @ envelope + abs(amplitudes[0, 10])))
+
+
+def test_spectral_scales_maximise_the_interpolated_log_power():
+    """Each row's EI scale is the grid point maximising the summed log of the record's power at
+    sqrt(scale) x its modes (np.interp of the power; modes beyond 0.8 x Nyquist or scaled beyond
+    0.95 x Nyquist score the floor), by a direct numpy evaluation."""
+    from beam.calibration.free_starts import record_spectrum, spectral_scales
+    from beam.calibration.starts import SCALE_GRID
+
+    record = read_measurement(REAL / "adxl_50cm_114655.csv")
+    inside = record.time_s < 2.0
+    frequencies, power = record_spectrum(record.time_s[inside], record.output[inside])
+    rng = np.random.default_rng(4)
+    model = np.sort(rng.uniform(3.0, 300.0, (40, 4)), axis=1)
+    model[:, 3] *= 3.0  # some modes beyond Nyquist (499 Hz)
+    nyquist = frequencies[-1]
+    floor = power.max() * 1e-12 + 1e-300
+    expected = []
+    for row in model:
+        scaled = np.sqrt(SCALE_GRID)[:, None] * row[None, :]
+        ok = (row > 0) & (row < 0.8 * nyquist) & (scaled < 0.95 * nyquist)
+        score = np.where(ok, np.log(np.interp(scaled, frequencies, power) + floor), np.log(floor)).sum(axis=1)
+        expected.append(SCALE_GRID[np.argmax(score)])
+    np.testing.assert_allclose(spectral_scales(model, (frequencies, power)), expected, rtol=1e-12)

@@ -230,3 +230,25 @@ def test_streamed_run_to_ess_equals_run_to_ess(toy_preview):
     assert all(p.step <= p.total for p in reports) and reports[-1].total == streamed.n_steps
     direct = EnsembleRun(problem, lap, seed=12).run_to_ess(500)
     np.testing.assert_array_equal(streamed.result(target_ess=500).chain, direct.chain)
+
+
+def test_autocorr_time_equals_emcee_and_survives_a_stuck_walker():
+    """The autocorrelation time is emcee's (an AR(1) chain of known tau = (1 + phi) / (1 - phi) = 9
+    recovered to 20 %); a walker that never moved does not make it NaN but lengthens it."""
+    import emcee
+
+    from beam.inference.convergence import autocorr_time
+
+    rng = np.random.default_rng(5)
+    phi, n_steps, n_walkers = 0.8, 4000, 16
+    chain = np.zeros((n_steps, n_walkers, 2))
+    noise = rng.standard_normal(chain.shape)
+    for i in range(1, n_steps):
+        chain[i] = phi * chain[i - 1] + noise[i]
+    ours = autocorr_time(chain)
+    np.testing.assert_allclose(ours, emcee.autocorr.integrated_time(chain, tol=0, quiet=True), rtol=1e-12)
+    np.testing.assert_allclose(ours, (1 + phi) / (1 - phi), rtol=0.2)
+    stuck = chain.copy()
+    stuck[:, 3, :] = 0.7  # every proposal of walker 3 rejected
+    tau = autocorr_time(stuck)
+    assert np.all(np.isfinite(tau)) and np.all(tau > ours)

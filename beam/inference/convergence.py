@@ -2,10 +2,11 @@
 
 Conventions
 -----------
-* The integrated autocorrelation time ``tau`` (in steps) comes from
+* The integrated autocorrelation time ``tau`` (in steps) is that of
   :func:`emcee.autocorr.integrated_time` with ``tol=0, quiet=True`` (estimate from the
   walker-averaged autocorrelation function, Goodman & Weare 2010; the estimate is only
-  trusted for chains longer than ``min_autocorr_times * tau``).
+  trusted for chains longer than ``min_autocorr_times * tau``), a walker stuck for the whole
+  segment counted as fully correlated (:func:`autocorr_time`).
 * Bulk ESS and rank-normalised split R-hat come from ArviZ (:func:`arviz.ess`,
   :func:`arviz.rhat`, Vehtari et al. 2021). The ESS treats each walker after burn-in as a
   chain. The walkers of an affine-invariant ensemble are **not** independent chains (each move
@@ -36,6 +37,13 @@ MIN_AUTOCORR_TIMES = 20.0
 def autocorr_time(chain: np.ndarray) -> np.ndarray:
     """Integrated autocorrelation time of each parameter, in steps.
 
+    :func:`emcee.autocorr.integrated_time` (``c=5``, no length check): the walker-averaged
+    normalised autocorrelation function, summed to Sokal's automatic window. One difference: a
+    walker that did not move over the whole segment (every proposal rejected, seen on the strip
+    record 114732 with a sensor mass: acceptance 0.08) has no normalised autocorrelation (0/0),
+    which made emcee's average NaN; its autocorrelation is taken as 1 at every lag (the limit of
+    a walker that moves ever less), so it lengthens the estimate instead of voiding it.
+
     Parameters
     ----------
     chain : ndarray, shape (n_steps, n_walkers, ndim)
@@ -45,9 +53,23 @@ def autocorr_time(chain: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (ndim,)
     """
-    import emcee
+    from emcee.autocorr import auto_window, function_1d
 
-    return np.asarray(emcee.autocorr.integrated_time(chain, tol=0, quiet=True), dtype=float)
+    x = np.asarray(chain, dtype=float)
+    n_steps, n_walkers, ndim = x.shape
+    tau = np.empty(ndim)
+    for d in range(ndim):
+        acf = np.zeros(n_steps)
+        for k in range(n_walkers):
+            series = x[:, k, d]
+            if np.all(series == series[0]):
+                acf += 1.0
+            else:
+                acf += function_1d(series)
+        acf /= n_walkers
+        taus = 2.0 * np.cumsum(acf) - 1.0
+        tau[d] = taus[auto_window(taus, 5)]
+    return tau
 
 
 def ess_bulk(chain: np.ndarray) -> np.ndarray:
