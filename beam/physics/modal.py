@@ -850,6 +850,8 @@ class RitzBasis:
     whitener : (n, n)
         C_a⁻¹ with K_a = C_a C_aᵀ the anchor's stiffness: the norm of a residual in K_a⁻¹ (the
         error bound of :func:`ritz_modes`).
+    mass_terms, stiffness_terms : (T_m, n, n), (T_k, n, n)
+        The full parts (residuals, :func:`ritz_static`).
     """
 
     anchor: np.ndarray
@@ -857,10 +859,12 @@ class RitzBasis:
     mass_parts: np.ndarray
     stiffness_parts: np.ndarray
     whitener: np.ndarray
+    mass_terms: np.ndarray
+    stiffness_terms: np.ndarray
 
 
 def ritz_basis(
-    mass_terms: np.ndarray, stiffness_terms: np.ndarray, anchor: np.ndarray, steps: np.ndarray, count: int, extra: int = 3,
+    mass_terms: np.ndarray, stiffness_terms: np.ndarray, anchor: np.ndarray, steps: np.ndarray, count: int, extra: int = 2,
 ) -> RitzBasis:
     """Rayleigh–Ritz subspace for the ``count`` lowest modes of the members near ``anchor``.
 
@@ -869,11 +873,13 @@ def ritz_basis(
     that varies; a forward difference spans each mode's first derivative in that coefficient),
     made M-orthonormal at the anchor (directions below 1e-10 of the largest dropped).
     Measured on lab_run_1's model (43 dofs, patch density and stiffness varying, 7 modes,
-    r = 21 after the dependent directions are dropped): over 640 of its posterior draws (0.4 %
-    spread, 1-99 %) the Ritz modes agree with the dense solve of :func:`undamped_modes` to
-    1.8e-10 in omega², 3.4e-10 in the sensor's modal values and 9.4e-10 in the shapes (largest
-    entry), every draw passing the bound of :func:`ritz_modes` at 1e-7; 66 µs per draw against
-    185 µs dense (tests/test_physics_ritz.py checks the same against the dense solve).
+    ``extra`` 2, r = 20 after the dependent directions are dropped): over 640 of its posterior
+    draws (0.4 % spread, 1-99 %) the Ritz modes agree with the dense solve of
+    :func:`undamped_modes` to 2.9e-10 in omega², 1.7e-9 in the sensor's modal values and 4.1e-9
+    in the shapes (largest entry), every draw passing the bound of :func:`ritz_modes` at 1e-7;
+    52 µs per draw (static gains included) against ~160-190 µs dense. ``extra`` 3 (r = 21):
+    3.4e-10 at the sensor, 67 µs per draw (the r x r eigen-solve dominates).
+    tests/test_physics_ritz.py checks the same against the dense solve.
 
     Parameters
     ----------
@@ -899,11 +905,56 @@ def ritz_basis(
     vectors = np.linalg.solve(lower.T, left)
     whitener = np.linalg.inv(np.linalg.cholesky(stiffness[0]))
     reduce = lambda parts: np.einsum("ia,tij,jb->tab", vectors, parts, vectors)  # noqa: E731
-    return RitzBasis(anchor.copy(), vectors, reduce(mass_terms), reduce(stiffness_terms), whitener)
+    return RitzBasis(anchor.copy(), vectors, reduce(mass_terms), reduce(stiffness_terms), whitener,
+                     np.asarray(mass_terms, dtype=float), np.asarray(stiffness_terms, dtype=float))
+
+
+def _apply_terms(terms: np.ndarray, coefficients: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """sum_t coefficients[b, t] terms[t] @ vectors[b] for (B, n, k) vectors: one product per term
+    over all B k columns (a single BLAS call each, instead of assembling B matrices)."""
+    batch, n, k = vectors.shape
+    flat = np.swapaxes(vectors, 0, 1).reshape(n, batch * k)
+    out = np.zeros((batch, n, k))
+    for t in range(terms.shape[0]):
+        out += coefficients[:, t, None, None] * np.swapaxes((terms[t] @ flat).reshape(n, batch, k), 0, 1)
+    return out
+
+
+def ritz_static(basis: RitzBasis, coefficients: np.ndarray, loads: np.ndarray, tolerance: float = 1e-14,
+                max_terms: int = 60) -> np.ndarray | None:
+    """K⁻¹ loads (B, n, L) for members near the anchor, by the Neumann series around K_a, or None.
+
+    K = K_a + dK, K⁻¹ = sum_k (-K_a⁻¹ dK)^k K_a⁻¹; with positive semi-definite parts,
+    -e K_a <= dK <= e K_a for e = max_t |b_t - b_t^a| / b_t^a, so the series converges at
+    least as e^k (e <= 0.05 in the trust radius of :meth:`beam.physics.model.BeamModel._ritz_rows`;
+    ~0.004 for lab_run_1's walkers: 5 terms). Summed until a term is below ``tolerance`` of the
+    sum; None if not within ``max_terms``. Measured on lab_run_1's walkers (batches of 64):
+    ~10 µs per member, against 9 µs for a dense solve plus 17 µs to assemble each K.
+    """
+    n_mass = basis.mass_parts.shape[0]
+    change = coefficients[:, n_mass:] - basis.anchor[n_mass:]
+    inverse = basis.whitener.T @ basis.whitener  # K_a⁻¹
+    term = np.einsum("ij,jl->il", inverse, loads)[None].repeat(coefficients.shape[0], axis=0)
+    total = term.copy()
+    size = np.abs(total).max()
+    for _ in range(max_terms):
+        term = -_apply_terms_fixed(inverse, basis.stiffness_terms, change, term)
+        total += term
+        if np.abs(term).max() <= tolerance * size:
+            return total
+    return None
+
+
+def _apply_terms_fixed(inverse: np.ndarray, terms: np.ndarray, coefficients: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """inverse @ (sum_t coefficients[b, t] terms[t]) @ vectors[b], batched (see :func:`_apply_terms`)."""
+    applied = _apply_terms(terms, coefficients, vectors)
+    batch, n, k = applied.shape
+    flat = np.swapaxes(applied, 0, 1).reshape(n, batch * k)
+    return np.swapaxes((inverse @ flat).reshape(n, batch, k), 0, 1)
 
 
 def ritz_modes(
-    basis: RitzBasis, coefficients: np.ndarray, mass: np.ndarray, stiffness: np.ndarray, count: int,
+    basis: RitzBasis, coefficients: np.ndarray, count: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The ``count`` lowest modes of B members from the Ritz subspace, with a bound on their error.
 
@@ -922,8 +973,6 @@ def ritz_modes(
     basis : RitzBasis
     coefficients : (B, T_m + T_k)
         Coefficients of the members.
-    mass, stiffness : (B, n, n)
-        Their full matrices (for the residuals).
     count : int
         m <= r - 1.
 
@@ -940,7 +989,8 @@ def ritz_modes(
     omega_squared, vectors = undamped_modes(reduced_mass, reduced_stiffness)
     shapes = basis.vectors @ vectors[:, :, :count]
     omega2 = omega_squared[:, :count]
-    residual = stiffness @ shapes - (mass @ shapes) * omega2[:, None, :]
+    residual = (_apply_terms(basis.stiffness_terms, coefficients[:, n_mass:], shapes)
+                - _apply_terms(basis.mass_terms, coefficients[:, :n_mass], shapes) * omega2[:, None, :])
     anchor = basis.anchor[n_mass:]
     used = anchor > 0
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -953,3 +1003,45 @@ def ritz_modes(
         angle = np.max(eta / gaps, axis=1)
     angle = np.where(np.isfinite(angle) & (floor > 0), angle, np.inf)
     return omega2, shapes, angle
+
+
+def perturbed_modes(
+    omega_squared: np.ndarray, shapes: np.ndarray, mass_change: np.ndarray, stiffness_change: np.ndarray, count: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``count`` lowest modes of (M + dM, K + dK) to first order in the changes, from all modes of (M, K).
+
+    With every mass-normalised mode phi_j (omega² = lambda_j) of (M, K) and
+    a_ji = phi_jᵀ (dK - lambda_i dM) phi_i:
+
+    * lambda_i + a_ii;
+    * phi_i + sum_{j != i} phi_j a_ji / (lambda_i - lambda_j) - phi_i (phi_iᵀ dM phi_i) / 2
+      (the change keeps the shape mass-normalised to first order).
+
+    For the forward-difference stencils of a Levenberg–Marquardt Jacobian (relative changes of
+    ~1e-8, :func:`beam.physics.model._stencil_centres`) the neglected second order is
+    round-off, and the difference quotient becomes the analytic derivative of the dense solve.
+
+    Parameters
+    ----------
+    omega_squared : (n,) all eigenvalues, ascending (distinct).
+    shapes : (n, n) all mass-normalised shapes.
+    mass_change, stiffness_change : (S, n, n) dM and dK of S perturbed members.
+    count : int
+        Number m of modes wanted.
+
+    Returns
+    -------
+    omega_squared : (S, m), shapes : (S, n, m).
+    """
+    lam = omega_squared[:count]
+    kept = shapes[:, :count]
+    stiff = shapes.T @ stiffness_change @ kept  # (S, n, m): phi_jᵀ dK phi_i
+    mass = shapes.T @ mass_change @ kept  # (S, n, m): phi_jᵀ dM phi_i
+    coupling = stiff - mass * lam[None, None, :]  # a_ji
+    rows = np.arange(count)
+    new_lam = lam[None, :] + coupling[:, rows, rows]
+    with np.errstate(divide="ignore"):
+        weights = 1.0 / (lam[None, :] - omega_squared[:, None])  # (n, m): 1/(lambda_i - lambda_j)
+    weights[rows, rows] = 0.0
+    change = shapes @ (coupling * weights[None, :, :]) - 0.5 * kept[None, :, :] * mass[:, rows, rows][:, None, :]
+    return new_lam, kept[None, :, :] + change

@@ -109,6 +109,9 @@ _RITZ_MAX_SIZE = 0.6
 _RITZ_RADIUS = 0.05
 _RITZ_STEP = 1e-2
 _RITZ_ANGLE = 1e-7
+#: Rows this close (relative, every coefficient) to a solved row take its modes to first order
+#: (:func:`_stencil_centres`): finite-difference stencils, whose steps are ~1e-8 relative.
+_STENCIL_RADIUS = 1e-6
 #: Pseudo-parameter whose value is 1 (the coefficient of a measured point force).
 _UNIT = "unit"
 
@@ -520,11 +523,34 @@ class BeamModel:
             return omega2, kept, static
         sub = rows[todo]
         solved = self._point_mass_modes(sub, layout, n_modes)
-        if solved is None:
-            mass, stiff = self._matrices_of_rows(sub, layout)
-            solved = modal.undamped_modes(mass, stiff, shift=self.parts.basis.free_root_rotation)
-        values, shapes = solved
-        omega2[todo], kept[todo] = values[:, :n_modes], shapes[:, :, :n_modes]
+        if solved is not None:  # only the retained modes (a free model: no static gains)
+            values, shapes = solved
+            omega2[todo], kept[todo] = values[:, :n_modes], shapes[:, :, :n_modes]
+            static[todo] = self._dropped_static(values, shapes, n_modes)
+            return omega2, kept, static
+        if self.parts.basis.free_root_rotation:  # K nearly singular: its inverse from the modes is not used
+            centre, owner = np.ones(sub.shape[0], dtype=bool), np.arange(sub.shape[0])
+        else:
+            centre, owner = _stencil_centres(sub)
+        mass, stiff = self._matrices_of_rows(sub[centre], layout)
+        values, shapes = modal.undamped_modes(mass, stiff, shift=self.parts.basis.free_root_rotation)
+        where = np.flatnonzero(todo)
+        omega2[where[centre]], kept[where[centre]] = values[:, :n_modes], shapes[:, :, :n_modes]
+        static[where[centre]] = self._dropped_static(values, shapes, n_modes)
+        if not centre.all():
+            satellites = np.flatnonzero(~centre)
+            position = np.cumsum(centre) - 1  # a centre's index among the centres
+            for c in np.unique(owner[satellites]):
+                mine = satellites[owner[satellites] == c]
+                k = position[c]
+                d_mass, d_stiff = self._matrices_of_rows(sub[mine] - sub[c], layout)
+                o2, sh = modal.perturbed_modes(values[k], shapes[k], d_mass, d_stiff, n_modes)
+                omega2[where[mine]], kept[where[mine]] = o2, sh
+                static[where[mine]] = static[where[c]] + self._static_change(values[k], shapes[k], d_stiff, o2, sh, n_modes)
+        return omega2, kept, static
+
+    def _dropped_static(self, values: np.ndarray, shapes: np.ndarray, n_modes: int) -> np.ndarray:
+        """Static gains (U, 4) summed over the discarded modes (see :meth:`_modes_and_static`)."""
         # static (mode-acceleration) correction: the quasi-static response of the discarded
         # modes, sum over them of (c.phi)(phi.f)/omega² (= c K⁻¹ f minus the retained part),
         # for unit rho and EI; summed directly, which stays accurate when K is nearly singular
@@ -534,7 +560,31 @@ class BeamModel:
         # … and the same for a unit force at the tip (the cubic spring's): its quasi-static share
         # at the sensor and at the tip, m/N at unit EI
         per_mode_tip = (outputs @ dropped) * ((self.parts.tip_values @ dropped) / values[:, n_modes:])[:, None, :]
-        static[todo] = np.concatenate([per_mode.sum(axis=2), per_mode_tip.sum(axis=2)], axis=1)
+        return np.concatenate([per_mode.sum(axis=2), per_mode_tip.sum(axis=2)], axis=1)
+
+    def _static_change(self, values: np.ndarray, shapes: np.ndarray, d_stiff: np.ndarray, omega2: np.ndarray,
+                       kept: np.ndarray, n_modes: int) -> np.ndarray:
+        """First-order change (S, 4) of the static gains of one centre (all its modes ``values``,
+        ``shapes``) under stiffness changes ``d_stiff`` (S, n, n), whose retained modes are
+        ``omega2``, ``kept`` (from :func:`beam.physics.modal.perturbed_modes`).
+
+        The gain o K⁻¹ l minus the retained share sum_i (o.phi_i)(l.phi_i)/omega_i²: the first
+        changes by -(K⁻¹ o)ᵀ dK (K⁻¹ l) (K⁻¹ from all the centre's modes), the second by the
+        change of each term. (A mass change moves only the retained share.) The two changes
+        nearly cancel (the static gain is 0.1-0.4 % of the total): measured on lab_run_1's
+        model, the derivative so formed is within 1.2e-3 of the exact one (K⁻¹ by refined
+        solves), against 1e-4 for a forward difference of dense solves, i.e. < 5e-6 of the
+        response's Jacobian (tests/test_physics_ritz.py).
+        """
+        outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
+        loads = np.stack([self._input_vector, self.parts.tip_values])  # (2, n)
+        inverse = (shapes / values[None, :]) @ shapes.T  # K⁻¹ of the centre
+        full = -np.einsum("on,snk,lk->sol", outputs @ inverse, d_stiff, loads @ inverse)  # (S, outputs, loads)
+        lam, phi = values[:n_modes], shapes[:, :n_modes]
+        before = np.einsum("om,lm->ol", (outputs @ phi) / lam, loads @ phi)
+        after = np.einsum("som,slm->sol", (outputs @ kept) / omega2[:, None, :], loads @ kept)
+        change = full - (after - before[None])
+        return np.concatenate([change[:, :, 0], change[:, :, 1]], axis=1)
         return omega2, kept, static
 
     def _ritz_rows(self, rows: np.ndarray, layout: _Layout, n_modes: int) -> tuple[np.ndarray, ...] | None:
@@ -550,9 +600,10 @@ class BeamModel:
         is at most :data:`_RITZ_ANGLE`; the static gains then come from a solve with K.
         Returns (accepted row indices, omega² (A, m), shapes (A, n, m), static gains (A, 4)).
 
-        Measured on lab_run_1 (7 modes, 43 dofs, r = 21): 66 µs per row against 185 µs dense;
-        the static gains so formed differ from the dense sums by up to 3e-6 of themselves (both
-        within 4e-8 of an iteratively refined solve), i.e. ~1e-8 of the response.
+        Measured on lab_run_1 (7 modes, 43 dofs, r = 20): 52 µs per row against ~160-190 µs
+        dense; the static gains so formed differ from the dense sums by up to 4e-6 of themselves
+        (0.1-0.4 % of the response, so ~1e-8 of it; on three rows both were within 4e-8 of an
+        iteratively refined solve).
         """
         count = rows.shape[0]
         if count < _RITZ_MIN_ROWS or self.parts.basis.free_root_rotation or not np.any(self._input_vector):
@@ -580,19 +631,22 @@ class BeamModel:
             basis = modal.ritz_basis(np.stack(parts[:n_mass]), np.stack(parts[n_mass:]), center, steps, n_modes)
             self._ritz_bases[cache_key] = basis
         index = np.flatnonzero(close)
-        mass, stiff = self._matrices_of_rows(rows[index], layout)
-        omega2, shapes, angle = modal.ritz_modes(basis, rows[index], mass, stiff, n_modes)
+        omega2, shapes, angle = modal.ritz_modes(basis, rows[index], n_modes)
         good = angle <= _RITZ_ANGLE
         if not good.any():
             return None
-        omega2, shapes, stiff = omega2[good], shapes[good], stiff[good]
+        index, omega2, shapes = index[good], omega2[good], shapes[good]
         loads = np.stack([self._input_vector, self.parts.tip_values], axis=1)  # (n, 2)
         outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
-        full = outputs @ np.linalg.solve(stiff, np.broadcast_to(loads, (shapes.shape[0],) + loads.shape))  # (A, 2, 2)
+        solved = modal.ritz_static(basis, rows[index], loads)
+        if solved is None:  # (not seen within the trust radius) a dense solve
+            _, stiff = self._matrices_of_rows(rows[index], layout)
+            solved = np.linalg.solve(stiff, np.broadcast_to(loads, (shapes.shape[0],) + loads.shape))
+        full = outputs @ solved  # (A, 2, 2)
         seen = outputs @ shapes  # (A, 2, m)
         retained = np.einsum("aom,alm->aol", seen, (loads.T @ shapes) / omega2[:, None, :])  # (A, 2 outputs, 2 loads)
         static = np.concatenate([full[:, :, 0] - retained[:, :, 0], full[:, :, 1] - retained[:, :, 1]], axis=1)
-        return index[good], omega2, shapes, static
+        return index, omega2, shapes, static
 
     def natural_modes(self, parameters: Mapping[str, float], count: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Natural frequencies |lambda|/2pi (Hz) and damping ratios -Re(lambda)/|lambda| of the full model.
@@ -1032,6 +1086,27 @@ def held_input_derivative(inputs: np.ndarray, time_s: np.ndarray | float, order:
     curvature = np.zeros(u.size)
     curvature[2:] = 2.0 * np.diff(slope[1:]) / (steps[1:] + steps[:-1])
     return curvature
+
+
+def _stencil_centres(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which rows are solved (centres) and, for each row, its centre: a row within
+    :data:`_STENCIL_RADIUS` (relative, every coefficient) of an earlier centre is that
+    centre's satellite (a finite-difference stencil point), solved by first-order
+    perturbation (:func:`beam.physics.modal.perturbed_modes`)."""
+    count = rows.shape[0]
+    centre = np.ones(count, dtype=bool)
+    owner = np.arange(count)
+    if count < 2:
+        return centre, owner
+    close = np.all(np.abs(rows[:, None, :] - rows[None, :, :]) <= _STENCIL_RADIUS * np.abs(rows[None, :, :]), axis=2)
+    np.fill_diagonal(close, False)
+    if not close.any():
+        return centre, owner
+    for i in range(count):
+        earlier = np.flatnonzero(close[i, :i] & centre[:i])
+        if earlier.size:
+            centre[i], owner[i] = False, earlier[0]
+    return centre, owner
 
 
 def _shape_signs(tip_values: np.ndarray) -> np.ndarray:
