@@ -20,6 +20,10 @@ Pure, batched functions (leading axis B = parameter sets, e.g. emcee walkers):
    same modes for any output and irregular time stamps: the input held over each recorded
    interval [t_k, t_k+1) of its own length dt_k, stepped exactly with z_k = exp(lambda dt_k).
 6. :func:`modal_decomposition` and :func:`free_basis` — free responses, exact at any times.
+7. :func:`ritz_basis`, :func:`ritz_modes`, :func:`ritz_static` — the low modes of many nearby
+   members of a family M = sum a_t M_t, K = sum b_t K_t (the walkers of a posterior) from one
+   Rayleigh–Ritz subspace, with a residual bound on each mode's error; :func:`perturbed_modes` —
+   first-order modes of a finite-difference stencil's points from their centre's.
 
 Outputs
 -------
