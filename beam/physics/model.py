@@ -388,6 +388,10 @@ class BeamModel:
         which = np.array([index.setdefault(k, len(index)) for k in key_bytes], dtype=np.int64)
         rows = keys[[key_bytes.index(k) for k in index]]
         missing = [k for k in index if k not in self._shape_cache]
+        if missing:
+            ritz = self._ritz_entries(rows, layout, n_modes)
+            if ritz is not None:  # every distinct row from one Rayleigh–Ritz subspace (not cached)
+                return which, ritz
         found = {k: self._shape_cache[k] for k in index if k not in missing}
         if missing:  # solved now; a batch larger than the cache reads them from here, not the cache
             found.update(self._solve_shapes(rows[[index[k] for k in missing]], missing, layout, n_modes))
@@ -474,57 +478,63 @@ class BeamModel:
         """Solve the undamped eigenproblem for normalised coefficient rows; cache and return the entries.
 
         Each entry is a tuple of arrays with a leading axis of length 1 (see :func:`beam.physics.modal.scale_unit_modes`).
-        Rows close to a Rayleigh–Ritz subspace whose error bound passes take it (:meth:`_ritz_rows`),
-        rows of a finite-difference stencil the first-order perturbation of their centre
-        (:func:`_stencil_centres`), the others the dense solve. A row's entry so depends on the
-        batch it came in: the paths agree to ~2e-9 (Ritz) and ~1e-10 (stencils) of the largest
-        value (tests/test_physics_ritz.py), far below any physical tolerance but above round-off.
+        Rows of a finite-difference stencil take the first-order perturbation of their centre
+        (:func:`_stencil_centres`; within ~1e-10 of the dense solve, tests/test_physics_ritz.py),
+        the others the dense solve. (Whole batches of nearby rows may instead take Rayleigh–Ritz
+        modes, :meth:`_ritz_entries`, which are not cached.)
         """
         try:
             with np.errstate(over="raise", invalid="raise"):
                 omega2, kept, residual_static = self._modes_and_static(rows, layout, n_modes)
         except (np.linalg.LinAlgError, FloatingPointError, OverflowError) as exc:
             raise BeamInputError(f"the beam's mass and stiffness matrices cannot be solved ({exc}); check the geometry and values") from None
-        kept = kept * _shape_signs(self.parts.tip_values @ kept)[:, None, :]
-        kept_t = np.swapaxes(kept, 1, 2)
-        projections = np.stack([kept_t @ getattr(self.parts, name) @ kept for name in _DAMPING_PARTS], axis=1)
-        force = kept.transpose(0, 2, 1) @ self._input_vector
-        sensor = self.parts.sensor_values @ kept
-        tip = self.parts.tip_values @ kept
+        stacked = self._entry_parts(omega2, kept, residual_static)
         entries = {}
         for i, key in enumerate(keys):
             entries[key] = tuple(
                 np.ascontiguousarray(part[i : i + 1], dtype=float)
-                for part in (omega2, projections, force, sensor, tip, residual_static)
+                for part in stacked
             )
             self._shape_cache[key] = entries[key]
             if len(self._shape_cache) > _SHAPE_CACHE_SIZE:
                 self._shape_cache.popitem(last=False)
         return entries
 
+    def _entry_parts(self, omega2: np.ndarray, kept: np.ndarray, static: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The cached parts (see :func:`beam.physics.modal.scale_unit_modes`) of U solved rows:
+        omega², damping projections, force, sensor and tip rows, static gains; shapes signed
+        with a positive tip displacement."""
+        kept = kept * _shape_signs(self.parts.tip_values @ kept)[:, None, :]
+        kept_t = np.swapaxes(kept, 1, 2)
+        projections = np.stack([kept_t @ getattr(self.parts, name) @ kept for name in _DAMPING_PARTS], axis=1)
+        force = kept.transpose(0, 2, 1) @ self._input_vector
+        sensor = self.parts.sensor_values @ kept
+        tip = self.parts.tip_values @ kept
+        return tuple(np.ascontiguousarray(part, dtype=float) for part in (omega2, projections, force, sensor, tip, static))
+
+    def _ritz_entries(self, rows: np.ndarray, layout: _Layout, n_modes: int) -> tuple[np.ndarray, ...] | None:
+        """Stacked entry parts of every distinct row of a batch from :meth:`_ritz_rows`, or None
+        (then every row takes the dense path: a batch never mixes the two, whose values differ
+        by ~1e-9, enough to spoil the difference quotients of a Hessian)."""
+        try:
+            with np.errstate(over="raise", invalid="raise"):
+                solved = self._ritz_rows(rows, layout, n_modes)
+        except (np.linalg.LinAlgError, FloatingPointError, OverflowError):  # the dense path decides
+            return None
+        return None if solved is None else self._entry_parts(*solved)
+
     def _modes_and_static(self, rows: np.ndarray, layout: _Layout, n_modes: int) -> tuple[np.ndarray, ...]:
         """Retained omega² (U, m), shapes (U, n, m) and the discarded modes' static gains (U, 4) of normalised rows.
 
         The static gains are, for unit rho and EI, sum over the discarded modes of
         (o.phi)(phi.f)/omega² for the outputs o = sensor, tip and the input f (first two) and a unit
-        tip force (last two). The dense path sums them over the discarded modes (accurate when K is
-        nearly singular); the Ritz path forms o K⁻¹ f minus the retained modes' share.
+        tip force (last two), summed over the discarded modes (accurate when K is nearly singular).
         """
         count = rows.shape[0]
         omega2 = np.empty((count, n_modes))
         kept = np.empty((count, self.size, n_modes))
         static = np.empty((count, 4))
         todo = np.ones(count, dtype=bool)
-        try:
-            ritz = self._ritz_rows(rows, layout, n_modes)
-        except (np.linalg.LinAlgError, FloatingPointError):  # e.g. K not positive definite: the dense path decides
-            ritz = None
-        if ritz is not None:
-            accepted = ritz[0]
-            omega2[accepted], kept[accepted], static[accepted] = ritz[1:]
-            todo[accepted] = False
-        if not todo.any():
-            return omega2, kept, static
         sub = rows[todo]
         solved = self._point_mass_modes(sub, layout, n_modes)
         if solved is not None:  # only the retained modes (a free model: no static gains)
@@ -591,18 +601,18 @@ class BeamModel:
         return np.concatenate([change[:, :, 0], change[:, :, 1]], axis=1)
 
     def _ritz_rows(self, rows: np.ndarray, layout: _Layout, n_modes: int) -> tuple[np.ndarray, ...] | None:
-        """Modes of the rows close to a Rayleigh–Ritz subspace whose error bound passes, or None.
+        """Modes of all the rows from a Rayleigh–Ritz subspace whose error bound passes for each, or None.
 
-        For a batch of at least :data:`_RITZ_MIN_ROWS` rows of a driven model with a clamped root
-        whose shapes vary (e.g. the walkers of a posterior with the patch's added density and
-        stiffness): a subspace of :func:`beam.physics.modal.ritz_basis` is built at the rows'
-        median when none of this layout covers half of them (each coefficient within
-        :data:`_RITZ_RADIUS`, relative, of its anchor), from the anchor's modes and one
-        snapshot per varying coefficient; it is kept for the next batches. A row is accepted
-        when the bound of :func:`beam.physics.modal.ritz_modes` on the angle to its exact modes
-        is at most :data:`_RITZ_ANGLE`; its static gains are o K⁻¹ l (K⁻¹ l by
-        :func:`beam.physics.modal.ritz_static`) minus the retained modes' share.
-        Returns (accepted row indices, omega² (A, m), shapes (A, n, m), static gains (A, 4)).
+        For a batch of at least :data:`_RITZ_MIN_ROWS` distinct rows of a driven model with a
+        clamped root whose shapes vary (e.g. the walkers of a posterior with the patch's added
+        density and stiffness): a subspace of :func:`beam.physics.modal.ritz_basis` is built at
+        the rows' median when this layout's does not cover them all (each coefficient within
+        :data:`_RITZ_RADIUS`, relative, of its anchor) and the median does, from the anchor's
+        modes and one snapshot per varying coefficient; it is kept for the next batches. The
+        batch is accepted when the bound of :func:`beam.physics.modal.ritz_modes` on the angle
+        to the exact modes is at most :data:`_RITZ_ANGLE` for every row; the static gains are
+        o K⁻¹ l (K⁻¹ l by :func:`beam.physics.modal.ritz_static`) minus the retained modes' share.
+        Returns (omega² (U, m), shapes (U, n, m), static gains (U, 4)).
 
         Measured on lab_run_1 (7 modes, 43 dofs, r = 20): 52 µs per row against ~160-190 µs
         dense; the static gains so formed differ from the dense sums by up to 4e-6 of themselves
@@ -622,11 +632,9 @@ class BeamModel:
             scale = np.where(anchor > 0, anchor, 1.0)
             return np.all(np.abs(rows - anchor) <= _RITZ_RADIUS * scale, axis=1) & np.all((anchor > 0) | (rows == 0), axis=1)
 
-        close = near(basis.anchor) if basis is not None else np.zeros(count, dtype=bool)
-        if 2 * close.sum() < count:
+        if basis is None or not near(basis.anchor).all():
             center = np.median(rows, axis=0)
-            close = near(center)
-            if close.sum() < _RITZ_MIN_ROWS or np.any(center[varying] <= 0):
+            if not near(center).all() or np.any(center[varying] <= 0):
                 return None
             steps = np.zeros((varying.size, rows.shape[1]))
             steps[np.arange(varying.size), varying] = _RITZ_STEP * center[varying]
@@ -634,23 +642,20 @@ class BeamModel:
             n_mass = layout.mass.size
             basis = modal.ritz_basis(np.stack(parts[:n_mass]), np.stack(parts[n_mass:]), center, steps, n_modes)
             self._ritz_bases[cache_key] = basis
-        index = np.flatnonzero(close)
-        omega2, shapes, angle = modal.ritz_modes(basis, rows[index], n_modes)
-        good = angle <= _RITZ_ANGLE
-        if not good.any():
+        omega2, shapes, angle = modal.ritz_modes(basis, rows, n_modes)
+        if np.any(angle > _RITZ_ANGLE):
             return None
-        index, omega2, shapes = index[good], omega2[good], shapes[good]
         loads = np.stack([self._input_vector, self.parts.tip_values], axis=1)  # (n, 2)
         outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
-        solved = modal.ritz_static(basis, rows[index], loads)
+        solved = modal.ritz_static(basis, rows, loads)
         if solved is None:  # (not seen within the trust radius) a dense solve
-            _, stiff = self._matrices_of_rows(rows[index], layout)
+            _, stiff = self._matrices_of_rows(rows, layout)
             solved = np.linalg.solve(stiff, np.broadcast_to(loads, (shapes.shape[0],) + loads.shape))
         full = outputs @ solved  # (A, 2, 2)
         seen = outputs @ shapes  # (A, 2, m)
         retained = np.einsum("aom,alm->aol", seen, (loads.T @ shapes) / omega2[:, None, :])  # (A, 2 outputs, 2 loads)
         static = np.concatenate([full[:, :, 0] - retained[:, :, 0], full[:, :, 1] - retained[:, :, 1]], axis=1)
-        return index, omega2, shapes, static
+        return omega2, shapes, static
 
     def natural_modes(self, parameters: Mapping[str, float], count: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Natural frequencies |lambda|/2pi (Hz) and damping ratios -Re(lambda)/|lambda| of the full model.
