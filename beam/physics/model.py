@@ -101,6 +101,18 @@ _POINT_MASS_PARTS = {"mass_sensor": "sensor_values", "mass_tip": "tip_values"}
 #: Galerkin parts that damping terms may multiply (their modal projections are cached).
 _DAMPING_PARTS = ("mass_beam", "stiffness_beam", "stiffness_patch")
 _DENSITY = "linear_density_kg_m"
+#: Rayleigh–Ritz modes (:meth:`BeamModel._ritz_rows`): smallest batch, largest subspace (fraction
+#: of the dofs), trust radius and snapshot step (relative to each coefficient), and the accepted
+#: bound on the angle (rad) between a Ritz mode and the exact one.
+_RITZ_MIN_ROWS = 8
+_RITZ_MAX_SIZE = 0.6
+_RITZ_RADIUS = 0.05
+_RITZ_STEP = 1e-2
+_RITZ_ANGLE = 1e-7
+#: Rows this close (relative, every coefficient) to a solved row take its modes to first order
+#: (:func:`_stencil_centres`): finite-difference stencils, whose steps are ~1e-8 relative.
+_STENCIL_RADIUS = 1e-6
+_STENCIL_MAX_ROWS = 2048
 #: Pseudo-parameter whose value is 1 (the coefficient of a measured point force).
 _UNIT = "unit"
 
@@ -178,6 +190,7 @@ class BeamModel:
         self._point_mass_factors: OrderedDict[bytes, modal.RankOneFactorisation | None] = OrderedDict()
         self._point_mass_plans: dict[tuple[Term, ...], tuple[int, np.ndarray] | None | bool] = {}
         self._layouts: dict[tuple[str, ...], _Layout] = {}
+        self._ritz_bases: dict[tuple[tuple[Term, ...], int], modal.RitzBasis] = {}
         self._accepted = frozenset(self.accepted_parameter_names)
         self._required = frozenset(self._names_for(None, per_mode_first=True))
 
@@ -375,6 +388,10 @@ class BeamModel:
         which = np.array([index.setdefault(k, len(index)) for k in key_bytes], dtype=np.int64)
         rows = keys[[key_bytes.index(k) for k in index]]
         missing = [k for k in index if k not in self._shape_cache]
+        if missing:
+            ritz = self._ritz_entries(rows, layout, n_modes)
+            if ritz is not None:  # every distinct row from one Rayleigh–Ritz subspace (not cached)
+                return which, ritz
         found = {k: self._shape_cache[k] for k in index if k not in missing}
         if missing:  # solved now; a batch larger than the cache reads them from here, not the cache
             found.update(self._solve_shapes(rows[[index[k] for k in missing]], missing, layout, n_modes))
@@ -461,43 +478,184 @@ class BeamModel:
         """Solve the undamped eigenproblem for normalised coefficient rows; cache and return the entries.
 
         Each entry is a tuple of arrays with a leading axis of length 1 (see :func:`beam.physics.modal.scale_unit_modes`).
+        Rows of a finite-difference stencil take the first-order perturbation of their centre
+        (:func:`_stencil_centres`; within ~1e-10 of the dense solve, tests/test_physics_ritz.py),
+        the others the dense solve. (Whole batches of nearby rows may instead take Rayleigh–Ritz
+        modes, :meth:`_ritz_entries`, which are not cached.)
         """
         try:
             with np.errstate(over="raise", invalid="raise"):
-                solved = self._point_mass_modes(rows, layout, n_modes)
-                if solved is None:
-                    mass, stiff = self._matrices_of_rows(rows, layout)
-                    solved = modal.undamped_modes(mass, stiff, shift=self.parts.basis.free_root_rotation)
+                omega2, kept, residual_static = self._modes_and_static(rows, layout, n_modes)
         except (np.linalg.LinAlgError, FloatingPointError, OverflowError) as exc:
             raise BeamInputError(f"the beam's mass and stiffness matrices cannot be solved ({exc}); check the geometry and values") from None
-        omega2, shapes = solved
-        shapes = shapes * _shape_signs(self.parts.tip_values @ shapes)[:, None, :]
-        kept = shapes[:, :, :n_modes]
-        # static (mode-acceleration) correction: the quasi-static response of the discarded
-        # modes, sum over them of (c.phi)(phi.f)/omega² (= c K⁻¹ f minus the retained part),
-        # for unit rho and EI; summed directly, which stays accurate when K is nearly singular
-        dropped = shapes[:, :, n_modes:]
-        outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
-        per_mode = (outputs @ dropped) * ((self._input_vector @ dropped) / omega2[:, n_modes:])[:, None, :]
-        # … and the same for a unit force at the tip (the cubic spring's): its quasi-static share
-        # at the sensor and at the tip, m/N at unit EI
-        per_mode_tip = (outputs @ dropped) * ((self.parts.tip_values @ dropped) / omega2[:, n_modes:])[:, None, :]
-        residual_static = np.concatenate([per_mode.sum(axis=2), per_mode_tip.sum(axis=2)], axis=1)  # (U, 4)
-        kept_t = np.swapaxes(kept, 1, 2)
-        projections = np.stack([kept_t @ getattr(self.parts, name) @ kept for name in _DAMPING_PARTS], axis=1)
-        force = kept.transpose(0, 2, 1) @ self._input_vector
-        sensor = self.parts.sensor_values @ kept
-        tip = self.parts.tip_values @ kept
+        stacked = self._entry_parts(omega2, kept, residual_static)
         entries = {}
         for i, key in enumerate(keys):
             entries[key] = tuple(
                 np.ascontiguousarray(part[i : i + 1], dtype=float)
-                for part in (omega2[:, :n_modes], projections, force, sensor, tip, residual_static)
+                for part in stacked
             )
             self._shape_cache[key] = entries[key]
             if len(self._shape_cache) > _SHAPE_CACHE_SIZE:
                 self._shape_cache.popitem(last=False)
         return entries
+
+    def _entry_parts(self, omega2: np.ndarray, kept: np.ndarray, static: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The cached parts (see :func:`beam.physics.modal.scale_unit_modes`) of U solved rows:
+        omega², damping projections, force, sensor and tip rows, static gains; shapes signed
+        with a positive tip displacement."""
+        kept = kept * _shape_signs(self.parts.tip_values @ kept)[:, None, :]
+        kept_t = np.swapaxes(kept, 1, 2)
+        projections = np.stack([kept_t @ getattr(self.parts, name) @ kept for name in _DAMPING_PARTS], axis=1)
+        force = kept.transpose(0, 2, 1) @ self._input_vector
+        sensor = self.parts.sensor_values @ kept
+        tip = self.parts.tip_values @ kept
+        return tuple(np.ascontiguousarray(part, dtype=float) for part in (omega2, projections, force, sensor, tip, static))
+
+    def _ritz_entries(self, rows: np.ndarray, layout: _Layout, n_modes: int) -> tuple[np.ndarray, ...] | None:
+        """Stacked entry parts of every distinct row of a batch from :meth:`_ritz_rows`, or None
+        (then every row takes the dense path: a batch never mixes the two, whose values differ
+        by ~1e-9, enough to spoil the difference quotients of a Hessian)."""
+        try:
+            with np.errstate(over="raise", invalid="raise"):
+                solved = self._ritz_rows(rows, layout, n_modes)
+        except (np.linalg.LinAlgError, FloatingPointError, OverflowError):  # the dense path decides
+            return None
+        return None if solved is None else self._entry_parts(*solved)
+
+    def _modes_and_static(self, rows: np.ndarray, layout: _Layout, n_modes: int) -> tuple[np.ndarray, ...]:
+        """Retained omega² (U, m), shapes (U, n, m) and the discarded modes' static gains (U, 4) of normalised rows.
+
+        The static gains are, for unit rho and EI, sum over the discarded modes of
+        (o.phi)(phi.f)/omega² for the outputs o = sensor, tip and the input f (first two) and a unit
+        tip force (last two), summed over the discarded modes (accurate when K is nearly singular).
+        """
+        count = rows.shape[0]
+        omega2 = np.empty((count, n_modes))
+        kept = np.empty((count, self.size, n_modes))
+        static = np.empty((count, 4))
+        todo = np.ones(count, dtype=bool)
+        sub = rows[todo]
+        solved = self._point_mass_modes(sub, layout, n_modes)
+        if solved is not None:  # only the retained modes (a free model: no static gains)
+            values, shapes = solved
+            omega2[todo], kept[todo] = values[:, :n_modes], shapes[:, :, :n_modes]
+            static[todo] = self._dropped_static(values, shapes, n_modes)
+            return omega2, kept, static
+        if self.parts.basis.free_root_rotation:  # K nearly singular: its inverse from the modes is not used
+            centre, owner = np.ones(sub.shape[0], dtype=bool), np.arange(sub.shape[0])
+        else:
+            centre, owner = _stencil_centres(sub)
+        mass, stiff = self._matrices_of_rows(sub[centre], layout)
+        values, shapes = modal.undamped_modes(mass, stiff, shift=self.parts.basis.free_root_rotation)
+        where = np.flatnonzero(todo)
+        omega2[where[centre]], kept[where[centre]] = values[:, :n_modes], shapes[:, :, :n_modes]
+        static[where[centre]] = self._dropped_static(values, shapes, n_modes)
+        if not centre.all():
+            satellites = np.flatnonzero(~centre)
+            position = np.cumsum(centre) - 1  # a centre's index among the centres
+            for c in np.unique(owner[satellites]):
+                mine = satellites[owner[satellites] == c]
+                k = position[c]
+                d_mass, d_stiff = self._matrices_of_rows(sub[mine] - sub[c], layout)
+                o2, sh = modal.perturbed_modes(values[k], shapes[k], d_mass, d_stiff, n_modes)
+                omega2[where[mine]], kept[where[mine]] = o2, sh
+                static[where[mine]] = static[where[c]] + self._static_change(values[k], shapes[k], d_stiff, o2, sh, n_modes)
+        return omega2, kept, static
+
+    def _dropped_static(self, values: np.ndarray, shapes: np.ndarray, n_modes: int) -> np.ndarray:
+        """Static gains (U, 4) summed over the discarded modes (see :meth:`_modes_and_static`)."""
+        # static (mode-acceleration) correction: the quasi-static response of the discarded
+        # modes, sum over them of (c.phi)(phi.f)/omega² (= c K⁻¹ f minus the retained part),
+        # for unit rho and EI; summed directly, which stays accurate when K is nearly singular
+        dropped = shapes[:, :, n_modes:]
+        outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
+        per_mode = (outputs @ dropped) * ((self._input_vector @ dropped) / values[:, n_modes:])[:, None, :]
+        # … and the same for a unit force at the tip (the cubic spring's): its quasi-static share
+        # at the sensor and at the tip, m/N at unit EI
+        per_mode_tip = (outputs @ dropped) * ((self.parts.tip_values @ dropped) / values[:, n_modes:])[:, None, :]
+        return np.concatenate([per_mode.sum(axis=2), per_mode_tip.sum(axis=2)], axis=1)
+
+    def _static_change(self, values: np.ndarray, shapes: np.ndarray, d_stiff: np.ndarray, omega2: np.ndarray,
+                       kept: np.ndarray, n_modes: int) -> np.ndarray:
+        """First-order change (S, 4) of the static gains of one centre (all its modes ``values``,
+        ``shapes``) under stiffness changes ``d_stiff`` (S, n, n), whose retained modes are
+        ``omega2``, ``kept`` (from :func:`beam.physics.modal.perturbed_modes`).
+
+        The gain o K⁻¹ l minus the retained share sum_i (o.phi_i)(l.phi_i)/omega_i²: the first
+        changes by -(K⁻¹ o)ᵀ dK (K⁻¹ l) (K⁻¹ from all the centre's modes), the second by the
+        change of each term. (A mass change moves only the retained share.) The two changes
+        nearly cancel (the static gain is 0.1-0.4 % of the total): measured on lab_run_1's
+        model, the derivative so formed is within 1.2e-3 of the exact one (K⁻¹ by refined
+        solves), against 1e-4 for a forward difference of dense solves, i.e. < 5e-6 of the
+        response's Jacobian (tests/test_physics_ritz.py).
+        """
+        outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
+        loads = np.stack([self._input_vector, self.parts.tip_values])  # (2, n)
+        inverse = (shapes / values[None, :]) @ shapes.T  # K⁻¹ of the centre
+        full = -np.einsum("on,snk,lk->sol", outputs @ inverse, d_stiff, loads @ inverse)  # (S, outputs, loads)
+        lam, phi = values[:n_modes], shapes[:, :n_modes]
+        before = np.einsum("om,lm->ol", (outputs @ phi) / lam, loads @ phi)
+        after = np.einsum("som,slm->sol", (outputs @ kept) / omega2[:, None, :], loads @ kept)
+        change = full - (after - before[None])
+        return np.concatenate([change[:, :, 0], change[:, :, 1]], axis=1)
+
+    def _ritz_rows(self, rows: np.ndarray, layout: _Layout, n_modes: int) -> tuple[np.ndarray, ...] | None:
+        """Modes of all the rows from a Rayleigh–Ritz subspace whose error bound passes for each, or None.
+
+        For a batch of at least :data:`_RITZ_MIN_ROWS` distinct rows of a driven model with a
+        clamped root whose shapes vary (e.g. the walkers of a posterior with the patch's added
+        density and stiffness): a subspace of :func:`beam.physics.modal.ritz_basis` is built at
+        the rows' median when this layout's does not cover them all (each coefficient within
+        :data:`_RITZ_RADIUS`, relative, of its anchor) and the median does, from the anchor's
+        modes and one snapshot per varying coefficient; it is kept for the next batches. The
+        batch is accepted when the bound of :func:`beam.physics.modal.ritz_modes` on the angle
+        to the exact modes is at most :data:`_RITZ_ANGLE` for every row; the static gains are
+        o K⁻¹ l (K⁻¹ l by :func:`beam.physics.modal.ritz_static`) minus the retained modes' share.
+        Returns (omega² (U, m), shapes (U, n, m), static gains (U, 4)).
+
+        Measured on lab_run_1 (7 modes, 43 dofs, r = 20): 52 µs per row against ~160-190 µs
+        dense; the static gains so formed differ from the dense sums by up to 4e-6 of themselves
+        (0.1-0.4 % of the response, so ~1e-8 of it; on three rows both were within 4e-8 of an
+        iteratively refined solve).
+        """
+        count = rows.shape[0]
+        if count < _RITZ_MIN_ROWS or self.parts.basis.free_root_rotation or not np.any(self._input_vector):
+            return None
+        varying = np.flatnonzero(np.ptp(rows, axis=0) > 0)
+        if varying.size == 0 or n_modes + 2 + varying.size * n_modes > _RITZ_MAX_SIZE * self.size:
+            return None
+        cache_key = (layout.terms, n_modes)
+        basis = self._ritz_bases.get(cache_key)
+
+        def near(anchor: np.ndarray) -> np.ndarray:
+            scale = np.where(anchor > 0, anchor, 1.0)
+            return np.all(np.abs(rows - anchor) <= _RITZ_RADIUS * scale, axis=1) & np.all((anchor > 0) | (rows == 0), axis=1)
+
+        if basis is None or not near(basis.anchor).all():
+            center = np.median(rows, axis=0)
+            if not near(center).all() or np.any(center[varying] <= 0):
+                return None
+            steps = np.zeros((varying.size, rows.shape[1]))
+            steps[np.arange(varying.size), varying] = _RITZ_STEP * center[varying]
+            parts = [getattr(self.parts, layout.terms[i].part) for i in np.concatenate([layout.mass, layout.stiffness])]
+            n_mass = layout.mass.size
+            basis = modal.ritz_basis(np.stack(parts[:n_mass]), np.stack(parts[n_mass:]), center, steps, n_modes)
+            self._ritz_bases[cache_key] = basis
+        omega2, shapes, angle = modal.ritz_modes(basis, rows, n_modes)
+        if np.any(angle > _RITZ_ANGLE):
+            return None
+        loads = np.stack([self._input_vector, self.parts.tip_values], axis=1)  # (n, 2)
+        outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
+        solved = modal.ritz_static(basis, rows, loads)
+        if solved is None:  # (not seen within the trust radius) a dense solve
+            _, stiff = self._matrices_of_rows(rows, layout)
+            solved = np.linalg.solve(stiff, np.broadcast_to(loads, (shapes.shape[0],) + loads.shape))
+        full = outputs @ solved  # (A, 2, 2)
+        seen = outputs @ shapes  # (A, 2, m)
+        retained = np.einsum("aom,alm->aol", seen, (loads.T @ shapes) / omega2[:, None, :])  # (A, 2 outputs, 2 loads)
+        static = np.concatenate([full[:, :, 0] - retained[:, :, 0], full[:, :, 1] - retained[:, :, 1]], axis=1)
+        return omega2, shapes, static
 
     def natural_modes(self, parameters: Mapping[str, float], count: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Natural frequencies |lambda|/2pi (Hz) and damping ratios -Re(lambda)/|lambda| of the full model.
@@ -937,6 +1095,27 @@ def held_input_derivative(inputs: np.ndarray, time_s: np.ndarray | float, order:
     curvature = np.zeros(u.size)
     curvature[2:] = 2.0 * np.diff(slope[1:]) / (steps[1:] + steps[:-1])
     return curvature
+
+
+def _stencil_centres(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which rows are solved (centres) and, for each row, its centre: a row within
+    :data:`_STENCIL_RADIUS` (relative, every coefficient) of an earlier centre is that
+    centre's satellite (a finite-difference stencil point), solved by first-order
+    perturbation (:func:`beam.physics.modal.perturbed_modes`)."""
+    count = rows.shape[0]
+    centre = np.ones(count, dtype=bool)
+    owner = np.arange(count)
+    if count < 2 or count > _STENCIL_MAX_ROWS:  # (the pairwise comparison grows as count²)
+        return centre, owner
+    close = np.all(np.abs(rows[:, None, :] - rows[None, :, :]) <= _STENCIL_RADIUS * np.abs(rows[None, :, :]), axis=2)
+    np.fill_diagonal(close, False)
+    if not close.any():
+        return centre, owner
+    for i in range(count):
+        earlier = np.flatnonzero(close[i, :i] & centre[:i])
+        if earlier.size:
+            centre[i], owner[i] = False, earlier[0]
+    return centre, owner
 
 
 def _shape_signs(tip_values: np.ndarray) -> np.ndarray:
