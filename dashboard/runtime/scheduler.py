@@ -398,9 +398,10 @@ def offload_map(fn: Callable[..., Iterator[Stage]], calls: list[tuple[tuple, dic
     raises :class:`Cancelled` here. Outside a job of a pool with worker processes, the calls run
     one after the other on the calling thread.
 
-    Measured (a diagnosis of lab_run_1, 7 modes: four candidate fits, then four more on top of
-    the best): two processes take 0.55-0.6 of the time one thread takes, where two threads of
-    one process took 0.85 (the model's Python between the compiled kernels holds the GIL).
+    Measured (the dashboard's diagnosis of lab_run_1, 7 modes: five candidate fits, then four
+    more on top of the best; quiet 2-core machine): 12.2 s on two processes against 22.1 s with
+    the calls one after the other; two threads of one process had gained only ~1.2x (the model's
+    Python between the compiled kernels holds the GIL).
     """
     pool = getattr(_current, "pool", None)
     workers = None if pool is None else pool.workers
