@@ -18,8 +18,7 @@ WINDOW = (0.0, 1.05)
 
 
 def forget() -> None:
-    with starts._SUBMODEL_LOCK:
-        starts._SUBMODEL_CACHE.clear()
+    starts.forget_maps()
 
 
 def test_a_map_handed_to_a_fresh_process_is_the_map_it_would_find():

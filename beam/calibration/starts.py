@@ -433,6 +433,12 @@ def remember_map(setup: BeamCalibrationSetup, found: MapResult) -> None:
             _SUBMODEL_CACHE.popitem(last=False)
 
 
+def forget_maps() -> None:
+    """Drop every remembered MAP (benchmarks that time a cold calibration; tests)."""
+    with _SUBMODEL_LOCK:
+        _SUBMODEL_CACHE.clear()
+
+
 def recall_map(setup: BeamCalibrationSetup) -> MapResult | None:
     """The remembered MAP of the setup's own model (:func:`remember_map`), or None."""
     key = _model_key(setup, setup.effects)

@@ -177,6 +177,7 @@ def bench_teacher(page) -> list[tuple[str, str, float]]:
     times = timed_action(page, click(".bk-tab", has_text="Diagnosis"), timeout_ms=240000,
                          complete=DIAG_FINAL_NEW + " && s.diag.ladder_n === 1")
     rows.append(("open Diagnosis", "diagnosis complete", times["complete"]))
+    rows.append(("  (server: diagnosis request -> final)", "", _status_seconds(page, "diag-status")))
     page.wait_for_timeout(500)
     add = page.locator(".diag-candidates button:not([disabled])").first
     label = add.inner_text().strip()
@@ -184,6 +185,7 @@ def bench_teacher(page) -> list[tuple[str, str, float]]:
                          rediagnosed=DIAG_FINAL_NEW + " && s.diag.ladder_n === 2")
     rows.append((label, "final posterior drawn", times["final"]))
     rows.append((label, "diagnosis re-run complete", times["rediagnosed"]))
+    rows.append(("  (server: re-diagnosis request -> final)", "", _status_seconds(page, "diag-status")))
     page.wait_for_timeout(500)
     times = timed_action(page, click(".diag-reveal button"), drawn=TRUE_NOISE_DRAWN)
     rows.append(("Reveal", "true noise drawn", times["drawn"]))
@@ -208,9 +210,9 @@ def bench_beam(page, moves: int) -> tuple[list[float], list[float]]:
     return previews, finals
 
 
-def _status_seconds(page) -> float | None:
-    text = page.evaluate("""() => { for (const m of Bokeh.documents[0].all_models)
-        if (typeof m.text === 'string' && m.text.includes('beam-status')) return m.text; return ''; }""")
+def _status_seconds(page, css: str = "beam-status") -> float | None:
+    text = page.evaluate("""(css) => { for (const m of Bokeh.documents[0].all_models)
+        if (typeof m.text === 'string' && m.text.includes(css)) return m.text; return ''; }""", css)
     match = re.search(r"ready in ([0-9.]+) s", text)
     return float(match.group(1)) if match else None
 
@@ -298,7 +300,8 @@ def _print_teacher(rows: list[tuple[str, str, float]], load_before: float) -> No
           f"{os.getloadavg()[0]:.1f} after, {os.cpu_count()} cores)")
     for action, what, seconds in rows:
         target = {"final posterior drawn": "<= 5 (max), 2 (median)", "diagnosis complete": "<= 8"}.get(what, "")
-        print(f"  {action:34s} -> {what:28s} {seconds:7.2f}  {target}")
+        shown = "    n/a" if seconds is None else f"{seconds:7.2f}"
+        print(f"  {action:34s} -> {what:28s} {shown}  {target}")
     finals = [s for _, what, s in rows if what == "final posterior drawn"]
     if finals:
         print(f"  final posterior drawn per calibration action: median {statistics.median(finals):.2f} s, "
