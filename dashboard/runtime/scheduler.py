@@ -392,9 +392,10 @@ def offload_map(fn: Callable[..., Iterator[Stage]], calls: list[tuple[tuple, dic
     call finishes (completion order), an exception raised by a call as its value.
 
     Use it inside a job, as :func:`offload`: the stages other than ``final`` are dropped. The
-    calls go out longest-expected first only in the order given (put the slow ones first). A
-    call waits for a free process, so with another session's run on one process the calls take
-    turns on the other. Cancellation (the job's ticket) stops every call at its next stage and
+    calls go out in the order given (put the slow ones first). A call waits for a free process,
+    and gives way to any other run waiting for one (:meth:`~dashboard.runtime.workers.WorkerProcesses.acquire`,
+    ``background``): a calibration asked for during a diagnosis waits at most for the fit in
+    progress on one process, not for the whole diagnosis. Cancellation (the job's ticket) stops every call at its next stage and
     raises :class:`Cancelled` here. Outside a job of a pool with worker processes, the calls run
     one after the other on the calling thread.
 
@@ -425,7 +426,7 @@ def offload_map(fn: Callable[..., Iterator[Stage]], calls: list[tuple[tuple, dic
                     return
                 i, (args, kwargs) = pending.pop(0)
             try:
-                value = final_value(workers.run(fn, args, kwargs, cancelled=cancelled))
+                value = final_value(workers.run(fn, args, kwargs, cancelled=cancelled, background=True))
             except BaseException as exc:  # noqa: BLE001 - handed to the caller as the call's value
                 value = exc
             done.put((i, value))

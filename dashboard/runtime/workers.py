@@ -366,6 +366,7 @@ class WorkerProcesses:
             raise ValueError(f"count must be at least 1, got {count}")
         self.workers = [WorkerProcess(f"beam-worker-{i + 1}", nice=nice, warm=warm) for i in range(count)]
         self._free = list(self.workers)
+        self._waiting = 0  # ordinary acquirers waiting (see acquire)
         self._cv = threading.Condition()
         self._closed = False
 
@@ -379,27 +380,36 @@ class WorkerProcesses:
         for w in self.workers:
             w.start()
 
-    def acquire(self) -> WorkerProcess:
-        """A free worker (waits for one)."""
+    def acquire(self, *, background: bool = False) -> WorkerProcess:
+        """A free worker (waits for one). A ``background`` acquirer (the fits a diagnosis spreads
+        over the workers) also waits while an ordinary one is waiting, so a calibration another
+        session (or the same one) asks for takes the next free worker."""
         with self._cv:
-            while not self._free:
+            if not background:
+                self._waiting += 1
+            try:
+                while not self._free or (background and self._waiting > 0):
+                    if self._closed:
+                        raise RuntimeError("the worker processes are shut down")
+                    self._cv.wait()
                 if self._closed:
                     raise RuntimeError("the worker processes are shut down")
-                self._cv.wait()
-            if self._closed:
-                raise RuntimeError("the worker processes are shut down")
-            return self._free.pop()
+                return self._free.pop()
+            finally:
+                if not background:
+                    self._waiting -= 1
+                    self._cv.notify_all()  # background acquirers re-check
 
     def release(self, worker: WorkerProcess) -> None:
         """Give a worker back."""
         with self._cv:
             self._free.append(worker)
-            self._cv.notify()
+            self._cv.notify_all()  # ordinary and background acquirers alike
 
     def run(self, fn: Callable[..., Iterator[Any]], args: tuple = (), kwargs: dict | None = None, *,
-            cancelled: threading.Event | None = None) -> Iterator[Any]:
-        """:meth:`WorkerProcess.run` on a free worker."""
-        worker = self.acquire()
+            cancelled: threading.Event | None = None, background: bool = False) -> Iterator[Any]:
+        """:meth:`WorkerProcess.run` on a free worker (see :meth:`acquire` for ``background``)."""
+        worker = self.acquire(background=background)
         try:
             yield from worker.run(fn, args, kwargs, cancelled=cancelled)
         finally:

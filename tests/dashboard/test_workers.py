@@ -184,3 +184,27 @@ def test_offload_map_stops_every_call_when_the_job_is_cancelled(proc_pool, tmp_p
     assert all(os.path.exists(m + ".closed") for m in markers), "both mapped calls must stop in their workers"
     assert "final" not in [u.kind for u in rec.of(first)]
     assert rec.of(second)[-1].kind == "final"
+
+
+def test_a_run_asked_for_during_offload_map_takes_the_next_free_process(proc_pool):
+    """Four mapped calls of ~1.5 s on the two processes; an ordinary run asked for while the first
+    two run gets the first process that frees, before the mapped calls three and four."""
+    events: list[str] = []
+    lock = __import__("threading").Lock()
+
+    def note(tag):
+        def on_update(update):
+            if update.kind in ("partial", "final"):
+                with lock:
+                    events.append(f"{tag}:{update.kind}:{len(update.value) if tag == 'map' else 'x'}")
+        return on_update
+
+    mapped_slot = sch.RunSlot(note("map"), pool=proc_pool, debounce_s=0.0, progress_interval_s=0.0)
+    other_slot = sch.RunSlot(note("other"), pool=proc_pool, debounce_s=0.0, progress_interval_s=0.0)
+    mapped_slot.request(mapped(counting, [((75, i), {"pause_s": 0.02}) for i in range(4)]))
+    time.sleep(0.5)  # the first two calls are running on both processes
+    other_slot.request(offloaded(counting, 1, "other"))
+    assert mapped_slot.wait(60) and other_slot.wait(60)
+    other_at = events.index("other:final:x")
+    mapped_done_before = [e for e in events[:other_at] if e.startswith("map:partial")]
+    assert len(mapped_done_before) <= 2, events  # it waited for one running call, not for the four
