@@ -71,6 +71,10 @@ def _rebuild(cls, state: dict):
     return obj
 
 
+#: Argument types sent back by value, not as references to the caller's objects.
+_PLAIN = (int, float, complex, str, bytes, bool, type(None))
+
+
 class _StagePickler(pickle.Pickler):
     """Pickles a worker's messages; see the module docstring."""
 
@@ -159,7 +163,9 @@ def _worker_main(conn, nice: int, warm: Callable[[], None] | None) -> None:
         if message[0] != "run":
             continue  # a late cancel of a task that has finished
         _, task, fn, args, kwargs = message
-        anchors = {id(a): i for i, a in enumerate(args)}
+        # plain values are not anchored: their identity means nothing (small ints and short strings are
+        # shared objects), and an int argument equal to an anchor's index made the pickler recurse
+        anchors = {id(a): i for i, a in enumerate(args) if not isinstance(a, _PLAIN)}
         gen = None
         stop = False
         outcome: tuple = ("done", task, None)

@@ -187,7 +187,7 @@ def test_offload_map_stops_every_call_when_the_job_is_cancelled(proc_pool, tmp_p
 
 
 def test_a_run_asked_for_during_offload_map_takes_the_next_free_process(proc_pool):
-    """Four mapped calls of ~1.5 s on the two processes; an ordinary run asked for while the first
+    """Four mapped calls of ~3 s on the two processes; an ordinary run asked for while the first
     two run gets the first process that frees, before the mapped calls three and four."""
     events: list[str] = []
     lock = __import__("threading").Lock()
@@ -201,10 +201,24 @@ def test_a_run_asked_for_during_offload_map_takes_the_next_free_process(proc_poo
 
     mapped_slot = sch.RunSlot(note("map"), pool=proc_pool, debounce_s=0.0, progress_interval_s=0.0)
     other_slot = sch.RunSlot(note("other"), pool=proc_pool, debounce_s=0.0, progress_interval_s=0.0)
-    mapped_slot.request(mapped(counting, [((75, i), {"pause_s": 0.02}) for i in range(4)]))
+    mapped_slot.request(mapped(counting, [((100, i), {"pause_s": 0.03}) for i in range(4)]))
     time.sleep(0.5)  # the first two calls are running on both processes
     other_slot.request(offloaded(counting, 1, "other"))
+    deadline = time.monotonic() + 10
+    while proc_pool.workers._waiting < 1 and time.monotonic() < deadline:  # the other run waits for a process
+        time.sleep(0.01)
+    with lock:
+        assert proc_pool.workers._waiting == 1 and not events, events  # ... while the first two calls run
     assert mapped_slot.wait(60) and other_slot.wait(60)
     other_at = events.index("other:final:x")
     mapped_done_before = [e for e in events[:other_at] if e.startswith("map:partial")]
     assert len(mapped_done_before) <= 2, events  # it waited for one running call, not for the four
+
+
+def test_plain_arguments_equal_to_an_argument_index_come_back_whole(proc_pool):
+    """An int argument equal to another argument's index (counting(1, 0): n = 1, tag = 0) used to
+    make the stage pickler recurse without end, and the worker died."""
+    slot, rec = make_slot(proc_pool)
+    rid = slot.request(offloaded(counting, 1, 0))
+    assert slot.wait(60)
+    assert rec.of(rid)[-1].kind == "final" and rec.of(rid)[-1].value["tag"] == 0
