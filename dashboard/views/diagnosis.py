@@ -254,7 +254,7 @@ class DiagnosisView(pn.viewable.Viewer):
             cards.append(pn.Row(button, Markdown(text, sizing_mode="stretch_width", margin=(0, 10)),
                                 sizing_mode="stretch_width"))
         if diagnosis.pending:
-            cards.append(Markdown(f"*Still ranking: {', '.join(diagnosis.pending)}…*"))
+            cards.append(Markdown(f"*Still ranking: {', '.join(bs.effect_title(e) for e in diagnosis.pending)}…*"))
         self._candidates[:] = cards
 
     def _reveal(self) -> pn.Card:
