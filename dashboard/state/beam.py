@@ -356,6 +356,8 @@ class DiagnosisState(_Runs):
         self.beam.param.watch(self._beam_final, "final")
         self.beam.param.watch(self._dataset_changed, "dataset")
         self.beam.param.watch(self._beam_failed, "error")
+        self.beam.param.watch(self._beam_requested, "requested")
+        self._running: tuple | None = None  # (dataset, window, effects, modes) of the diagnosis being computed
 
     def _beam_failed(self, event) -> None:
         if event.new and self.adding:  # the re-calibration with the added effect failed: no rung
@@ -366,11 +368,25 @@ class DiagnosisState(_Runs):
         with param.edit_constant(self):
             self.param.update(answer=None, adding="")
 
+    def _beam_requested(self, event) -> None:
+        """The beam view's model changed while a diagnosis of the former one runs: stop it (its
+        fits hold both worker processes), say so and keep what it had shown."""
+        k = self.beam.key()
+        if self._running is None or self.stage not in ("queued", "preview", "sampling") or \
+                self._running == (k.dataset, k.window, k.effects, k.modes):
+            return
+        self._slot.cancel()
+        self._running = None
+        with param.edit_constant(self):
+            self.param.update(stage="idle", progress=0.0,
+                              status="stopped: the beam view's model changed (press Diagnose for the new one)")
+
     def request(self) -> int:
         """Diagnose the beam view's current dataset, window, modes and effects; returns the request id."""
         key = self.beam.key()
         rid = self._slot.request(bind(diagnosis_run, key, self.beam.measurement, known=self.beam.known_maps(key)),
                                  debounce_s=0.0)
+        self._running = (key.dataset, key.window, key.effects, key.modes)
         with param.edit_constant(self):
             self.param.update(requested=rid, stage="queued", progress=0.0, status="diagnosing the current model")
         return rid

@@ -184,3 +184,28 @@ def test_add_appends_a_ladder_rung_and_the_error_falls(pool):
     finally:
         s.close()
         s.wait(30)
+
+
+def test_a_diagnosis_in_progress_stops_when_the_beam_model_changes(pool):
+    """Its fits would hold the worker processes for a model no longer shown: it is cancelled, says
+    so, and publishes nothing more; a diagnosis of the new model can be asked for at once."""
+    s = SessionState(pool=pool, debounce_s=0.0, beam_inputs={"target_ess": FAST, "dataset": "lab_run_1", "modes": 4})
+    try:
+        beam, diag = s.beam, s.diagnosis
+        beam.request(debounce=False)
+        settle(s)
+        diag.request()
+        deadline = time.monotonic() + 120
+        while diag.stage not in ("preview", "sampling") and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert diag.stage in ("preview", "sampling")  # the diagnosis is running
+        beam.window_s = (beam.window_s[0], beam.window_s[1] + 0.05)  # the teacher moves the window
+        assert diag.stage == "idle" and "changed" in diag.status
+        settle(s)
+        assert diag.stage == "idle" and (diag.diagnosis is None or diag.diagnosis.pending)  # no final published
+        diag.request()
+        settle(s)
+        assert diag.stage == "final" and diag.is_current()
+    finally:
+        s.close()
+        s.wait(30)
