@@ -144,6 +144,11 @@ class _Objective:
         self.prior_columns = np.array(gaussian, dtype=int)
         self.prior_mu = np.array([quadratic[j][1] for j in gaussian])
         self.prior_sigma = np.array([quadratic[j][2] for j in gaussian])
+        # the column the prediction is proportional to (Problem.proportional_to), or -1
+        column = problem.index(problem.proportional_to) if problem.proportional_to is not None else -1
+        hits = np.flatnonzero(self.model_index == column)
+        self.proportional = int(hits[0]) if hits.size else -1
+        self.proportional_prior = problem.parameters[column].prior if hits.size else None
 
     @property
     def k(self) -> int:
@@ -166,17 +171,34 @@ class _Objective:
         points ``x`` (m, k).
 
         One model call for all points and their stencils; ``template`` (m, ndim) supplies the
-        noise coordinates, re-estimated from each point's residuals when ``profile``.
+        noise coordinates, re-estimated from each point's residuals when ``profile``. The
+        stencil row of a parameter the prediction is proportional to
+        (:attr:`~beam.inference.Problem.proportional_to`) is the point's prediction scaled by
+        the perturbed value over the value, not a model call: the same finite difference for one
+        row in 1 + k fewer (a seventh of the rows of a patch model's search).
         """
         problem, k = self.problem, self.k
         m = x.shape[0]
         h = self.steps(x)
         stencil = np.repeat(x[:, None, :], 1 + k, axis=1)
         stencil[:, 1 + np.arange(k), np.arange(k)] += h
-        rows = self.full(stencil.reshape(m * (1 + k), k), np.repeat(template, 1 + k, axis=0))
+        called = np.ones(1 + k, dtype=bool)
+        if self.proportional >= 0:
+            called[1 + self.proportional] = False
+        width = int(called.sum())
+        rows = self.full(stencil[:, called].reshape(m * width, k), np.repeat(template, width, axis=0))
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-            prediction = problem.predict(problem.from_internal(rows))
-        residual = (problem.data - prediction).reshape(m, 1 + k, -1)
+            computed = problem.predict(problem.from_internal(rows)).reshape(m, width, -1)
+        if width == 1 + k:
+            prediction = computed
+        else:
+            c, prior = self.proportional, self.proportional_prior
+            prediction = np.empty((m, 1 + k, computed.shape[-1]))
+            prediction[:, called] = computed
+            with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+                ratio = prior.from_internal(x[:, c] + h[:, c]) / prior.from_internal(x[:, c])
+            prediction[:, 1 + c] = computed[:, 0] * ratio[:, None]
+        residual = problem.data - prediction
         z = template.copy()
         z[:, self.model_index] = x
         if profile:

@@ -349,4 +349,15 @@ def build_problem(setup: BeamCalibrationSetup, initial_guesses=None) -> Problem:
         initial_guesses=initial_guesses,
         name=f"beam:{measurement.name}",
         data_unit=unit,
+        proportional_to=_proportional_parameter(setup),
     )
+
+
+def _proportional_parameter(setup: BeamCalibrationSetup) -> str | None:
+    """The patch coupling k_p for a linear model driven by the patch voltage: its only input
+    enters as k_p V, so the prediction is proportional to k_p (tested for every catalogue
+    effect in ``tests/test_calibration_fit.py``); None otherwise (the spring's response is not,
+    a free response has no input)."""
+    name = "patch_coupling_NmV"
+    linear = not setup.model.is_nonlinear and not setup.is_free
+    return name if linear and setup.measurement.input_kind == "voltage" and name in setup.physical_names else None

@@ -101,6 +101,11 @@ class Problem:
         Label used in results and netCDF attributes.
     data_unit : str
         Unit of ``data`` (free text).
+    proportional_to : str, optional
+        A sampled parameter the prediction is proportional to, the others held (the coupling of
+        a linear model's only input). The MAP search then forms its finite difference in that
+        parameter from the unperturbed prediction instead of a model call
+        (:mod:`beam.calibration.fit`).
     """
 
     parameters: Sequence[Parameter]
@@ -112,6 +117,7 @@ class Problem:
     initial_guesses: InitialGuesses | None = None
     name: str = "problem"
     data_unit: str = ""
+    proportional_to: str | None = None
 
     def __post_init__(self) -> None:
         self.parameters = tuple(self.parameters)
@@ -135,6 +141,8 @@ class Problem:
         for noise_name in LIKELIHOODS[self.likelihood]:
             if noise_name not in names and noise_name not in self.fixed:
                 raise ValueError(f"likelihood {self.likelihood!r} needs {noise_name!r} as a parameter or a fixed value")
+        if self.proportional_to is not None and self.proportional_to not in names:
+            raise ValueError(f"proportional_to {self.proportional_to!r} is not a sampled parameter")
         self._names = tuple(names)
         self._index = {n: i for i, n in enumerate(names)}
         self._lower = np.array([p.prior.internal_bounds[0] for p in self.parameters])

@@ -10,16 +10,19 @@ reproduces the exact ZOH response, and it stays stable at the sampling rate howe
 retained modes are. The phi-functions are evaluated by their Taylor series near zero (no
 cancellation). Each sample interval is split into substeps so that the nonlinear forcing is
 resolved: the linear part being exact, only the spring's force -k3 w_tip³ along the motion
-needs resolving, so max(Omega, omega_nonlinear) h <= 0.15, where Omega is the force's
+needs resolving, so max(Omega, omega_nonlinear) h <= 0.4, where Omega is the force's
 amplitude-weighted frequency (from each mode's peak linear tip amplitude and its frequency
 hardened by the spring; :func:`choose_substeps`) and omega_nonlinear the frequency of the tip
 spring's tangent stiffness at the amplitude of the linear response. A weak spring needs less:
 the scheme's error lies in the nonlinear forcing alone and scales as eps (omega h)^4, with eps
 the spring's tangent stiffness relative to the first mode's, so the step is coarsened by
-eps^(-1/4), at most 10x. Against solve_ivp (DOP853, rtol 1e-12) on the retained modes, the
-peak-relative error of the automatic step is 4e-9 on ``lab_run_4`` (6 substeps; sizing the step
-by 3x the highest retained mode took 27 substeps for 2e-11) and 6e-7 for the strongly
-hardening chirp of ``tests/test_nonlinear.py`` (71 substeps, as before).
+eps^(-1/4), to at most 1.5 rad per substep. Against solve_ivp (DOP853, rtol 1e-12) on the
+retained modes, the peak-relative error of the automatic step is 2e-8 on ``lab_run_4``'s pulse
+(3 substeps) and 3e-5 for the strongly hardening chirp of ``tests/test_nonlinear.py`` (27
+substeps): 35x and more below the noise of the bundled records (7e-4 of the peak). A finer step,
+0.15 rad, gave 4e-9 and 6e-7 with 6 and 71 substeps; with it (and a substep choice that stored
+every pair's response) the spring's candidate fit in the dashboard's diagnosis of ``lab_run_1``
+took 5.6 s of CPU, against 1.9 s now.
 """
 
 from __future__ import annotations
@@ -27,12 +30,12 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from beam.physics.modal import ComplexModes, _collapse, _step
+from beam.physics.modal import ComplexModes, _collapse, zoh_factor
 
 #: Largest (modal frequency x substep) the integrator allows.
-STEP_RESOLUTION = 0.15
-#: How much coarser than STEP_RESOLUTION a weak spring may be stepped.
-MAX_COARSENING = 10.0
+STEP_RESOLUTION = 0.4
+#: How much coarser than STEP_RESOLUTION a weak spring may be stepped (to 1.5 rad per substep).
+MAX_COARSENING = 3.75
 MAX_SUBSTEPS = 4000
 
 
@@ -119,8 +122,8 @@ def choose_substeps(system: ComplexModes, cubic: np.ndarray, voltage: np.ndarray
     higher when the tip moves in the upper modes too). The step satisfies
     max(Omega, sqrt(3 k3 A² sum tip_j²)) h <= STEP_RESOLUTION, coarsened for a weak spring as in
     the module notes. Sizing by the highest retained mode instead (3 |lambda_max| h <= 0.15) took
-    27 substeps per sample on ``lab_run_4`` where this rule takes 6 (peak-relative error against
-    the solve_ivp reference of ``tests/test_nonlinear.py`` 2e-11 and 4e-9: both far below the
+    27 substeps per sample on ``lab_run_4`` where this rule takes 3 (peak-relative error against
+    the solve_ivp reference of ``tests/test_nonlinear.py`` 2e-11 and 2e-8: both far below the
     record's noise, 7e-4 of the peak).
     """
     modulus = np.abs(system.poles)
@@ -128,11 +131,8 @@ def choose_substeps(system: ComplexModes, cubic: np.ndarray, voltage: np.ndarray
                                np.ascontiguousarray(system.output_gains[:, 1] * system.input_gains[:, 0]))
     batch, n_slots = upper.shape
     voltage = np.ascontiguousarray(voltage, dtype=float)
-    # each pair's own linear tip response (its peak), and the total's peak
-    pair_tip = _step(upper.reshape(-1, 1), weights.reshape(-1, 1), sample_interval_s, voltage,
-                     np.zeros(batch * n_slots)).reshape(batch, n_slots, -1)  # (B, P, n)
-    peaks = np.abs(pair_tip).max(axis=2)  # (B, P); unused slots have weight 0
-    amplitude = np.abs(pair_tip.sum(axis=1)).max(axis=1)
+    # each pair's own linear tip response (its peak), and the total's peak; unused slots weigh 0
+    peaks, amplitude = _pair_peaks(upper, weights, float(sample_interval_s), voltage)
     # squared tip entry of each mass-normalised shape, from the tip-to-tip residue r of its pole:
     # r = tip² / (2 i omega_d), whatever the eigenvector scaling
     tip_residues = system.output_gains[:, 1] * system.input_gains[:, 1]
@@ -156,6 +156,52 @@ def choose_substeps(system: ComplexModes, cubic: np.ndarray, voltage: np.ndarray
     relative = added / np.maximum(lowest**2, 1e-300)
     resolution = STEP_RESOLUTION * np.clip(relative ** -0.25, 1.0, MAX_COARSENING)
     return np.clip(np.ceil(critical * sample_interval_s / resolution), 1, MAX_SUBSTEPS).astype(np.int64)
+
+
+@numba.njit(cache=True, nogil=True)
+def _pair_peaks(poles, weights, dt, voltage):  # pragma: no cover - jitted
+    """Peak |y_j| of each pole's own ZOH response y_j[k] = Re(w_j xi_j[k]) to ``voltage``
+    (xi_j[k+1] = z_j xi_j[k] + (z_j - 1)/lambda_j u[k], the recursion of
+    :func:`beam.physics.modal._step`) and the peak |sum_j y_j| of their total, (B, P) and (B,).
+
+    The same numbers as stepping every pole as a row of ``_step`` and taking the maxima, without
+    storing the (B, P, n) responses: :func:`choose_substeps` took 1.7 s of the 5.6 s spent in
+    the spring's integration over a dashboard diagnosis of ``lab_run_1`` that way (a 50 MB array
+    per batch), this kernel a few per cent of it.
+    """
+    batch, n_poles = poles.shape
+    n = voltage.shape[0]
+    peaks = np.zeros((batch, n_poles))
+    amplitude = np.zeros(batch)
+    z_re, z_im = np.empty(n_poles), np.empty(n_poles)
+    w_re, w_im = np.empty(n_poles), np.empty(n_poles)
+    x_re, x_im = np.empty(n_poles), np.empty(n_poles)
+    for b in range(batch):
+        used = 0
+        for j in range(n_poles):
+            z = np.exp(poles[b, j] * dt)
+            w = weights[b, j] * zoh_factor(poles[b, j], dt)
+            z_re[j], z_im[j], w_re[j], w_im[j] = z.real, z.imag, w.real, -w.imag
+            x_re[j] = 0.0
+            x_im[j] = 0.0
+            if weights[b, j] != 0:
+                used = j + 1
+        top = 0.0
+        for k in range(n):
+            uk = voltage[k]
+            total = 0.0
+            for j in range(used):
+                a, c = x_re[j], x_im[j]
+                term = w_re[j] * a + w_im[j] * c
+                total += term
+                if abs(term) > peaks[b, j]:
+                    peaks[b, j] = abs(term)
+                x_re[j] = z_re[j] * a - z_im[j] * c + uk
+                x_im[j] = z_re[j] * c + z_im[j] * a
+            if abs(total) > top:
+                top = abs(total)
+        amplitude[b] = top
+    return peaks, amplitude
 
 
 @numba.njit(cache=True, nogil=True)
