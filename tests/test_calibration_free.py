@@ -227,10 +227,12 @@ def test_damped_away_starts_one_per_mode_inside_the_prior():
 
 
 def test_a_mode_the_model_cannot_place_is_damped_away_at_the_map():
-    """114759, window 0-2 s, modal damping alone: the base model cannot place the third mode and
-    the posterior piles against the top of its damping ratio (a search started there, a second
-    method, ends 190 nats above the small-damping optimum the spectral starts alone reached).
-    The preview's MAP must be that optimum (to the search's tolerance), not the small-damping one."""
+    """114759, window 0-2 s, modal damping alone: the base model cannot place the third mode.
+    Fitted from the release (0.329 s) its posterior piled against the top of the mode's damping
+    ratio, 190 nats above the small-damping optimum the spectral starts alone reached; fitted from
+    the end of the release's transient (0.397 s) the damped-away basin is no longer the best
+    (ζ3 ~0.05 at the MAP). Either way the preview's MAP must be at least as high as a search
+    started inside the damped-away basin (a second method), to the search's tolerance."""
     from beam.calibration.fit import fast_map
 
     record = read_measurement(REAL / "adxl_50cm_114759.csv")
@@ -242,8 +244,8 @@ def test_a_mode_the_model_cannot_place_is_damped_away_at_the_map():
     reference = fast_map(problem, [{"bending_stiffness_Nm2": 1.972, "damping_ratio_mode_1": 0.0051,
                                     "damping_ratio_mode_2": 0.0276, "damping_ratio_mode_3": 0.29,
                                     "damping_ratio_mode_4": 0.074}])
-    assert found.log_posterior == pytest.approx(reference.log_posterior, abs=0.01)
-    assert float(found.values["damping_ratio_mode_3"]) > 0.25
+    # at that optimum or above it (the reference's search stops within its tolerance, ~0.02 nats)
+    assert found.log_posterior >= reference.log_posterior - 0.01
 
 
 def test_tabulated_basis_and_prediction_match_the_closed_form_on_a_long_irregular_record():
@@ -306,3 +308,80 @@ def test_spectral_scales_maximise_the_interpolated_log_power():
         score = np.where(ok, np.log(np.interp(scaled, frequencies, power) + floor), np.log(floor)).sum(axis=1)
         expected.append(SCALE_GRID[np.argmax(score)])
     np.testing.assert_allclose(spectral_scales(model, (frequencies, power)), expected, rtol=1e-12)
+
+
+def _released_decay(seed=5) -> tuple[Measurement, float]:
+    """A free decay of modes 1-3 after 0.3 s at rest, its release ringing modes 4-6 strongly for a
+    few hundredths of a second (as a hand's snap does), irregular stamps, an offset; and the release time."""
+    rng = np.random.default_rng(seed)
+    model = BeamModel(GEOMETRY, ("sensor_mass", "modal_damping"), 16, input_kind=None)
+    ratios = [0.005, 0.006, 0.01, 0.035, 0.021, 0.014]
+    truth = {"bending_stiffness_Nm2": 2.14, "sensor_mass_kg": 0.005,
+             **{f"damping_ratio_mode_{k + 1}": r for k, r in enumerate(ratios)}}
+    t = np.cumsum(rng.uniform(0.6e-3, 1.4e-3, 6000))
+    t -= t[0]
+    release_s = 0.3
+    moving = t >= release_s
+    y = np.zeros(t.size)
+    # modes 4-6 start at accelerations several times those of modes 1-3 (a snap), then die out
+    y[moving] = model.free_response(truth, t[moving], [0.02, -0.002, 0.0003, 0.0002, -0.0001, 0.00005], np.zeros(6),
+                                    modes=6, output="acceleration")
+    y += 0.43 + 0.05 * rng.standard_normal(t.size)
+    return Measurement("released_adxl", "simulated", GEOMETRY, t, acceleration_m_s2=y,
+                       nominal={"bending_stiffness_Nm2": 2.333}), release_s
+
+
+def test_the_free_response_starts_after_the_release_transient():
+    """The fit starts where the content above the retained modes' band has died out to 5 % of
+    the motion in it, not at the release; the known truth is then recovered with 3 modes."""
+    from scipy.signal import butter, sosfiltfilt
+
+    from beam.calibration.free import TRANSIENT_FRACTION, free_start_indices, retained_band
+
+    record, release_s = _released_decay()
+    release, start = free_start_indices(record, 3)
+    t = record.time_s
+    assert t[release] == pytest.approx(release_s, abs=0.003)
+    # the truth: the noise-free ringing of modes 4-6 against modes 1-3, on a fine uniform grid
+    model = BeamModel(GEOMETRY, ("sensor_mass", "modal_damping"), 16, input_kind=None)
+    truth = {"bending_stiffness_Nm2": 2.14, "sensor_mass_kg": 0.005,
+             **{f"damping_ratio_mode_{k + 1}": r for k, r in enumerate([0.005, 0.006, 0.01, 0.035, 0.021, 0.014])}}
+    fine = release_s + np.arange(0.0, 0.5, 1e-4)
+    eta = np.array([0.02, -0.002, 0.0003, 0.0002, -0.0001, 0.00005])
+    high = model.free_response(truth, fine, eta * [0, 0, 0, 1, 1, 1], np.zeros(6), modes=6, output="acceleration")
+    low = model.free_response(truth, fine, eta * [1, 1, 1, 0, 0, 0], np.zeros(6), modes=6, output="acceleration")
+    edge, _ = retained_band(record, 3)
+    assert 115 < edge < 226  # between the bare beam's modes 3 and 4
+    # the ringing's RMS (over a few of its periods) against the RMS of modes 1-3, from the separate,
+    # noise-free parts: where it falls below the fraction for good
+    rms = np.sqrt(np.convolve(high * high, np.ones(50) / 50, mode="same"))
+    done = fine[np.flatnonzero(rms > TRANSIENT_FRACTION * np.std(low))[-1]]
+    assert 0.03 < done - release_s < 0.2
+    assert done - 0.02 < t[start] < done + 0.03  # within the detector's sliding windows
+    result = calibration_preview(record, window=(0.0, 2.3), effects="sensor_mass,modal_damping", modes=3)
+    assert result.setup.free_start_s == pytest.approx(t[start])
+    assert result.setup.free_start_indices == (release, start)
+    values = result.laplace.map.values
+    assert float(values["sensor_mass_kg"]) == pytest.approx(0.005, rel=0.05)
+    assert float(values["bending_stiffness_Nm2"]) == pytest.approx(2.14, rel=0.02)
+    assert float(values["damping_ratio_mode_1"]) == pytest.approx(0.005, rel=0.1)
+    # a decay without a release transient is fitted from its first sample
+    assert free_start_indices(_simulated_decay(), 3) == (0, 0)
+
+
+def test_retained_poles_match_the_dense_eigen_solve():
+    """The closed-form poles of a diagonal reduced damping equal the dense solve's, in its order
+    (underdamped and overdamped modes; not exactly critical damping, a defective matrix whose dense
+    eigenvalues split by round-off)."""
+    from beam.calibration.free import retained_poles
+
+    rng = np.random.default_rng(1)
+    omega2 = np.sort(rng.uniform(10.0, 1e6, (60, 4)), axis=1)
+    zeta = rng.choice([0.001, 0.01, 0.3, 0.99, 1.01, 1.5, 3.0], (60, 4))
+    damping = np.zeros((60, 4, 4))
+    damping[:, np.arange(4), np.arange(4)] = 2.0 * zeta * np.sqrt(omega2)
+    expected, _ = modal.modal_decomposition(omega2, damping)
+    np.testing.assert_allclose(retained_poles(omega2, damping), expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+    coupled = damping.copy()
+    coupled[:, 0, 1] = coupled[:, 1, 0] = 1.0
+    np.testing.assert_allclose(retained_poles(omega2, coupled), modal.modal_decomposition(omega2, coupled)[0])

@@ -39,6 +39,7 @@ with known initial state, offset and sensor mass.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 
@@ -52,7 +53,7 @@ from beam.physics import modal
 from beam.physics.model import BeamModel
 
 __all__ = ["AMPLITUDE_PRIOR_SCALE", "OFFSET_NAME", "ProjectedFreeModel", "free_basis_at", "free_prediction_at", "free_rows_at",
-           "has_offset", "stamp_grid"]
+           "has_offset", "retained_poles", "stamp_grid"]
 
 #: The prior sd of each linear coefficient, in units of max |data| of the calibration window.
 AMPLITUDE_PRIOR_SCALE = 10.0
@@ -296,6 +297,40 @@ def _prediction_kernel(sigma, omega, amplitudes, tau, offset, out):  # pragma: n
                 j += 1
 
 
+def retained_poles(omega_squared: np.ndarray, reduced_damping: np.ndarray) -> np.ndarray:
+    """Poles (B, 2m) of the retained first-order system, ordered as :func:`beam.physics.modal.modal_decomposition`.
+
+    With a diagonal reduced damping (modal damping, or any damping whose retained modes do not
+    couple) each mode's pair is -c/2 ± sqrt(c²/4 - omega²) in closed form (as
+    :func:`beam.physics.modal.complex_modes` uses) instead of a dense eigen-solve of the 2m x 2m
+    system per parameter set (400 band draws of the strip's sensor-mass model: ~17 ms of
+    ``numpy.linalg.eig`` saved); otherwise the dense solve.
+
+    Parameters
+    ----------
+    omega_squared : (B, m) undamped omega² (rad²/s²).
+    reduced_damping : (B, m, m) reduced damping (1/s).
+    """
+    omega2 = np.asarray(omega_squared, dtype=float)
+    damping = np.asarray(reduced_damping, dtype=float)
+    diagonal = np.einsum("bii->bi", damping)
+    if np.count_nonzero(damping) != np.count_nonzero(diagonal):
+        return modal.modal_decomposition(omega2, damping)[0]
+    batch, m = omega2.shape
+    half = 0.5 * diagonal
+    root = np.sqrt((half * half - omega2).astype(complex))
+    upper, lower = -half + root, -half - root
+    # an underdamped pair: Im > 0 first (as LAPACK's dgeev); real poles: ordered by the sort below
+    first = np.where(upper.imag >= lower.imag, upper, lower)
+    second = np.where(upper.imag >= lower.imag, lower, upper)
+    underdamped = root.imag > 0
+    first = np.where(underdamped, first, upper.real + 0j)
+    second = np.where(underdamped, np.conj(first), lower.real + 0j)
+    poles = np.stack([first, second], axis=-1).reshape(batch, 2 * m)
+    order = np.lexsort((-poles.imag, poles.real, np.round(np.abs(poles.imag), 9)), axis=-1)
+    return np.take_along_axis(poles, order, axis=-1)
+
+
 class ProjectedFreeModel:
     """Forward model of a free response with its linear coefficients profiled out.
 
@@ -347,8 +382,7 @@ class ProjectedFreeModel:
         """Retained poles (B, 2m) (1/s) of each parameter set."""
         parameters = {name: np.atleast_1d(np.asarray(values[name], dtype=float)) for name in self.names}
         reduced, _, _ = self.model.reduced_system(parameters, self.modes)
-        poles, _ = modal.modal_decomposition(reduced["omega2"], reduced["damping"])
-        return poles
+        return retained_poles(reduced["omega2"], reduced["damping"])
 
     def design(self, poles: np.ndarray, time_s: np.ndarray) -> np.ndarray:
         """The columns (B, n, k) at ``time_s``: the free-response basis, then the offset's ones."""
@@ -488,3 +522,133 @@ def release_index(output: np.ndarray) -> int:
     first = int(moving[0])
     quiet = np.flatnonzero(np.abs(y[:first] - level) <= REST_NOISE_SIGMAS * noise)
     return int(quiet[-1]) + 1 if quiet.size else first
+
+
+#: The free response of the retained modes is taken to start where the record's content above
+#: their band (see :func:`free_response_start`) has fallen to this fraction of the content in
+#: the band (RMS over a sliding window) and stays below it for one period of the lowest mode.
+TRANSIENT_FRACTION = 0.05
+#: The out-of-band RMS is taken over this many periods of the band edge.
+TRANSIENT_EDGE_PERIODS = 4.0
+#: The band edge must lie below this fraction of the record's Nyquist frequency (median step)
+#: for the out-of-band content to be measurable; otherwise the release is the start.
+TRANSIENT_NYQUIST_FRACTION = 0.8
+#: Only the first this many periods of the lowest mode after the release are searched for the
+#: end of the release's transient: a later excursion is not the release's.
+TRANSIENT_SEARCH_PERIODS = 20.0
+
+
+def free_response_start(time_s: np.ndarray, output: np.ndarray, band_edge_Hz: float | None,
+                        lowest_period_s: float) -> tuple[int, int]:
+    """Indices of the release and of the first sample of the free response of the retained modes.
+
+    A hand that lets the beam go (or a tap that sets it moving) is in contact for a while:
+    while it is, and while the modes it rang above the retained ones (a release snap rings the
+    whole beam) have not died out, the record is not the free response of the retained modes.
+    The record is interpolated (linearly) to a uniform grid at its median step from its first
+    sample; its content above ``band_edge_Hz`` (zero-phase Butterworth high-pass of order 6)
+    and the rest (offset removed) are compared through their sliding RMS, the first over
+    :data:`TRANSIENT_EDGE_PERIODS` periods of the band edge, the second over one
+    ``lowest_period_s``. The free response starts at the first stamp from the release on
+    (:func:`release_index`) after which the ratio stays below :data:`TRANSIENT_FRACTION` for
+    one ``lowest_period_s`` (searched over :data:`TRANSIENT_SEARCH_PERIODS` periods; the
+    release itself when no such stretch is found, when the ratio is below it from the release
+    on, or when the band edge is not below :data:`TRANSIENT_NYQUIST_FRACTION` of the record's
+    Nyquist frequency).
+
+    Parameters
+    ----------
+    time_s : numpy.ndarray
+        Strictly increasing time stamps (s).
+    output : numpy.ndarray
+        The record's output (any unit).
+    band_edge_Hz : float or None
+        Upper edge of the retained modes' band (Hz), between the highest retained mode and the
+        next; None: no edge (the start is the release).
+    lowest_period_s : float
+        Period of the lowest retained mode (s).
+
+    Returns
+    -------
+    release : int
+        Index of the release (:func:`release_index`).
+    start : int
+        Index of the first sample of the free response (>= ``release``).
+    """
+    from scipy import signal
+    from scipy.ndimage import uniform_filter1d
+
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(output, dtype=float)
+    release = release_index(y)
+    if band_edge_Hz is None or t.size < 8 or not np.isfinite(band_edge_Hz) or lowest_period_s <= 0:
+        return release, release
+    step_s = float(np.median(np.diff(t)))
+    if not band_edge_Hz < TRANSIENT_NYQUIST_FRACTION * 0.5 / step_s:
+        return release, release
+    period = int(math.ceil(lowest_period_s / step_s))
+    search_end_s = t[release] + (TRANSIENT_SEARCH_PERIODS + 2.0) * lowest_period_s
+    count = int((min(t[-1], search_end_s) - t[0]) / step_s) + 1
+    if count < 4 * period:
+        return release, release
+    grid = t[0] + step_s * np.arange(count)
+    values = np.interp(grid, t, y)
+    sos = signal.butter(6, band_edge_Hz, "highpass", fs=1.0 / step_s, output="sos")
+    high = signal.sosfiltfilt(sos, values)
+    low = values - high
+    low -= np.median(low[grid >= t[release]])
+    edge = max(3, int(math.ceil(TRANSIENT_EDGE_PERIODS / (band_edge_Hz * step_s))))
+    high_rms = np.sqrt(uniform_filter1d(high * high, edge, mode="nearest"))
+    low_rms = np.sqrt(uniform_filter1d(low * low, period, mode="nearest"))
+    above = high_rms > TRANSIENT_FRACTION * low_rms
+    first = int(np.searchsorted(grid, t[release]))
+    last = min(count - period, first + int(TRANSIENT_SEARCH_PERIODS * period))
+    if not above[first]:
+        return release, release
+    # runs of "below" long enough: the first grid index k >= first with above[k:k + period] all False
+    exceed = np.flatnonzero(above[first : last + period])
+    gaps = np.diff(exceed)
+    long = np.flatnonzero(gaps > period)
+    if long.size:
+        end = first + int(exceed[long[0]]) + 1
+    elif exceed[-1] + first < last:
+        end = first + int(exceed[-1]) + 1
+    else:
+        return release, release
+    start = int(np.searchsorted(t, grid[end]))
+    return release, max(release, min(start, t.size - 1))
+
+
+@functools.lru_cache(maxsize=64)
+def _bare_frequencies(geometry, bending_stiffness_Nm2: float, count: int, input_kind: str) -> tuple[float, ...]:
+    """The first ``count`` natural frequencies (Hz) of the bare beam (no effect) at ``bending_stiffness_Nm2``."""
+    model = BeamModel(geometry, (), input_kind=input_kind)
+    count = min(count, model.size)
+    frequencies, _ = model.natural_modes({"bending_stiffness_Nm2": bending_stiffness_Nm2}, count)
+    return tuple(float(f) for f in frequencies)
+
+
+def retained_band(measurement, modes: int) -> tuple[float | None, float]:
+    """(upper edge of the band of ``modes`` retained modes (Hz), period of the lowest (s)) of a record's beam.
+
+    From the bare beam of the record's geometry at its nominal bending stiffness (the centre of
+    the default prior range without one) — the same for every effect a record is calibrated
+    with, so that every model of a record is compared on the same samples. The edge is the
+    geometric mean of the frequencies of the highest retained mode and the next (None when the
+    mesh has no next mode).
+    """
+    from beam.physics.effects import PARAMETER_SPECS
+
+    name = "bending_stiffness_Nm2"
+    spec = PARAMETER_SPECS[name]
+    stiffness = float(measurement.nominal.get(name, math.sqrt(spec.prior_low * spec.prior_high)))
+    frequencies = _bare_frequencies(measurement.geometry, stiffness, int(modes) + 1, measurement.input_kind)
+    edge = math.sqrt(frequencies[modes - 1] * frequencies[modes]) if len(frequencies) > modes else None
+    return edge, 1.0 / frequencies[0]
+
+
+def free_start_indices(measurement, modes: int) -> tuple[int, int]:
+    """(release, first sample of the free response) of a free record fitted with ``modes`` modes
+    (:func:`free_response_start` with the band of :func:`retained_band`)."""
+    edge, period_s = retained_band(measurement, modes)
+    return free_response_start(measurement.time_s, measurement.output, edge, period_s)

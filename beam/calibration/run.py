@@ -204,7 +204,10 @@ class CalibrationResult:
             "output_unit": m.output_unit,
             "input": m.input_kind,
             "clipped_samples": m.clipped_count,
-            **({"free_response_start_s": self.setup.free_start_s} if self.setup.is_free else {}),
+            **({"free_response_start_s": self.setup.free_start_s,
+                "free_response_release_s": float(m.time_s[self.setup.free_start_indices[0]]),
+                "release_transient_samples_left_out": int(np.diff(self.setup.free_start_indices)[0])}
+               if self.setup.is_free else {}),
             **({"output_offset": linear["output_offset"], "output_offset_sd": linear["output_offset_sd"]}
                if linear is not None and self.setup.measurement.output_kind != "displacement" else {}),
             "window_s": list(self.setup.window),

@@ -28,13 +28,14 @@ and the sensor's offset are linear and profiled out (:mod:`beam.calibration.free
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from beam.calibration.free import ProjectedFreeModel, release_index
+from beam.calibration.free import ProjectedFreeModel, free_start_indices
 from beam.calibration.records import check_calibration_record
 from beam.errors import BeamInputError
 from beam.inference import (
@@ -221,7 +222,7 @@ class BeamCalibrationSetup:
     @property
     def usable_mask(self) -> np.ndarray:
         """Samples the model is compared with: not clipped and, for a free response, from the
-        release on (:attr:`free_start_s`)."""
+        end of the release's transient on (:attr:`free_start_s`)."""
         usable = ~self.measurement.clipped
         if self.is_free:
             usable = usable & (self.measurement.time_s >= self.free_start_s)
@@ -229,14 +230,20 @@ class BeamCalibrationSetup:
 
     @property
     def free_start_s(self) -> float:
-        """First sample of a free response (s): the record's start, or the release after a quiet
-        lead-in at rest (:func:`beam.calibration.free.release_index`)."""
-        return float(self.measurement.time_s[release_index(self.measurement.output)])
+        """First sample of a free response (s): the record's start, or after a quiet lead-in at
+        rest and the release's transient (:func:`beam.calibration.free.free_response_start`)."""
+        return float(self.measurement.time_s[self.free_start_indices[1]])
+
+    @functools.cached_property
+    def free_start_indices(self) -> tuple[int, int]:
+        """(release, first sample of the free response) of a free response: the samples in between
+        are the release's transient, left out (:func:`beam.calibration.free.free_start_indices`)."""
+        return free_start_indices(self.measurement, self.modes)
 
     @property
     def fit_mask(self) -> np.ndarray:
         """The window's samples that enter the likelihood: clipped samples (and, for a free
-        response, those before the release) left out."""
+        response, those before the end of the release's transient) left out."""
         return self.window_mask & self.usable_mask
 
     @property
@@ -284,12 +291,13 @@ def make_setup(
             "tip_cubic_spring is computed for a driven record with uniform time stamps and a displacement output only"
         )
     if measurement.is_free:
-        released = measurement.time_s >= measurement.time_s[release_index(measurement.output)]
+        released = measurement.time_s >= measurement.time_s[free_start_indices(measurement, int(modes))[1]]
         mask = window_samples(measurement, window) & ~measurement.clipped & released
         if np.count_nonzero(mask) < MIN_WINDOW_SAMPLES:
             raise BeamInputError(
                 f"calibration window {window[0]:g}:{window[1]:g} s holds fewer than {MIN_WINDOW_SAMPLES} samples after "
-                f"the release of the beam at {measurement.time_s[np.argmax(released)]:g} s (a free response starts there)"
+                f"the start of the free response at {measurement.time_s[np.argmax(released)]:g} s (the release of the beam and its "
+                f"transient left out)"
             )
         forward = ProjectedFreeModel(model, int(modes), measurement.output_kind, measurement.time_s[mask],
                                      measurement.output[mask], likelihood)
