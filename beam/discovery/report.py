@@ -477,7 +477,10 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
     if measurement.input is not None:
         voltage = uniform_view(measurement, measurement.input)[1][0]
     if start is not None and start > measurement.time_s[0]:
-        notes.append(f"the beam is at rest until {start:.3g} s: the free response and its diagnostics start at the release")
+        release, first = result.setup.free_start_indices
+        at_rest = f"at rest until the release at {measurement.time_s[release]:.3g} s; " if release > 0 else ""
+        notes.append(f"the free response and its diagnostics start at {start:.3g} s ({at_rest}"
+                     f"{first - release} samples of the release's transient left out)")
     if not measurement.uniform:
         notes.append(f"irregular time stamps: residual spectra and modal identification on the record interpolated "
                      f"to its median step ({measurement.median_interval_s:.3g} s)")
