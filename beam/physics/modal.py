@@ -183,7 +183,7 @@ def rank_one_factorisation(mass: np.ndarray, stiffness: np.ndarray, vector: np.n
 
 #: Smallest batch for which :func:`rank_one_modes` solves the secular equations of all rows at
 #: once (below it, one ``dstemr`` call per row is cheaper than the vectorised iteration's overhead).
-SECULAR_MIN_BATCH = 12
+SECULAR_MIN_BATCH = 24
 #: Iterations of the vectorised secular solver before its unsettled rows go to ``dstemr``.
 SECULAR_ITERATIONS = 40
 
