@@ -23,8 +23,8 @@ def test_secular_batch_matches_dense_and_dstemr(seed: int, monkeypatch: pytest.M
     mass, stiffness, vector = _case(n, seed)
     factors = modal.rank_one_factorisation(mass, stiffness, vector)
     alpha = 10 ** np.random.default_rng(100 + seed).uniform(-8, 3, 40)
-    omega2, shapes = modal.rank_one_modes(factors, alpha, count)  # 40 rows: the secular path
-    monkeypatch.setattr(modal, "SECULAR_MIN_BATCH", 10**9)
+    omega2, shapes = modal.rank_one_modes(factors, alpha, count)  # the secular path
+    monkeypatch.setattr(modal, "SECULAR_ITERATIONS", 0)  # every row unsettled: the dstemr path
     omega2_ref, shapes_ref = modal.rank_one_modes(factors, alpha, count)
     signs = np.sign(np.sum(shapes * shapes_ref, axis=1, keepdims=True))
     np.testing.assert_allclose(omega2, omega2_ref, rtol=1e-11)

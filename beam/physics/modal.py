@@ -181,10 +181,7 @@ def rank_one_factorisation(mass: np.ndarray, stiffness: np.ndarray, vector: np.n
                                 np.ascontiguousarray(chol_inv.T @ (householder @ q)))
 
 
-#: Smallest batch for which :func:`rank_one_modes` solves the secular equations of all rows at
-#: once (below it, one ``dstemr`` call per row is cheaper than the vectorised iteration's overhead).
-SECULAR_MIN_BATCH = 24
-#: Iterations of the vectorised secular solver before its unsettled rows go to ``dstemr``.
+#: Iterations of the secular solver before its unsettled rows go to ``dstemr`` (it settles in 3-6).
 SECULAR_ITERATIONS = 40
 
 
@@ -192,22 +189,19 @@ def rank_one_modes(factors: RankOneFactorisation, alpha: np.ndarray, count: int)
     """The ``count`` lowest undamped modes of K v = omega² (M0 + alpha_b s sᵀ) v for each alpha_b.
 
     The same modes as :func:`undamped_modes` (unshifted) from the tridiagonal reduction of
-    :func:`rank_one_factorisation`. A few rows (fewer than :data:`SECULAR_MIN_BATCH`): LAPACK
-    ``dstemr`` (MRRR) for the ``count`` largest eigenpairs of each tridiagonal matrix
-    (mu = 1/omega², accurate relative to the largest like ``dsyevd``), then one product with the
-    stored back-transformation. Measured on the 41-dof strip model (4 modes): 20-45 µs per
-    parameter set against 120-200 µs for the dense path (Cholesky, inverse and ``dsyevd`` of
-    each mass matrix), which set the cost of a sensor-mass posterior. All 41 modes cost 450 µs
-    so: only worth it for a few retained modes.
-
-    Larger batches (the preview's 400 band draws): every row is T0 + rho e1 e1ᵀ, so with
-    T0 = Y diag(lambda) Yᵀ (one ``dstev`` per factorisation) each row is a rank-one update of
-    a diagonal matrix and its eigenpairs solve the secular equation
-    1/rho + sum_j z_j² / (lambda_j - mu) = 0, z = Yᵀ e1 (:func:`_secular_largest`), for all rows
-    and modes at once in numpy. Measured (CPU, one BLAS thread, 41 dof, 4 modes, 400 rows):
-    1.9 ms against 11 ms for the loop over ``dstemr`` (30 ms of a preview's ~0.24 s under load),
-    eigenvalues within 2e-15 and shapes within 1e-12 of it. Rows with rho <= 0 (no point mass)
-    or a root that did not settle go to ``dstemr``.
+    :func:`rank_one_factorisation`: every row is T0 + rho e1 e1ᵀ (rho = alpha |C⁻¹ s|²), so with
+    T0 = Y diag(lambda) Yᵀ (one LAPACK ``dstev`` per factorisation, kept) each row is a rank-one
+    update of a diagonal matrix whose eigenpairs solve the secular equation
+    1/rho + sum_j z_j² / (lambda_j - mu) = 0, z = Yᵀ e1, mu = 1/omega² (:func:`_secular_largest`,
+    compiled), then one product with the stored back-transformation. Rows with rho <= 0 (no
+    point mass) or a root that did not settle take LAPACK ``dstemr`` (MRRR) on their
+    tridiagonal matrix. Measured (CPU, one BLAS thread, 41 dof, 4 modes): 24 µs for one row
+    against 31 µs with ``dstemr`` and 120-200 µs for the dense path (Cholesky, inverse and
+    ``dsyevd`` of each mass matrix); 400 rows (the preview's band draws) 2.8 ms against 12 ms
+    with ``dstemr`` row by row (11 ms of the strip's 0.24 s sensor-mass preview under load,
+    then 4 ms); eigenvalues within 1e-13 and shapes within 1e-11 of a dense ``scipy.linalg.eigh``
+    (tests/test_physics_rank_one.py). Only the retained modes: all 41 would cost more than the
+    dense path.
 
     Returns
     -------
@@ -216,19 +210,25 @@ def rank_one_modes(factors: RankOneFactorisation, alpha: np.ndarray, count: int)
     """
     alpha = np.atleast_1d(np.asarray(alpha, dtype=float))
     n = factors.diagonal.size
-    mu = np.empty((alpha.size, count))
-    vectors = np.empty((alpha.size, n, count))
-    pending = np.arange(alpha.size)
-    if alpha.size >= SECULAR_MIN_BATCH and count <= n:
-        rho = alpha * factors.weight
+    rho = alpha * factors.weight
+    if not 0 < count <= n:
+        raise np.linalg.LinAlgError(f"{count} modes of a {n}-dof tridiagonal matrix")
+    if np.all(rho > 0.0):
+        spectrum = _spectrum(factors)
+        mu, eigen, settled = _secular_largest(spectrum, rho, count)
+        if settled.all():
+            return 1.0 / mu, np.matmul(spectrum[3], eigen) / np.sqrt(mu)[:, None, :]
+        vectors = np.matmul(spectrum[1], eigen)  # into the tridiagonal's basis
+        pending = np.flatnonzero(~settled)
+    else:
+        mu, vectors = np.empty((alpha.size, count)), np.empty((alpha.size, n, count))
+        pending = np.flatnonzero(rho <= 0.0)
         positive = np.flatnonzero(rho > 0.0)
         if positive.size:
             spectrum = _spectrum(factors)
-            values, eigen, done = _secular_largest(spectrum, rho[positive], count)
-            solved = positive[done]
-            mu[solved] = values[done]
-            vectors[solved] = np.matmul(spectrum[1], eigen[done])  # into the tridiagonal's basis
-            pending = np.setdiff1d(pending, solved, assume_unique=True)
+            values, eigen, settled = _secular_largest(spectrum, rho[positive], count)
+            mu[positive], vectors[positive] = values, np.matmul(spectrum[1], eigen)
+            pending = np.sort(np.concatenate([pending, positive[~settled]]))
     _dstemr_rows(factors, alpha, count, pending, mu, vectors)
     shapes = (factors.back @ vectors) / np.sqrt(mu)[:, None, :]
     return 1.0 / mu, shapes
@@ -251,11 +251,11 @@ def _dstemr_rows(factors: RankOneFactorisation, alpha: np.ndarray, count: int, r
         vectors[b] = z[:, count - 1 :: -1]
 
 
-_SPECTRA: dict[int, tuple[RankOneFactorisation, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+_SPECTRA: dict[int, tuple[RankOneFactorisation, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
 
 
-def _spectrum(factors: RankOneFactorisation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """T0's eigenvalues lambda (ascending), eigenvectors Y and z = Yᵀ e1 (LAPACK
+def _spectrum(factors: RankOneFactorisation) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """T0's eigenvalues lambda (ascending), eigenvectors Y, z = Yᵀ e1 and ``back @ Y`` (LAPACK
     ``dstev``), kept for the last few factorisations."""
     entry = _SPECTRA.get(id(factors))
     if entry is not None and entry[0] is factors:
@@ -265,7 +265,7 @@ def _spectrum(factors: RankOneFactorisation) -> tuple[np.ndarray, np.ndarray, np
     values, eigen, info = lapack.dstev(factors.diagonal.copy(), factors.off_diagonal[:-1].copy(), compute_v=1)
     if info != 0:
         raise np.linalg.LinAlgError(f"tridiagonal eigensolver failed (LAPACK dstev info {info})")
-    spectrum = (values, eigen, np.ascontiguousarray(eigen[0]))
+    spectrum = (values, eigen, np.ascontiguousarray(eigen[0]), factors.back @ eigen)
     if len(_SPECTRA) >= 8:
         _SPECTRA.pop(next(iter(_SPECTRA)))
     _SPECTRA[id(factors)] = (factors, spectrum)
@@ -282,7 +282,8 @@ def _secular_largest(spectrum: tuple[np.ndarray, ...], rho: np.ndarray, count: i
     lambda_j - mu, and with it the eigenvector z_j / (lambda_j - mu), keep their relative
     accuracy), by the two-pole rational model of the ``dlaed4`` family (the sums over the poles
     below and above matched in value and slope by c + d / (pole - tau), one quadratic per step),
-    safeguarded by bisection of a bracket kept from the sign of g.
+    safeguarded by bisection of a bracket kept from the sign of g (compiled:
+    :func:`_secular_kernel`).
 
     Returns
     -------
@@ -290,77 +291,103 @@ def _secular_largest(spectrum: tuple[np.ndarray, ...], rho: np.ndarray, count: i
     vectors : (B, n, count) unit eigenvectors (coordinates in the basis of ``diag(lambda)``).
     settled : (B,) bool; rows whose roots did not converge must be solved another way.
     """
-    lam, _, z = spectrum
+    lam, z = spectrum[0], spectrum[2]
+    rho = np.ascontiguousarray(rho, dtype=float)
+    mu = np.empty((rho.size, count))
+    vectors = np.empty((rho.size, lam.size, count))
+    settled = np.empty(rho.size, dtype=np.bool_)
+    _secular_kernel(lam, z, rho, SECULAR_ITERATIONS, mu, vectors, settled)
+    return mu, vectors, settled
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _secular_kernel(lam, z, rho, iterations, mu, vectors, settled):  # pragma: no cover - jitted
+    """See :func:`_secular_largest`: roots and unit eigenvectors into ``mu`` and ``vectors``."""
     n = lam.size
-    z2 = z * z
-    batch = rho.size
-    eps = np.finfo(float).eps
-    index = np.arange(n - count, n)[::-1]  # largest root first
-    last = index == n - 1
-    below = lam[index]  # (count,) lower pole of each interval
-    above = np.where(last, np.nan, lam[np.minimum(index + 1, n - 1)])
-    inv_rho = (1.0 / rho)[:, None]  # (B, 1)
-    width = np.where(last[None, :], rho[:, None] * z2.sum(), (above - below)[None, :])  # (B, count)
-
-    def secular(origin_shift: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, ...]:
-        delta = origin_shift - tau[..., None]  # lambda_j - mu, (B, count, n)
-        term = z2 / delta
-        return delta, term
-
-    # the origin: the pole nearer the root (from g's sign at the interval's middle)
-    lower_shift = lam[None, :] - below[:, None]  # (count, n): lambda_j - lower pole
-    mid = 0.5 * width
-    _, term = secular(lower_shift[None], mid)
-    g_mid = inv_rho + term.sum(-1)
-    upper = (g_mid < 0.0) & ~last[None, :]  # root above the middle: measure from the upper pole
-    gap = np.where(last, 0.0, np.nan_to_num(above - below))[None, :] * np.ones((batch, 1))
-    shift = lower_shift[None] - np.where(upper, gap, 0.0)[..., None]  # (B, count, n) lambda_j - origin
-    lo = np.where(upper, mid - gap, 0.0)  # bracket of tau
-    hi = np.where(upper, 0.0, np.where(last[None, :], width, mid))
-    tau = 0.5 * (lo + hi)
-    column, roots = np.arange(n), np.arange(count)
-    below_mask = column[None, :] <= index[:, None]  # (count, n): poles at or below the interval's lower end
-    settled = np.zeros((batch, count), dtype=bool)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        for _ in range(SECULAR_ITERATIONS):
-            delta, term = secular(shift, tau)
-            g = inv_rho + term.sum(-1)
-            bound = inv_rho + np.abs(term).sum(-1)
-            converged = np.abs(g) <= 8.0 * n * eps * bound
-            settled |= converged
-            if settled.all():
-                break
-            hi = np.where(g > 0.0, np.minimum(hi, tau), hi)
-            lo = np.where(g < 0.0, np.maximum(lo, tau), lo)
-            slope = term / delta  # z_j² / delta_j², d/dtau of each term
-            psi = np.where(below_mask, term, 0.0).sum(-1)
-            dpsi = np.where(below_mask, slope, 0.0).sum(-1)
-            phi, dphi = term.sum(-1) - psi, slope.sum(-1) - dpsi
-            d_low = delta[:, roots, index]  # lambda_i - mu, lambda_{i+1} - mu: (B, count)
-            d_up = delta[:, roots, np.minimum(index + 1, n - 1)]
-            # psi ~ a + b / (pole_low - tau), phi ~ c + d / (pole_up - tau); matched at tau
-            b = dpsi * d_low * d_low
-            d = np.where(last[None, :], 0.0, dphi * d_up * d_up)
-            w = inv_rho + psi - dpsi * d_low + np.where(last[None, :], 0.0, phi - dphi * d_up)
-            pole_low, pole_up = d_low + tau, np.where(last[None, :], np.inf, d_up + tau)  # positions in tau
-            # solve w + b/(pole_low - x) + d/(pole_up - x) = 0 for x in (pole_low, pole_up)
-            span = pole_up - pole_low
-            q = w * span + b + d
-            x_low = pole_low + 2.0 * b * span / (q + np.sqrt(np.maximum(q * q - 4.0 * w * b * span, 0.0)))
-            q_up = -w * span + b + d
-            x_up = pole_up - 2.0 * d * span / (q_up + np.sqrt(np.maximum(q_up * q_up + 4.0 * w * d * span, 0.0)))
-            x_last = pole_low + b / w
-            step = np.where(last[None, :], x_last, np.where(upper, x_up, x_low))
-            inside = np.isfinite(step) & (step > lo) & (step < hi)
-            new = np.where(inside, step, 0.5 * (lo + hi))
-            tau = np.where(settled, tau, new)
-        delta, term = secular(shift, tau)
-        vectors = z[None, None, :] / delta
-        vectors /= np.linalg.norm(vectors, axis=-1, keepdims=True)
-    origin = np.where(upper, below[None, :] + gap, below[None, :])
-    mu = origin + tau
-    ok = settled.all(axis=1) & np.all(np.isfinite(vectors), axis=(1, 2)) & np.all(mu > 0, axis=1)
-    return mu, np.swapaxes(vectors, 1, 2), ok
+    count = mu.shape[1]
+    eps = np.finfo(np.float64).eps
+    z_sq = z * z
+    z_total = 0.0
+    for j in range(n):
+        z_total += z_sq[j]
+    shift = np.empty(n)
+    for b in range(rho.size):
+        inv_rho = 1.0 / rho[b]
+        ok = True
+        for r in range(count):
+            i = n - 1 - r
+            last = i == n - 1
+            lower = lam[i]
+            gap = rho[b] * z_total if last else lam[i + 1] - lam[i]
+            mid = 0.5 * gap
+            g_mid = inv_rho
+            for j in range(n):
+                g_mid += z_sq[j] / ((lam[j] - lower) - mid)
+            upper = (not last) and g_mid < 0.0
+            origin = lam[i + 1] if upper else lower
+            for j in range(n):
+                shift[j] = lam[j] - origin
+            if upper:
+                lo, hi = -0.5 * gap, 0.0
+            else:
+                lo, hi = 0.0, (gap if last else mid)
+            tau = 0.5 * (lo + hi)
+            converged = False
+            for _ in range(iterations):
+                g = inv_rho
+                bound = inv_rho
+                psi = dpsi = phi = dphi = 0.0
+                for j in range(n):
+                    delta = shift[j] - tau
+                    term = z_sq[j] / delta
+                    g += term
+                    bound += abs(term)
+                    if j <= i:
+                        psi += term
+                        dpsi += term / delta
+                    else:
+                        phi += term
+                        dphi += term / delta
+                if abs(g) <= 8.0 * n * eps * bound:
+                    converged = True
+                    break
+                if g > 0.0:
+                    hi = min(hi, tau)
+                elif g < 0.0:
+                    lo = max(lo, tau)
+                d_low = shift[i] - tau
+                b_low = dpsi * d_low * d_low  # psi ~ a + b_low / (pole_low - x)
+                w = inv_rho + psi - dpsi * d_low
+                pole_low = shift[i]
+                if last:
+                    step = pole_low + b_low / w
+                else:
+                    d_up = shift[i + 1] - tau
+                    d_high = dphi * d_up * d_up  # phi ~ c + d_high / (pole_up - x)
+                    w += phi - dphi * d_up
+                    pole_up = shift[i + 1]
+                    span = pole_up - pole_low
+                    if upper:
+                        q = -w * span + b_low + d_high
+                        step = pole_up - 2.0 * d_high * span / (q + math.sqrt(max(q * q + 4.0 * w * d_high * span, 0.0)))
+                    else:
+                        q = w * span + b_low + d_high
+                        step = pole_low + 2.0 * b_low * span / (q + math.sqrt(max(q * q - 4.0 * w * b_low * span, 0.0)))
+                if np.isfinite(step) and lo < step < hi:
+                    tau = step
+                else:
+                    tau = 0.5 * (lo + hi)
+            norm = 0.0
+            for j in range(n):
+                v = z[j] / (shift[j] - tau)
+                vectors[b, j, r] = v
+                norm += v * v
+            norm = math.sqrt(norm)
+            for j in range(n):
+                vectors[b, j, r] /= norm
+            mu[b, r] = origin + tau
+            ok = ok and converged and np.isfinite(norm) and norm > 0.0 and mu[b, r] > 0.0
+        settled[b] = ok
 
 
 @dataclass(frozen=True)
