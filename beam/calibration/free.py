@@ -527,15 +527,20 @@ class ProjectedFreeModel:
         lam = np.broadcast_to(lam, (batch, 1))
         sd2 = np.broadcast_to(sd[:, 0] ** 2, (batch,))
         log_det, shrink = np.empty(batch), np.empty(batch)
-        certified = fit["certified"]
+        certified = fit["certified"] & np.isfinite(lam[:, 0]) & (lam[:, 0] > 0.0)
         if np.any(certified):  # Cholesky of G + lam I (see the docstring)
             gram, c, a, lam_c = fit["gram"][certified], fit["c"][certified], fit["amplitudes"][certified], lam[certified]
             k = gram.shape[-1]
-            factor = np.linalg.cholesky(gram + lam_c[:, :, None] * np.eye(k))
-            inverse = np.linalg.inv(factor)
-            log_det[certified] = (2.0 * np.sum(np.log(np.einsum("bii->bi", factor)), axis=1) - k * np.log(lam_c[:, 0]))
-            shrink[certified] = lam_c[:, 0] * np.einsum("bi,bi->b", np.einsum("bij,bj->bi", inverse, a),
-                                                        np.einsum("bij,bj->bi", inverse, c)) / sd2[certified]
+            try:
+                with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                    factor = np.linalg.cholesky(gram + lam_c[:, :, None] * np.eye(k))
+                    inverse = np.linalg.inv(factor)
+                    log_det[certified] = (2.0 * np.sum(np.log(np.einsum("bii->bi", factor)), axis=1)
+                                          - k * np.log(lam_c[:, 0]))
+                    shrink[certified] = lam_c[:, 0] * np.einsum("bi,bi->b", np.einsum("bij,bj->bi", inverse, a),
+                                                                np.einsum("bij,bj->bi", inverse, c)) / sd2[certified]
+            except np.linalg.LinAlgError:  # not reached for a definite G and lam > 0: the eigen sums decide
+                certified = np.zeros_like(certified)
         rest = ~certified
         if np.any(rest):
             fit_rest = {"gram": fit["gram"][rest], "c": fit["c"][rest]}

@@ -132,12 +132,21 @@ class RankOneFactorisation:
     back : (n, n)
         C⁻ᵀ P: a unit eigenvector y of the tridiagonal matrix with eigenvalue mu gives the
         mass-normalised shape back @ y / sqrt(mu).
+    eigenvalues : (n,) ascending eigenvalues lambda of T0 (LAPACK ``dstev``).
+    first_row : (n,) z = Yᵀ e1, the first components of T0's unit eigenvectors Y.
+    eigenvectors : (n, n) Y.
+    back_eigen : (n, n) back @ Y: a unit eigenvector w of diag(lambda) + rho z zᵀ gives the
+        shape back_eigen @ w / sqrt(mu).
     """
 
     diagonal: np.ndarray
     off_diagonal: np.ndarray
     weight: float
     back: np.ndarray
+    eigenvalues: np.ndarray
+    first_row: np.ndarray
+    eigenvectors: np.ndarray
+    back_eigen: np.ndarray
 
 
 def rank_one_factorisation(mass: np.ndarray, stiffness: np.ndarray, vector: np.ndarray) -> RankOneFactorisation:
@@ -162,7 +171,7 @@ def rank_one_factorisation(mass: np.ndarray, stiffness: np.ndarray, vector: np.n
     numpy.linalg.LinAlgError
         When K is not numerically positive definite (then :func:`undamped_modes` shifts it).
     """
-    from scipy.linalg import hessenberg
+    from scipy.linalg import hessenberg, lapack
 
     chol_inv = np.linalg.inv(np.linalg.cholesky(stiffness))
     whitened = chol_inv @ mass @ chol_inv.T
@@ -177,8 +186,13 @@ def rank_one_factorisation(mass: np.ndarray, stiffness: np.ndarray, vector: np.n
     reflected = 0.5 * (reflected + reflected.T)
     tridiagonal, q = hessenberg(reflected, calc_q=True)
     off = 0.5 * (np.diagonal(tridiagonal, -1) + np.diagonal(tridiagonal, 1))
-    return RankOneFactorisation(np.ascontiguousarray(np.diagonal(tridiagonal)), np.append(off, 0.0), norm * norm,
-                                np.ascontiguousarray(chol_inv.T @ (householder @ q)))
+    diagonal = np.ascontiguousarray(np.diagonal(tridiagonal))
+    back = np.ascontiguousarray(chol_inv.T @ (householder @ q))
+    values, eigen, info = lapack.dstev(diagonal.copy(), off.copy(), compute_v=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"tridiagonal eigensolver failed (LAPACK dstev info {info})")
+    return RankOneFactorisation(diagonal, np.append(off, 0.0), norm * norm, back, values,
+                                np.ascontiguousarray(eigen[0]), eigen, back @ eigen)
 
 
 #: Iterations of the secular solver before its unsettled rows go to ``dstemr`` (it settles in 3-6).
@@ -190,7 +204,7 @@ def rank_one_modes(factors: RankOneFactorisation, alpha: np.ndarray, count: int)
 
     The same modes as :func:`undamped_modes` (unshifted) from the tridiagonal reduction of
     :func:`rank_one_factorisation`: every row is T0 + rho e1 e1ᵀ (rho = alpha |C⁻¹ s|²), so with
-    T0 = Y diag(lambda) Yᵀ (one LAPACK ``dstev`` per factorisation, kept) each row is a rank-one
+    T0 = Y diag(lambda) Yᵀ (one LAPACK ``dstev`` in :func:`rank_one_factorisation`) each row is a rank-one
     update of a diagonal matrix whose eigenpairs solve the secular equation
     1/rho + sum_j z_j² / (lambda_j - mu) = 0, z = Yᵀ e1, mu = 1/omega² (:func:`_secular_largest`,
     compiled), then one product with the stored back-transformation. Rows with rho <= 0 (no
@@ -214,20 +228,18 @@ def rank_one_modes(factors: RankOneFactorisation, alpha: np.ndarray, count: int)
     if not 0 < count <= n:
         raise np.linalg.LinAlgError(f"{count} modes of a {n}-dof tridiagonal matrix")
     if np.all(rho > 0.0):
-        spectrum = _spectrum(factors)
-        mu, eigen, settled = _secular_largest(spectrum, rho, count)
+        mu, eigen, settled = _secular_largest(factors, rho, count)
         if settled.all():
-            return 1.0 / mu, np.matmul(spectrum[3], eigen) / np.sqrt(mu)[:, None, :]
-        vectors = np.matmul(spectrum[1], eigen)  # into the tridiagonal's basis
+            return 1.0 / mu, np.matmul(factors.back_eigen, eigen) / np.sqrt(mu)[:, None, :]
+        vectors = np.matmul(factors.eigenvectors, eigen)  # into the tridiagonal's basis
         pending = np.flatnonzero(~settled)
     else:
         mu, vectors = np.empty((alpha.size, count)), np.empty((alpha.size, n, count))
         pending = np.flatnonzero(rho <= 0.0)
         positive = np.flatnonzero(rho > 0.0)
         if positive.size:
-            spectrum = _spectrum(factors)
-            values, eigen, settled = _secular_largest(spectrum, rho[positive], count)
-            mu[positive], vectors[positive] = values, np.matmul(spectrum[1], eigen)
+            values, eigen, settled = _secular_largest(factors, rho[positive], count)
+            mu[positive], vectors[positive] = values, np.matmul(factors.eigenvectors, eigen)
             pending = np.sort(np.concatenate([pending, positive[~settled]]))
     _dstemr_rows(factors, alpha, count, pending, mu, vectors)
     shapes = (factors.back @ vectors) / np.sqrt(mu)[:, None, :]
@@ -251,30 +263,10 @@ def _dstemr_rows(factors: RankOneFactorisation, alpha: np.ndarray, count: int, r
         vectors[b] = z[:, count - 1 :: -1]
 
 
-_SPECTRA: dict[int, tuple[RankOneFactorisation, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] = {}
-
-
-def _spectrum(factors: RankOneFactorisation) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """T0's eigenvalues lambda (ascending), eigenvectors Y, z = Yᵀ e1 and ``back @ Y`` (LAPACK
-    ``dstev``), kept for the last few factorisations."""
-    entry = _SPECTRA.get(id(factors))
-    if entry is not None and entry[0] is factors:
-        return entry[1]
-    from scipy.linalg import lapack
-
-    values, eigen, info = lapack.dstev(factors.diagonal.copy(), factors.off_diagonal[:-1].copy(), compute_v=1)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"tridiagonal eigensolver failed (LAPACK dstev info {info})")
-    spectrum = (values, eigen, np.ascontiguousarray(eigen[0]), factors.back @ eigen)
-    if len(_SPECTRA) >= 8:
-        _SPECTRA.pop(next(iter(_SPECTRA)))
-    _SPECTRA[id(factors)] = (factors, spectrum)
-    return spectrum
-
-
-def _secular_largest(spectrum: tuple[np.ndarray, ...], rho: np.ndarray, count: int
+def _secular_largest(factors: RankOneFactorisation, rho: np.ndarray, count: int
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The ``count`` largest eigenpairs of diag(lambda) + rho_b z zᵀ for every rho_b > 0.
+    """The ``count`` largest eigenpairs of diag(lambda) + rho_b z zᵀ for every rho_b > 0
+    (lambda and z of ``factors``).
 
     Root i of the secular function g(mu) = 1/rho + sum_j z_j² / (lambda_j - mu) (increasing)
     lies in (lambda_i, lambda_{i+1}), the largest in (lambda_{n-1}, lambda_{n-1} + rho |z|²).
@@ -291,7 +283,7 @@ def _secular_largest(spectrum: tuple[np.ndarray, ...], rho: np.ndarray, count: i
     vectors : (B, n, count) unit eigenvectors (coordinates in the basis of ``diag(lambda)``).
     settled : (B,) bool; rows whose roots did not converge must be solved another way.
     """
-    lam, z = spectrum[0], spectrum[2]
+    lam, z = factors.eigenvalues, factors.first_row
     rho = np.ascontiguousarray(rho, dtype=float)
     mu = np.empty((rho.size, count))
     vectors = np.empty((rho.size, lam.size, count))
