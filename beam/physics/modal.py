@@ -204,16 +204,16 @@ def rank_one_modes(factors: RankOneFactorisation, alpha: np.ndarray, count: int)
 
     The same modes as :func:`undamped_modes` (unshifted) from the tridiagonal reduction of
     :func:`rank_one_factorisation`: every row is T0 + rho e1 e1ᵀ (rho = alpha |C⁻¹ s|²), so with
-    T0 = Y diag(lambda) Yᵀ (one LAPACK ``dstev`` in :func:`rank_one_factorisation`) each row is a rank-one
-    update of a diagonal matrix whose eigenpairs solve the secular equation
+    T0 = Y diag(lambda) Yᵀ (one LAPACK ``dstev`` in :func:`rank_one_factorisation`) each row is
+    a rank-one update of a diagonal matrix whose eigenpairs solve the secular equation
     1/rho + sum_j z_j² / (lambda_j - mu) = 0, z = Yᵀ e1, mu = 1/omega² (:func:`_secular_largest`,
     compiled), then one product with the stored back-transformation. Rows with rho <= 0 (no
     point mass) or a root that did not settle take LAPACK ``dstemr`` (MRRR) on their
     tridiagonal matrix. Measured (CPU, one BLAS thread, 41 dof, 4 modes): 24 µs for one row
     against 31 µs with ``dstemr`` and 120-200 µs for the dense path (Cholesky, inverse and
-    ``dsyevd`` of each mass matrix); 400 rows (the preview's band draws) 2.8 ms against 12 ms
-    with ``dstemr`` row by row (11 ms of the strip's 0.24 s sensor-mass preview under load,
-    then 4 ms); eigenvalues within 1e-13 and shapes within 1e-11 of a dense ``scipy.linalg.eigh``
+    ``dsyevd`` of each mass matrix); 400 rows (the preview's band draws) 1.8 ms against 12 ms
+    with ``dstemr`` row by row; in the strip's sensor-mass preview (load ~4) 22 ms -> 3 ms of
+    ~0.23 s. Eigenvalues within 1e-13 and shapes within 1e-11 of a dense ``scipy.linalg.eigh``
     (tests/test_physics_rank_one.py). Only the retained modes: all 41 would cost more than the
     dense path.
 
@@ -235,7 +235,7 @@ def rank_one_modes(factors: RankOneFactorisation, alpha: np.ndarray, count: int)
         pending = np.flatnonzero(~settled)
     else:
         mu, vectors = np.empty((alpha.size, count)), np.empty((alpha.size, n, count))
-        pending = np.flatnonzero(rho <= 0.0)
+        pending = np.flatnonzero(~(rho > 0.0))  # no point mass (or not a number): dstemr decides
         positive = np.flatnonzero(rho > 0.0)
         if positive.size:
             values, eigen, settled = _secular_largest(factors, rho[positive], count)
