@@ -385,3 +385,57 @@ def test_retained_poles_match_the_dense_eigen_solve():
     coupled = damping.copy()
     coupled[:, 0, 1] = coupled[:, 1, 0] = 1.0
     np.testing.assert_allclose(retained_poles(omega2, coupled), modal.modal_decomposition(omega2, coupled)[0])
+
+
+def _eigen_reference(gram, c, lam, sd2):
+    """The eigen-decomposition forms (the previous method): pseudo-inverse amplitudes dropping
+    eigenvalues below 1e-13 of the largest, and the correction's two sums over the kept ones."""
+    g, vectors = np.linalg.eigh(gram)
+    d = np.einsum("bij,bi->bj", vectors, c)
+    usable = g > 1e-13 * np.max(np.abs(g), axis=1, keepdims=True)
+    coefficients = np.where(usable, d / np.where(usable, g, 1.0), 0.0)
+    amplitudes = np.einsum("bij,bj->bi", vectors, coefficients)
+    g = np.where(usable, g, 0.0)
+    d2g = coefficients**2 * g
+    correction = -0.5 * np.sum(np.log1p(g / lam), axis=1) - 0.5 * np.sum(d2g * lam / (g + lam), axis=1) / sd2
+    return amplitudes, correction
+
+
+def test_gram_solve_matches_the_eigen_pseudo_inverse_on_random_cases():
+    """Cholesky amplitudes equal the eigen-decomposition's pseudo-inverse, including a rank-deficient
+    Gram matrix (a repeated column) that the Cholesky bound must send to the eigen path."""
+    from beam.calibration.free import gram_solve
+
+    rng = np.random.default_rng(5)
+    rows = rng.normal(size=(40, 7, 300)) * np.logspace(-1, 1, 7)[None, :, None]
+    rows[3, 6] = rows[3, 5]  # singular: the pseudo-inverse splits the amplitude between the twins
+    gram = rows @ np.swapaxes(rows, 1, 2)
+    c = np.einsum("bkn,n->bk", rows, rng.normal(size=300))
+    for part in (np.arange(40) != 3, np.arange(40) < 10):  # definite; then one singular in the batch
+        amplitudes, certified = gram_solve(gram[part], c[part])
+        reference, _ = _eigen_reference(gram[part], c[part], 1.0, 1.0)
+        assert certified.all() if part[3] == 0 else not certified[3]
+        fitted, fitted_ref = (np.einsum("bkn,bk->bn", rows[part], a) for a in (amplitudes, reference))
+        np.testing.assert_allclose(fitted, fitted_ref, rtol=0, atol=1e-9 * np.max(np.abs(fitted_ref)))
+        if part[3] == 0:  # a definite G: the same amplitudes, each to its own scale
+            np.testing.assert_allclose(amplitudes, reference, rtol=1e-5)
+
+
+def test_correction_by_cholesky_matches_the_eigen_form():
+    """log_likelihood_correction (Cholesky of G + lam I) equals the eigen-decomposition's sums on a
+    batch of random parameter sets of a real record's window."""
+    record = read_measurement(REAL / "adxl_50cm_114655.csv")
+    keep = (record.time_s >= 0.5) & (record.time_s < 1.0)
+    model = _free_model(("modal_damping", "sensor_mass"))
+    forward = ProjectedFreeModel(model, 3, "acceleration", record.time_s[keep], record.output[keep])
+    rng = np.random.default_rng(2)
+    batch = {"bending_stiffness_Nm2": rng.uniform(1.9, 2.3, 50), "sensor_mass_kg": rng.uniform(1e-3, 8e-3, 50),
+             NOISE_SD: rng.uniform(0.05, 0.5, 50)}
+    batch |= {f"damping_ratio_mode_{i}": rng.uniform(0.002, 0.05, 50) for i in (1, 2, 3)}
+    correction = forward.log_likelihood_correction(batch)
+    fit = forward.fit(batch)
+    sd2 = batch[NOISE_SD] ** 2
+    amplitudes, reference = _eigen_reference(fit["gram"], fit["c"], (sd2 / forward.prior_sd**2)[:, None], sd2)
+    assert fit["certified"].all()
+    np.testing.assert_allclose(correction, reference, rtol=1e-9, atol=1e-6)
+    np.testing.assert_allclose(fit["amplitudes"], amplitudes, rtol=1e-7, atol=1e-9 * np.max(np.abs(amplitudes)))

@@ -331,6 +331,56 @@ def retained_poles(omega_squared: np.ndarray, reduced_damping: np.ndarray) -> np
     return np.take_along_axis(poles, order, axis=-1)
 
 
+#: Gram matrices whose smallest eigenvalue may lie below this fraction of the largest take the
+#: eigen-decomposition (their pseudo-inverse drops those directions); the others a Cholesky solve.
+GRAM_FLOOR = 1e-13
+
+
+def _gram_eigen(gram: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Eigenvalues g (B, k), eigenvectors V (B, k, k), coefficients Vᵀc / g (0 where dropped)
+    and the mask of the kept eigenvalues (g > GRAM_FLOOR max g) of a stack of Gram matrices."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        g, vectors = np.linalg.eigh(gram)
+        d = np.einsum("bij,bi->bj", vectors, c)
+        floor = GRAM_FLOOR * np.max(np.abs(g), axis=1, keepdims=True) + 1e-300
+        usable = g > floor
+        coefficients = np.where(usable, d / np.where(usable, g, 1.0), 0.0)
+    return g, vectors, coefficients, usable
+
+
+def gram_solve(gram: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares amplitudes (B, k) G⁺ c of a stack of Gram matrices G (B, k, k), and
+    the mask (B,) of the matrices proved positive definite with no direction dropped.
+
+    Cholesky factors L of the whole stack (numpy, batched) and their inverses give
+    a = L⁻ᵀ L⁻¹ c; since lambda_min(G) >= 1 / |L⁻¹|_F² and lambda_max(G) <= trace(G), a matrix
+    with 1 / |L⁻¹|_F² > GRAM_FLOOR trace(G) has no direction the pseudo-inverse would drop, so
+    this is G⁺ c. The others (a failed factorisation, or a bound that does not prove it)
+    take the eigen-decomposition's pseudo-inverse (:func:`_gram_eigen`). Measured (CPU, one
+    BLAS thread, 9 x 9): 59 µs for 32 matrices (the fit's chunk) against 184 µs for
+    ``numpy.linalg.eigh``; in the strip's preview the eigen-decompositions were ~20 ms of
+    ~0.23 s CPU under load.
+    """
+    batch = gram.shape[0]
+    amplitudes = np.empty_like(c)
+    todo = np.ones(batch, dtype=bool)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        try:
+            inverse = np.linalg.inv(np.linalg.cholesky(gram))
+        except np.linalg.LinAlgError:
+            inverse = None
+        if inverse is not None:
+            bound = 1.0 / np.einsum("bij,bij->b", inverse, inverse)
+            trace = np.einsum("bii->b", gram)
+            todo = ~(np.isfinite(bound) & (bound > GRAM_FLOOR * trace))
+            w = np.einsum("bij,bj->bi", inverse, c)
+            amplitudes = np.einsum("bji,bj->bi", inverse, w)
+    if np.any(todo):
+        _, vectors, coefficients, _ = _gram_eigen(gram[todo], c[todo])
+        amplitudes[todo] = np.einsum("bij,bj->bi", vectors, coefficients)
+    return amplitudes, ~todo
+
+
 class ProjectedFreeModel:
     """Forward model of a free response with its linear coefficients profiled out.
 
@@ -410,8 +460,9 @@ class ProjectedFreeModel:
         Returns
         -------
         dict with ``poles`` (B, 2m), ``amplitudes`` (B, k) (the last one the offset, output's unit),
-        ``fitted`` (B, n) (X a_hat on the calibration times), ``g`` (B, k) eigenvalues of X̃ᵀX̃,
-        ``d2g`` (B, k): d_i² / g_i (see the module notes), ``vectors`` (B, k, k).
+        ``fitted`` (B, n) (X a_hat on the calibration times), ``gram`` (B, k, k) X̃ᵀX̃ and ``c``
+        (B, k) X̃ᵀỹ, ``certified`` (B,) (see :func:`gram_solve`). The eigen-decomposition of the Gram matrices (``g``, ``d2g``, ``vectors``:
+        see :meth:`spectral`) is added when the correction or the linear fit asks for it.
         """
         key, rho = self._key(values)
         if self._cache is not None and self._cache[0] == key:
@@ -419,13 +470,26 @@ class ProjectedFreeModel:
         poles = self.poles(values)
         parts = [self._fit_rows(poles[i : i + FIT_CHUNK], None if rho is None else rho[i : i + FIT_CHUNK])
                  for i in range(0, poles.shape[0], FIT_CHUNK)]
-        amplitudes, fitted, g, d2g, vectors = (np.concatenate(p) for p in zip(*parts))
-        result = {"poles": poles, "amplitudes": amplitudes, "fitted": fitted, "g": g, "d2g": d2g, "vectors": vectors}
+        amplitudes, fitted, gram, c, certified = (np.concatenate(p) for p in zip(*parts))
+        result = {"poles": poles, "amplitudes": amplitudes, "fitted": fitted, "gram": gram, "c": c,
+                  "certified": certified}
         self._cache = (key, result)
         return result
 
+    @staticmethod
+    def spectral(fit: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``g`` (B, k) eigenvalues of X̃ᵀX̃ (those below 1e-13 of the largest set to 0),
+        ``d2g`` (B, k): d_i² / g_i with d = Vᵀ X̃ᵀỹ (see the module notes), and the eigenvectors
+        V (B, k, k) of a :meth:`fit` (computed once, then kept in it)."""
+        if "g" not in fit:
+            g, vectors, coefficients, usable = _gram_eigen(fit["gram"], fit["c"])
+            with np.errstate(invalid="ignore", over="ignore"):
+                fit["d2g"] = np.where(usable, coefficients * coefficients * np.where(usable, g, 0.0), 0.0)
+            fit["g"], fit["vectors"] = np.where(usable, g, 0.0), vectors
+        return fit["g"], fit["d2g"], fit["vectors"]
+
     def _fit_rows(self, poles: np.ndarray, rho: np.ndarray | None) -> tuple[np.ndarray, ...]:
-        """Amplitudes, fitted values, g, d2g and eigenvectors (see :meth:`fit`) of poles (b, 2m)."""
+        """Amplitudes, fitted values, Gram matrices and X̃ᵀỹ (see :meth:`fit`) of poles (b, 2m)."""
         rows = _rows(poles, self._fit_tau, self._fit_grid, 1 if self.offset else 0)  # (b, k, n), free_rows_at
         batch, k, n = rows.shape
         y = np.broadcast_to(self.fit_data, (batch, n))
@@ -436,17 +500,9 @@ class ProjectedFreeModel:
             rows_w, yw = rows, y
         gram = np.matmul(rows_w, np.swapaxes(rows_w, 1, 2))
         c = np.matmul(rows_w, yw[:, :, None])[:, :, 0]
-        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            g, vectors = np.linalg.eigh(gram)
-            d = np.einsum("bij,bi->bj", vectors, c)
-            floor = 1e-13 * np.max(np.abs(g), axis=1, keepdims=True) + 1e-300
-            usable = g > floor
-            safe = np.where(usable, g, 1.0)
-            coefficients = np.where(usable, d / safe, 0.0)  # the pseudo-inverse in the eigenbasis
-            amplitudes = np.einsum("bij,bj->bi", vectors, coefficients)
-            fitted = np.matmul(amplitudes[:, None, :], rows)[:, 0, :]
-            d2g = np.where(usable, d * d / safe, 0.0)
-        return amplitudes, fitted, np.where(usable, g, 0.0), d2g, vectors
+        amplitudes, certified = gram_solve(gram, c)
+        fitted = np.matmul(amplitudes[:, None, :], rows)[:, 0, :]
+        return amplitudes, fitted, gram, c, certified
 
     def __call__(self, values: Mapping[str, np.ndarray], time_s: np.ndarray) -> np.ndarray:
         fit = self.fit(values)
@@ -456,14 +512,42 @@ class ProjectedFreeModel:
         return free_prediction_at(fit["poles"], fit["amplitudes"], times, self.reference_s, self.offset)
 
     def log_likelihood_correction(self, values: Mapping[str, np.ndarray]) -> np.ndarray:
-        """log ∫ p(y | theta, a) N(a; 0, A² I) da - log p(y | theta, a_hat) for each set (B,), nats."""
+        """log ∫ p(y | theta, a) N(a; 0, A² I) da - log p(y | theta, a_hat) for each set (B,), nats.
+
+        With G = X̃ᵀX̃ and lam = (sd / A)²: -½ log det(I + G / lam) - ½ lam â ᵀ(G + lam I)⁻¹ X̃ᵀỹ / sd²
+        (the eigen-form of the module notes, since G⁻¹ - (G + lam I)⁻¹ = lam G⁻¹ (G + lam I)⁻¹):
+        one batched Cholesky of G + lam I where :func:`gram_solve` proved G definite with no
+        direction dropped (59 µs for 32 sets of 9 columns, CPU, against 184 µs for the
+        eigen-decomposition), the eigen-decomposition's sums over the kept directions otherwise.
+        """
         fit = self.fit(values)
         sd = np.atleast_1d(np.asarray(values[NOISE_SD], dtype=float))[:, None]
         lam = (sd / self.prior_sd) ** 2
-        g = fit["g"]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            log_det = np.sum(np.log1p(g / lam), axis=1)
-            shrink = np.sum(fit["d2g"] * lam / (g + lam), axis=1) / (sd[:, 0] ** 2)
+        batch = fit["amplitudes"].shape[0]
+        lam = np.broadcast_to(lam, (batch, 1))
+        sd2 = np.broadcast_to(sd[:, 0] ** 2, (batch,))
+        log_det, shrink = np.empty(batch), np.empty(batch)
+        certified = fit["certified"] & np.isfinite(lam[:, 0]) & (lam[:, 0] > 0.0)
+        if np.any(certified):  # Cholesky of G + lam I (see the docstring)
+            gram, c, a, lam_c = fit["gram"][certified], fit["c"][certified], fit["amplitudes"][certified], lam[certified]
+            k = gram.shape[-1]
+            try:
+                with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+                    factor = np.linalg.cholesky(gram + lam_c[:, :, None] * np.eye(k))
+                    inverse = np.linalg.inv(factor)
+                    log_det[certified] = (2.0 * np.sum(np.log(np.einsum("bii->bi", factor)), axis=1)
+                                          - k * np.log(lam_c[:, 0]))
+                    shrink[certified] = lam_c[:, 0] * np.einsum("bi,bi->b", np.einsum("bij,bj->bi", inverse, a),
+                                                                np.einsum("bij,bj->bi", inverse, c)) / sd2[certified]
+            except np.linalg.LinAlgError:  # not reached for a definite G and lam > 0: the eigen sums decide
+                certified = np.zeros_like(certified)
+        rest = ~certified
+        if np.any(rest):
+            fit_rest = {"gram": fit["gram"][rest], "c": fit["c"][rest]}
+            g, d2g, _ = self.spectral(fit_rest)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                log_det[rest] = np.sum(np.log1p(g / lam[rest]), axis=1)
+                shrink[rest] = np.sum(d2g * lam[rest] / (g + lam[rest]), axis=1) / sd2[rest]
         return -0.5 * log_det - 0.5 * shrink
 
     def linear_fit(self, values: Mapping[str, float]) -> dict[str, object]:
@@ -481,7 +565,8 @@ class ProjectedFreeModel:
             out[OFFSET_NAME] = float(amplitudes[-1])
             if NOISE_SD in values:
                 sd = float(np.asarray(values[NOISE_SD]).ravel()[0])
-                g, vectors = fit["g"][0], fit["vectors"][0]
+                g, _, vectors = self.spectral(fit)
+                g, vectors = g[0], vectors[0]
                 lam = (sd / self.prior_sd) ** 2
                 variance = sd * sd * np.sum(vectors[-1, :] ** 2 / (g + lam))
                 out[f"{OFFSET_NAME}_sd"] = float(math.sqrt(variance))
