@@ -334,7 +334,6 @@ def _released_decay(seed=5) -> tuple[Measurement, float]:
 def test_the_free_response_starts_after_the_release_transient():
     """The fit starts where the content above the retained modes' band has died out to 5 % of
     the motion in it, not at the release; the known truth is then recovered with 3 modes."""
-    from scipy.signal import butter, sosfiltfilt
 
     from beam.calibration.free import TRANSIENT_FRACTION, free_start_indices, retained_band
 
