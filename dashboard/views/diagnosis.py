@@ -130,12 +130,13 @@ class DiagnosisView(pn.viewable.Viewer):
         self._side = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=["diag-guide"])
         self._layout[:] = [pn.FlexBox(self._main, self._side, flex_wrap="wrap", align_items="flex-start",
                                       sizing_mode="stretch_width")]
-        # one step: each piece a step added to the shown page made the browser lay out and repaint
-        # every plot already there while the diagnosis ran (chromium's CPU time over a diagnosis of
-        # lab_run_1 in the teacher's script, headless: 10.5 s in six steps, 6.0 s in one), on the
-        # two cores the diagnosis's worker processes need
-        run_steps([lambda: [step() for step in (self._build_figures, self._build_head, self._build_ladder,
-                                                self._build_residuals, self._build_modes, self._build_side)]])
+        # the figures in one step: each piece a step added to the shown page made the browser lay out
+        # and repaint every plot already there while the diagnosis ran (~1 s of chromium's CPU each,
+        # on the two cores the diagnosis's worker processes need). The head keeps its own step:
+        # built in the figures' step, the candidates' column never reached the browser.
+        run_steps([self._build_figures, self._build_head,
+                   lambda: [step() for step in (self._build_ladder, self._build_residuals, self._build_modes,
+                                                self._build_side)]])
 
     # -- the steps of the build ------------------------------------------------------------------
     def _build_figures(self) -> None:  # the plots alone (shown by the following steps)
@@ -234,32 +235,65 @@ class DiagnosisView(pn.viewable.Viewer):
         return pn.Column(status, bar, alert, sizing_mode="stretch_width")
 
     def _show_candidates(self, *_) -> None:
+        """The candidates' rows: best first once every candidate is ranked; while they are being
+        ranked, one row per candidate in a fixed order, whose text and button state change in place.
+
+        Why: each time the rows were replaced (after every ranked candidate), the browser laid out
+        the page again and repainted every plot, ~1 s of chromium's CPU each (JavaScript profile
+        of a diagnosis of lab_run_1: 13 of its 15 busy seconds under Panel's ``update_children``),
+        on the cores the diagnosis's worker processes share. A text change costs ~1 ms; the rows
+        are rebuilt only when the set of candidates changes and once at the end (rank order and
+        the green of the material ones, a class change, which re-lays out the page as well).
+        """
         d, beam = self._diag, self.session.beam
         diagnosis = d.diagnosis
         if diagnosis is None:
             self._candidates[:] = []
+            self._rows, self._rows_key = {}, None
             return
-        cards = []
         u = bs.output_units(diagnosis)
-        for c in diagnosis.candidates:
-            present = c.effect in beam.effects
-            title = effect_title(c.effect)
-            button = pn.widgets.Button(label=f"Add {title}" if not present else f"{title} is in the model",
-                                       color="success" if c.material else "default", width=230,
-                                       stylesheets=BUTTON_WRAP, disabled=present or bool(d.adding),
-                                       css_classes=[f"diag-add-{c.effect}"])
-            button.on_click(lambda e, effect=c.effect: d.add(effect))
-            params = "; ".join(f"{parameter_label(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
-            text = (f"**{title}**{' — materially better' if c.material else ''}<br>"
-                    f"{_errors_words(c, diagnosis, u)}, "
-                    f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
-                    f"<span title='{bs.GLOSSES['log evidence']}'>{evidence_words(c.delta_log_evidence)}</span>"
-                    f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
-            cards.append(pn.Row(button, Markdown(text, sizing_mode="stretch_width", margin=(0, 10)),
-                                sizing_mode="stretch_width"))
-        if diagnosis.pending:
-            cards.append(Markdown(f"*Still ranking: {', '.join(bs.effect_title(e) for e in diagnosis.pending)}…*"))
-        self._candidates[:] = cards
+        ranked = {c.effect: c for c in diagnosis.candidates}
+        names = [c.effect for c in diagnosis.candidates] + list(diagnosis.pending)
+        done = not diagnosis.pending
+        rows = getattr(self, "_rows", {})
+        # rank order and colours once all are ranked; a fixed order before
+        key = (tuple(names), tuple(ranked[e].material for e in names)) if done else frozenset(names)
+        if key != getattr(self, "_rows_key", None):
+            rows = {e: self._candidate_row(e, ranked.get(e), done) for e in names}
+            self._rows, self._rows_key = rows, key
+            self._candidates[:] = [row for row, _, _ in rows.values()]
+        for effect, (_, button, text) in rows.items():
+            c = ranked.get(effect)
+            present = effect in beam.effects
+            title = effect_title(effect)
+            label = f"Add {title}" if not present else f"{title} is in the model"
+            disabled = c is None or present or bool(d.adding)
+            if button.label != label:
+                button.label = label
+            if button.disabled != disabled:
+                button.disabled = disabled
+            words = self._candidate_text(c, diagnosis, u) if c is not None else f"**{title}**<br>*being ranked…*"
+            if text.object != words:
+                text.object = words
+
+    def _candidate_row(self, effect: str, candidate, done: bool):
+        """(row, Add button, text) of one candidate; green when it is material and all are ranked."""
+        button = pn.widgets.Button(label=f"Add {effect_title(effect)}", width=230, stylesheets=BUTTON_WRAP,
+                                   color="success" if done and candidate is not None and candidate.material else "default",
+                                   disabled=True, css_classes=[f"diag-add-{effect}"])
+        button.on_click(lambda e: self._diag.add(effect))
+        text = Markdown("", sizing_mode="stretch_width", margin=(0, 10))
+        return pn.Row(button, text, sizing_mode="stretch_width"), button, text
+
+    @staticmethod
+    def _candidate_text(c, diagnosis, u) -> str:
+        title = effect_title(c.effect)
+        params = "; ".join(f"{parameter_label(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
+        return (f"**{title}**{' — materially better' if c.material else ''}<br>"
+                f"{_errors_words(c, diagnosis, u)}, "
+                f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
+                f"<span title='{bs.GLOSSES['log evidence']}'>{evidence_words(c.delta_log_evidence)}</span>"
+                f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
 
     def _reveal(self) -> pn.Card:
         d = self._diag
