@@ -52,9 +52,17 @@ local optimum (each cycle of phase error is a new basin). So:
    reference now reach it. The cost, with the nested starts' sub-model fits (each with its own
    searched design), is seconds per preview with a mode-changing effect on a cold cache
    (lab_run_1, 0-1.05 s: + tip_mass 2-6 s, + patch_stiffening 5-16 s on a shared machine, from
-   0.15-0.25 s); none for the default model, whose effects only damp. For the nonlinear spring the design is 4 x 4 cells (a
-   forward simulation each) and k_p the scaled least-squares value of the response at the
-   prior centre's k_p.
+   0.15-0.25 s); none for the default model, whose effects only damp. For the nonlinear spring
+   the design is :data:`NONLINEAR_STRATA` x :data:`NONLINEAR_STRATA` cells (256 points, two
+   forward simulations each) and k_p is scaled twice: the least-squares factor of the response
+   at the prior centre's k_p, then again of the response at that scaled k_p. The hardening
+   depends on the amplitude: at the prior centre's k_p (5x the amplitude of the lab records)
+   a point's frequencies are not those it has at the data's amplitude, and the best basin,
+   narrow along the effective frequency, was never kept (lab_run_1, 30 % window: clamp +
+   spring ended 266 nats below it with 4 x 4 cells and one scaling, and so did 8 x 8 cells
+   with one scaling even when all their points were searched to convergence; with the second
+   scaling 5 x 5, 6 x 6 and 8 x 8 cells reach it, 4 x 4 do not; preview of + spring on
+   lab_run_1, 0-1.05 s, 7 modes: 5.5 s before, 5.0 s after, on the loaded machine).
 
 :func:`starting_points` is the one start strategy of every calibration (CLI, dashboard,
 diagnosis candidates, ladder rungs): its starts depend only on the record, window, modes,
