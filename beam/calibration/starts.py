@@ -308,7 +308,6 @@ def stratified_design(problem: Problem, setup: BeamCalibrationSetup, seed: int =
     if not names:
         return []
     all_names = _effect_names(setup)
-    centres = prior_centres(setup)
     dims = ["bending_stiffness_Nm2"] + all_names
     ranges = np.array([_log_range(problem, n) for n in dims])
     strata = STRATA if not setup.model.is_nonlinear else NONLINEAR_STRATA
@@ -316,41 +315,12 @@ def stratified_design(problem: Problem, setup: BeamCalibrationSetup, seed: int =
     cube = qmc.Sobol(len(dims), scramble=True, seed=seed + 1).random(points)
     logs = ranges[:, 0] + cube * (ranges[:, 1] - ranges[:, 0])
     batch = {n: np.exp(logs[:, i]) for i, n in enumerate(dims)}
-    size = cube.shape[0]
     batch = {name: np.clip(v, problem.parameter(name).prior.lower * (1 + 1e-9),
                            problem.parameter(name).prior.upper * (1 - 1e-9)) for name, v in batch.items()}
-    # k_p by least squares: exact for a linear model; for a nonlinear one the response at the
-    # prior centre's k_p is scaled (the small-amplitude response is linear in k_p), an estimate
-    # the screening search refines
-    base = 1.0 if not setup.model.is_nonlinear else centres["patch_coupling_NmV"]
-    batch["patch_coupling_NmV"] = np.full(size, base)
-    with np.errstate(all="ignore"):
-        try:
-            response = problem.predict(batch)
-        except Exception:  # noqa: BLE001 - a design point outside any physical range: no design
-            return []
+    fitted = coupled_response(problem, setup, batch)
+    if fitted is None:
+        return []
     data = problem.data
-    prior = problem.parameter("patch_coupling_NmV").prior
-
-    def scaled(response: np.ndarray, coupling: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        denominator = np.einsum("ij,ij->i", response, response)
-        ratio = np.abs(response @ data) / np.where(denominator > 0, denominator, np.inf)
-        return np.clip(coupling * ratio, prior.lower * (1 + 1e-9), prior.upper * (1 - 1e-9)), response * ratio[:, None]
-
-    batch["patch_coupling_NmV"], fitted = scaled(response, batch["patch_coupling_NmV"])
-    if setup.model.is_nonlinear:
-        # the hardening depends on the amplitude, hence on k_p: the response at the prior
-        # centre's k_p (5x the lab records' in amplitude) has the wrong frequencies. One more
-        # batched simulation at the scaled k_p, scaled again, puts each point at the data's
-        # amplitude (measured on lab_run_1, 30 % window, clamp + spring: the searched design
-        # missed the best basin by 266 nats without it)
-        with np.errstate(all="ignore"):
-            try:
-                response = problem.predict(batch)
-            except Exception:  # noqa: BLE001 - keep the first scaling
-                response = None
-        if response is not None:
-            batch["patch_coupling_NmV"], fitted = scaled(response, batch["patch_coupling_NmV"])
     rms = np.sqrt(np.mean((data - fitted) ** 2, axis=1))
     rms[~np.isfinite(rms)] = np.inf
     kept: list[int] = []
@@ -365,6 +335,37 @@ def stratified_design(problem: Problem, setup: BeamCalibrationSetup, seed: int =
                 if best not in kept:
                     kept.append(best)
     return [{name: float(v[i]) for name, v in batch.items()} for i in kept]
+
+
+def coupled_response(problem: Problem, setup: BeamCalibrationSetup, batch: dict[str, np.ndarray]) -> np.ndarray | None:
+    """The response (B, n) of the design ``batch`` at its least-squares k_p, which is written
+    into ``batch["patch_coupling_NmV"]`` (clipped to its prior); None when the batch cannot be
+    simulated.
+
+    Exact for a linear model (the response is linear in k_p: one batched call at k_p = 1). For
+    a nonlinear one the response at the prior centre's k_p is scaled, then simulated again at
+    that k_p and scaled again: the hardening depends on the amplitude, hence on k_p, and at the
+    prior centre's k_p (5x the amplitude of the lab records) a point's frequencies are not those
+    it has at the data's amplitude (measured on lab_run_1, 30 % window, clamp + spring: the
+    searched design missed the best basin by 266 nats with the one scaling)."""
+    nonlinear = setup.model.is_nonlinear
+    size = next(iter(batch.values())).size
+    batch["patch_coupling_NmV"] = np.full(size, prior_centre("patch_coupling_NmV", setup.measurement.nominal)
+                                          if nonlinear else 1.0)
+    prior = problem.parameter("patch_coupling_NmV").prior
+    fitted = None
+    for _ in range(2 if nonlinear else 1):
+        with np.errstate(all="ignore"):
+            try:
+                response = problem.predict(batch)
+            except Exception:  # noqa: BLE001 - a design point outside any physical range: keep what we have
+                break
+            denominator = np.einsum("ij,ij->i", response, response)
+            ratio = np.abs(response @ problem.data) / np.where(denominator > 0, denominator, np.inf)
+        batch["patch_coupling_NmV"] = np.clip(batch["patch_coupling_NmV"] * ratio,
+                                              prior.lower * (1 + 1e-9), prior.upper * (1 - 1e-9))
+        fitted = response * ratio[:, None]
+    return fitted
 
 
 def _pure_damping_parameter(name: str) -> bool:
