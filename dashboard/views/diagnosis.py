@@ -255,34 +255,39 @@ class DiagnosisView(pn.viewable.Viewer):
         ranked = {c.effect: c for c in diagnosis.candidates}
         names = [c.effect for c in diagnosis.candidates] + list(diagnosis.pending)
         done = not diagnosis.pending
-        rows = getattr(self, "_rows", {})
-        # rank order and colours once all are ranked; a fixed order before
-        key = (tuple(names), tuple(ranked[e].material for e in names)) if done else frozenset(names)
-        if key != getattr(self, "_rows_key", None):
-            rows = {e: self._candidate_row(e, ranked.get(e), done) for e in names}
-            self._rows, self._rows_key = rows, key
-            self._candidates[:] = [row for row, _, _ in rows.values()]
-        for effect, (_, button, text) in rows.items():
+        states = {}
+        for effect in names:
             c = ranked.get(effect)
             present = effect in beam.effects
             title = effect_title(effect)
-            label = f"Add {title}" if not present else f"{title} is in the model"
-            disabled = c is None or present or bool(d.adding)
+            states[effect] = (f"Add {title}" if not present else f"{title} is in the model",
+                              c is None or present or bool(d.adding),
+                              self._candidate_text(c, diagnosis, u) if c is not None else f"**{title}**<br>*being ranked…*")
+        rows = getattr(self, "_rows", {})
+        # rank order and colours once all are ranked; a fixed order before
+        key = (tuple(names), tuple(ranked[e].material for e in names)) if done else frozenset(names)
+        buttons_changed = sum((rows[e][1].label, rows[e][1].disabled) != states[e][:2] for e in names if e in rows)
+        if key != getattr(self, "_rows_key", None) or buttons_changed > 1:  # remade at once, not button by button
+            rows = {e: self._candidate_row(e, ranked.get(e), done, *states[e]) for e in names}
+            self._rows, self._rows_key = rows, key
+            self._candidates[:] = [row for row, _, _ in rows.values()]
+            return
+        for effect, (_, button, text) in rows.items():
+            label, disabled, words = states[effect]
             if button.label != label:
                 button.label = label
             if button.disabled != disabled:
                 button.disabled = disabled
-            words = self._candidate_text(c, diagnosis, u) if c is not None else f"**{title}**<br>*being ranked…*"
             if text.object != words:
                 text.object = words
 
-    def _candidate_row(self, effect: str, candidate, done: bool):
+    def _candidate_row(self, effect: str, candidate, done: bool, label: str, disabled: bool, words: str):
         """(row, Add button, text) of one candidate; green when it is material and all are ranked."""
-        button = pn.widgets.Button(label=f"Add {effect_title(effect)}", width=230, stylesheets=BUTTON_WRAP,
+        button = pn.widgets.Button(label=label, width=230, stylesheets=BUTTON_WRAP,
                                    color="success" if done and candidate is not None and candidate.material else "default",
-                                   disabled=True, css_classes=[f"diag-add-{effect}"])
+                                   disabled=disabled, css_classes=[f"diag-add-{effect}"])
         button.on_click(lambda e: self._diag.add(effect))
-        text = Markdown("", sizing_mode="stretch_width", margin=(0, 10))
+        text = Markdown(words, sizing_mode="stretch_width", margin=(0, 10))
         return pn.Row(button, text, sizing_mode="stretch_width"), button, text
 
     @staticmethod
