@@ -436,13 +436,35 @@ def _model_key(setup: BeamCalibrationSetup, effects: tuple[str, ...]) -> tuple:
 def searched_map(problem: Problem, setup: BeamCalibrationSetup, quick: MapResult) -> MapResult | None:
     """The second stage of every beam MAP: the search from the searched stratified design
     (:func:`searched_starts`) together with the quick stage's MAP ``quick``; its MAP when it
-    beats ``quick`` by :data:`SEARCH_GAIN_NATS`, else None (``quick`` stands, to the last digit)."""
+    beats ``quick`` by :data:`SEARCH_GAIN_NATS`, else None (``quick`` stands, to the last digit).
+
+    None at once for a model that adds a pure damping effect (not the default damping) to one
+    that changes the modes: the quick stage started it from that sub-model's MAP
+    (:func:`nested_starts`), whose own searched design stratified the same mode-changing
+    parameters; the damping moves no basin. Measured: lab_run_1's revealed model (patch
+    stiffening + patch damping) 3.8 s cold, of which the redundant searched design took ~0.8 s.
+    """
+    if _adds_damping_to_a_searched_submodel(setup):
+        return None
     extra = searched_starts(problem, setup)
     if not extra:
         return None
     current = {name: float(v) for name, v in quick.values.items() if name in setup.physical_names}
     found = fast_map(problem, [current] + extra)
     return found if found.log_posterior > quick.log_posterior + SEARCH_GAIN_NATS else None
+
+
+def _adds_damping_to_a_searched_submodel(setup: BeamCalibrationSetup) -> bool:
+    """Whether the model has a pure damping effect besides the default damping and an effect that
+    changes the modes (then :func:`nested_starts` starts it from the two-stage MAP of the model
+    without that damping effect)."""
+    from beam.physics.effects import EFFECTS
+
+    def damping_only(effect: str) -> bool:
+        return all(term.target == "damping" for term in EFFECTS[effect].terms)
+
+    extra_damping = any(damping_only(e) and e not in DEFAULT_EFFECTS for e in setup.effects)
+    return extra_damping and not all(damping_only(e) for e in setup.effects)
 
 
 def remember_map(setup: BeamCalibrationSetup, found: MapResult) -> None:
@@ -572,7 +594,7 @@ def starting_points(problem: Problem, setup: BeamCalibrationSetup,
     spectral = spectral_guesses(problem, setup)
     nested = nested_starts(problem, setup)
     design = screened_design(problem, setup)
-    if search:
+    if search and not _adds_damping_to_a_searched_submodel(setup):  # see searched_map
         design = design + searched_starts(problem, setup)
     if warm is not None:
         return [dict(warm)] + nested + spectral + design
