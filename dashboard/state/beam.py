@@ -42,7 +42,7 @@ from dashboard.jobs.beam import (
     load_upload,
     read_answer,
 )
-from dashboard.outputs.beam import fmt_value, output_units
+from dashboard.outputs.beam import output_units
 from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 
@@ -445,11 +445,10 @@ class DiagnosisState(_Runs):
         if (key.dataset, key.window, key.modes) != (d.dataset, d.window, d.modes):
             return
         rungs = [r for r in self.ladder if r["effects"] != ", ".join(key.effects)]
-        with param.edit_constant(self):
-            self.param.update(ladder=rungs + [ladder_rung(event.new, self.adding, len(rungs))], adding="",
-                              status=f"added {self.adding}: held-out RMSE "
-                                     f"{_shown(event.new)}")
+        added = self.adding
         self.request()  # every view of the diagnosis (residuals, spectra, modes, candidates) for the new model
+        with param.edit_constant(self):
+            self.param.update(ladder=rungs + [ladder_rung(event.new, added, len(rungs))], adding="")
 
     def has_answer(self) -> bool:
         """Whether the current dataset has a known answer (a simulated bundled run; not a real record
@@ -467,8 +466,3 @@ class DiagnosisState(_Runs):
                 self.status = NO_ANSWER
         return answer
 
-
-def _shown(result) -> str:
-    """The held-out RMSE of ``result`` in its read-out unit, e.g. ``"4.21 µm"``."""
-    u = output_units(result)
-    return f"{fmt_value(u.scale * result.rmse_prediction)} {u.unit}"

@@ -251,6 +251,8 @@ class DiagnosisView(pn.viewable.Viewer):
             self._candidates[:] = []
             self._rows, self._rows_key = {}, None
             return
+        if _ and getattr(_[0], "name", "") in ("adding", "effects") and d.requested > d.shown:
+            return  # a diagnosis of the new model is on its way and replaces the rows: no repaint for this
         u = bs.output_units(diagnosis)
         ranked = {c.effect: c for c in diagnosis.candidates}
         names = [c.effect for c in diagnosis.candidates] + list(diagnosis.pending)
