@@ -368,11 +368,18 @@ def coupled_response(problem: Problem, setup: BeamCalibrationSetup, batch: dict[
     return fitted
 
 
-def _pure_damping_parameter(name: str) -> bool:
-    """Whether the parameter's effect only adds damping (it keeps the modes: no new basin)."""
-    from beam.physics.effects import EFFECTS, effect_of_parameter
+def _damping_only(effect: str) -> bool:
+    """Whether the effect only adds damping (it keeps the modes: no new basin)."""
+    from beam.physics.effects import EFFECTS
 
-    return all(term.target == "damping" for term in EFFECTS[effect_of_parameter(name)].terms)
+    return all(term.target == "damping" for term in EFFECTS[effect].terms)
+
+
+def _pure_damping_parameter(name: str) -> bool:
+    """Whether the parameter's effect only adds damping (:func:`_damping_only`)."""
+    from beam.physics.effects import effect_of_parameter
+
+    return _damping_only(effect_of_parameter(name))
 
 
 def _batched_scales(setup: BeamCalibrationSetup, batch: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -458,13 +465,8 @@ def _adds_damping_to_a_searched_submodel(setup: BeamCalibrationSetup) -> bool:
     """Whether the model has a pure damping effect besides the default damping and an effect that
     changes the modes (then :func:`nested_starts` starts it from the two-stage MAP of the model
     without that damping effect)."""
-    from beam.physics.effects import EFFECTS
-
-    def damping_only(effect: str) -> bool:
-        return all(term.target == "damping" for term in EFFECTS[effect].terms)
-
-    extra_damping = any(damping_only(e) and e not in DEFAULT_EFFECTS for e in setup.effects)
-    return extra_damping and not all(damping_only(e) for e in setup.effects)
+    extra_damping = any(_damping_only(e) and e not in DEFAULT_EFFECTS for e in setup.effects)
+    return extra_damping and not all(_damping_only(e) for e in setup.effects)
 
 
 def remember_map(setup: BeamCalibrationSetup, found: MapResult) -> None:
@@ -544,15 +546,10 @@ def nested_starts(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[st
     damping (air, Kelvin-Voigt), which every model has: dropping it only made each preview fit
     its sub-models recursively (lab_run_1, 7 modes, + patch stiffening: 6.2 s, 4.5 s of it in
     sub-model fits)."""
-    from beam.physics.effects import EFFECTS
-
-    def damping_only(effect: str) -> bool:
-        return all(term.target == "damping" for term in EFFECTS[effect].terms)
-
     out = []
     for effect in setup.effects:
-        if damping_only(effect) and (effect in DEFAULT_EFFECTS
-                                     or all(damping_only(e) for e in setup.effects if e != effect)):
+        if _damping_only(effect) and (effect in DEFAULT_EFFECTS
+                                      or all(_damping_only(e) for e in setup.effects if e != effect)):
             continue  # the default damping is in every model: dropping it finds no new basin
         values = submodel_map(setup, tuple(e for e in setup.effects if e != effect))
         guess = {name: values.get(name, barely_on(problem, name)) for name in setup.physical_names}
