@@ -378,7 +378,7 @@ def _lm_kernel(a, g, diagonal, lam, pinned, cap, factors, steps, gains, clipped,
 
 def levenberg_marquardt(
     problem: Problem, starts: np.ndarray, *, max_iterations: int = LM_MAX_ITERATIONS, tolerance: float = LM_TOLERANCE,
-    continuation: bool = True,
+    continuation: bool = True, race: tuple[int, int] | None = None,
 ) -> LmResult:
     """Lock-step Levenberg–Marquardt from several starts (see the module notes).
 
@@ -396,6 +396,10 @@ def levenberg_marquardt(
     continuation : bool
         Whether a start still improving after ``max_iterations`` continues alone (trust region);
         False for a screening of many starts by a few iterations.
+    race : (iterations, kept) or None
+        A race among many starts (successive halving): after ``iterations`` lock-step
+        iterations every start not among the ``kept`` best (log posterior; converged ones
+        included) is dropped, and only those go on.
 
     Returns
     -------
@@ -449,6 +453,8 @@ def levenberg_marquardt(
         shrink = rejected[clipped[~better]]
         radius[shrink] = np.maximum(0.5 * radius[shrink], LM_MIN_RADIUS)
         converged[rejected[lam[rejected] > 1e12]] = True  # no descent left at the Jacobian's accuracy
+        if race is not None and iterations == race[0]:
+            _drop_all_but_best(lp, dropped, race[1])
     _drop_worse_basins(lp, predicted, converged, dropped, settled=np.inf)  # no continuation for those
     for i in np.flatnonzero(~converged & ~dropped & np.isfinite(lp) & continuation):  # still improving: trust region
         x[i], z[i], lp[i], jac[i], converged[i] = _trust_region(objective, x[i], z[i], lo + margin, hi - margin)
@@ -493,6 +499,13 @@ def _drop_worse_basins(lp: np.ndarray, predicted: np.ndarray, converged: np.ndar
     gap = float(np.max(lp[converged])) - lp
     hopeless = ~converged & ~dropped & (gap > margin) & (predicted < np.minimum(factor * gap, settled))
     dropped[hopeless] = True
+
+
+def _drop_all_but_best(lp: np.ndarray, dropped: np.ndarray, kept: int) -> None:
+    """Mark every start not among the ``kept`` best by log posterior (a race's cut)."""
+    alive = np.flatnonzero(~dropped & np.isfinite(lp))
+    if alive.size > kept:
+        dropped[alive[np.argsort(-lp[alive], kind="stable")[kept:]]] = True
 
 
 def _drop_duplicates(x: np.ndarray, lp: np.ndarray, jac: np.ndarray, converged: np.ndarray, dropped: np.ndarray,

@@ -105,6 +105,11 @@ NONLINEAR_STRATA = 6
 #: best distinct ends are kept as starts.
 SCREEN_ITERATIONS = 8
 SCREEN_KEPT = 4
+#: The screening search is a race (successive halving): after RACE_ITERATIONS iterations only the
+#: best RACE_FRACTION of the points (at least RACE_MIN_KEPT) go on (see :func:`searched_design`).
+RACE_ITERATIONS = 2
+RACE_FRACTION = 0.25
+RACE_MIN_KEPT = 16
 #: Smallest distance between two kept design points (max-norm, fraction of the log ranges).
 DESIGN_SPREAD = 0.2
 #: Where a "barely on" effect parameter sits: this fraction of its log prior range from the end
@@ -561,9 +566,18 @@ def searched_design(problem: Problem, guesses: list[dict[str, float]], keep: int
                     iterations: int = SCREEN_ITERATIONS) -> list[dict[str, float]]:
     """The ends of a short lock-step search (:data:`SCREEN_ITERATIONS` iterations, no
     continuation) from ``guesses``: the ``keep`` best distinct ends (natural units, physical
-    parameters)."""
-    result = levenberg_marquardt(problem, internal_starts(problem, guesses), max_iterations=iterations,
-                                 continuation=False)
+    parameters).
+
+    A race: after :data:`RACE_ITERATIONS` iterations only the best :data:`RACE_FRACTION` of the
+    points (at least :data:`RACE_MIN_KEPT`) go on. Two iterations already tell the basins apart
+    far better than the design's residual RMS: on lab_run_1 (0-1.05 s, 7 modes; patch
+    stiffening, tip mass, and each of tip mass and clamp compliance on top of patch stiffening;
+    64-112 points) the four best ends of the full eight iterations ranked 0th-12th after two.
+    The search costs 2 + 6/4 = 3.5 point-iterations per point instead of 8."""
+    starts = internal_starts(problem, guesses)
+    kept = max(RACE_MIN_KEPT, int(np.ceil(RACE_FRACTION * starts.shape[0])))
+    result = levenberg_marquardt(problem, starts, max_iterations=iterations, continuation=False,
+                                 race=(RACE_ITERATIONS, kept))
     order = [int(i) for i in np.argsort(-result.log_posterior, kind="stable")
              if np.isfinite(result.log_posterior[i]) and not result.dropped[i]]
     out = []
@@ -598,7 +612,7 @@ def starting_points(problem: Problem, setup: BeamCalibrationSetup,
     short = _short_window_problem(setup)
     if short is None:
         return nested + spectral + design
-    refined = levenberg_marquardt(short, internal_starts(short, spectral + design))
+    refined = levenberg_marquardt(short, internal_starts(short, spectral + design), continuation=False)
     values = short.from_internal(refined.z[refined.best])
     start = {name: float(v[0]) for name, v in values.items() if name not in short.noise_names}
     return [start] + nested + spectral + design
