@@ -519,13 +519,16 @@ def _drop_duplicates(x: np.ndarray, lp: np.ndarray, jac: np.ndarray, converged: 
     if alive.size < 2:
         return
     order = alive[np.argsort(-lp[alive], kind="stable")]  # best first
-    for position, i in enumerate(order[1:], start=1):
+    points = x[order]
+    # every pair within LM_SAME_POINT in every coordinate, found at once (the pairs' loop below
+    # then visits only those: 0.4 s of Python over a diagnosis's fits before)
+    near = np.tril(np.all(np.abs(points[:, None, :] - points[None, :, :]) <= LM_SAME_POINT * unit, axis=2), -1)
+    for position in np.flatnonzero(near.any(axis=1)):
+        i = order[position]
         if converged[i]:
             continue
-        for j in order[:position]:
+        for j in order[:position][near[position, :position]]:
             if dropped[j]:
-                continue
-            if np.any(np.abs(x[i] - x[j]) > LM_SAME_POINT * unit):
                 continue
             delta = jac[j] @ (x[i] - x[j])
             if 0.5 * float(delta @ delta) < LM_SAME_BASIN:
