@@ -226,6 +226,36 @@ def test_damped_away_starts_one_per_mode_inside_the_prior():
         assert {k: v for k, v in s.items() if k != name} == {k: v for k, v in start.items() if k != name}
 
 
+def test_damped_away_starts_take_the_frequencies_of_the_best_screened_start():
+    """With a point mass the damped-away starts carry EI and the mass of the screened start with
+    the lowest residual RMS (scored here one by one) and the centre's damping ratios; the MAP is
+    the one the old starts (damped away from the prior centre, mass barely on) reach, to the
+    search's tolerance (a second search)."""
+    from beam.calibration import prepare
+    from beam.calibration.fit import fast_map
+    from beam.calibration.free_starts import damped_away_starts
+
+    record = read_measurement(REAL / "adxl_50cm_114655.csv")
+    setup, problem = prepare(record, window=(0.0, 2.0), effects="modal_damping,sensor_mass", search=False)
+    starts = problem.initial_guesses(problem)
+    damped = [s for s in starts if max(s[n] for n in s if n.startswith("damping_ratio")) > 0.2]
+    screened = [s for s in starts if s not in damped]
+    assert len(damped) == 4 and len(screened) == 4
+    rms = [float(np.sqrt(np.mean((problem.data - problem.predict({k: np.array([v]) for k, v in s.items()})) ** 2)))
+           for s in screened]
+    best, centre = screened[int(np.argmin(rms))], screened[0]
+    assert best["sensor_mass_kg"] > 10 * centre["sensor_mass_kg"]  # the centre's mass is barely on
+    for s in damped:
+        assert s["sensor_mass_kg"] == best["sensor_mass_kg"] and s["bending_stiffness_Nm2"] == best["bending_stiffness_Nm2"]
+        kept = [n for n in s if n.startswith("damping_ratio") and s[n] < 0.2]
+        assert len(kept) == 3 and all(s[n] == centre[n] for n in kept)
+    new = fast_map(problem, starts)
+    old = fast_map(problem, screened + damped_away_starts(problem, centre))
+    assert new.log_posterior == pytest.approx(old.log_posterior, abs=1e-3)
+    for name in ("bending_stiffness_Nm2", "sensor_mass_kg", "damping_ratio_mode_1", "damping_ratio_mode_2"):
+        assert new.values[name] == pytest.approx(old.values[name], rel=1e-4)
+
+
 def test_a_mode_the_model_cannot_place_is_damped_away_at_the_map():
     """114759, window 0-2 s, modal damping alone: the base model cannot place the third mode.
     Fitted from the release (0.329 s) its posterior piled against the top of the mode's damping
