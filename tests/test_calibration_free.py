@@ -394,6 +394,15 @@ def test_the_free_response_starts_after_the_release_transient():
     assert float(values["sensor_mass_kg"]) == pytest.approx(0.005, rel=0.05)
     assert float(values["bending_stiffness_Nm2"]) == pytest.approx(2.14, rel=0.02)
     assert float(values["damping_ratio_mode_1"]) == pytest.approx(0.005, rel=0.1)
+    # the bands describe the beam from the free response's start on (no prediction before it:
+    # extrapolated backwards the decaying terms grow without bound), and contain the data there
+    bands = result.bands
+    assert bands.time_s.size == t.size
+    assert np.all(np.isnan(bands.mean[:start])) and np.all(np.isnan(bands.prediction_upper[:start]))
+    assert np.all(np.isfinite(bands.mean[start:])) and np.all(np.isfinite(bands.prediction_lower[start:]))
+    fit = result.setup.fit_mask
+    inside = (record.output >= bands.prediction_lower) & (record.output <= bands.prediction_upper)
+    assert inside[fit].mean() > 0.9
     # a decay without a release transient is fitted from its first sample
     assert free_start_indices(_simulated_decay(), 3) == (0, 0)
 

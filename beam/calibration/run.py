@@ -22,7 +22,7 @@ import io
 import math
 import time
 from collections.abc import Iterable, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -478,18 +478,33 @@ def calibration_preview(
     if laplace_result is None:
         laplace_result = _searched_laplace(problem, setup, preview_fit(problem))  # the two stages of calibration_stream
         _remember(setup, laplace_result.map, cold)
-    bands = preview_bands(laplace_result, setup.measurement.time_s, seed)
+    bands = preview_bands(laplace_result, setup, seed)
     return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0)
 
 
-def preview_bands(laplace_result: LaplaceResult, time_s: np.ndarray, seed: int) -> PredictiveBands:
-    """Predictive bands of :data:`BAND_DRAWS` Laplace draws over ``time_s`` (s), in m.
+def preview_bands(laplace_result: LaplaceResult, setup: BeamCalibrationSetup, seed: int) -> PredictiveBands:
+    """Predictive bands of :data:`BAND_DRAWS` Laplace draws over the record (:func:`record_bands`).
 
     The same draws and bands as ``laplace_result.predict(time_s, n_draws=BAND_DRAWS, seed=seed)``
     (to the tolerance of the prediction band's edges), by :func:`fast_predictive_bands`.
     """
-    draws = laplace_result.draws(BAND_DRAWS, seed)
-    return fast_predictive_bands(laplace_result.problem, draws, time_s)
+    return record_bands(laplace_result.problem, setup, laplace_result.draws(BAND_DRAWS, seed))
+
+
+def record_bands(problem: Problem, setup: BeamCalibrationSetup, draws: Mapping[str, np.ndarray]) -> PredictiveBands:
+    """Predictive bands of ``draws`` over the whole record (output's unit), by
+    :func:`fast_predictive_bands`; for a free response NaN before its start
+    (:attr:`~beam.calibration.setup.BeamCalibrationSetup.free_start_s`): the model describes the
+    beam from the end of the release's transient on, and extrapolated backwards its decaying terms
+    grow without bound (adxl_50cm_114759, released at 0.33 s: 1e22 m/s² at t = 0)."""
+    time_s = setup.measurement.time_s
+    first = setup.free_start_indices[1] if setup.is_free else 0
+    bands = fast_predictive_bands(problem, draws, time_s[first:])
+    if first == 0:
+        return bands
+    lead = np.full(first, np.nan)
+    return replace(bands, time_s=time_s, **{name: np.concatenate([lead, getattr(bands, name)]) for name in (
+        "mean", "credible_lower", "credible_upper", "prediction_lower", "prediction_upper")})
 
 
 def calibrate(measurement: Measurement, **options) -> CalibrationResult:
@@ -569,8 +584,7 @@ def calibration_stream(
                              start=start, search=False)
     recalled = _recalled_laplace(problem, setup, cold=start is None)  # this model's MAP, found before
     laplace_result = preview_fit(problem) if recalled is None else recalled
-    time_s = setup.measurement.time_s
-    yield CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, time_s, seed),
+    yield CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, setup, seed),
                             time.perf_counter() - t0)
     if recalled is None:
         # ... then the searched design (0.5-1.5 s with a mode-changing effect), from which the MAP
@@ -586,5 +600,5 @@ def calibration_stream(
     else:
         yield from run.sample_to_ess(target_ess, every=every, max_steps=max_steps)
         posterior = run.result(target_ess=target_ess)
-    bands = fast_predictive_bands(problem, posterior.thinned_draws(BAND_DRAWS, seed), time_s)  # = posterior.predict
+    bands = record_bands(problem, setup, posterior.thinned_draws(BAND_DRAWS, seed))  # = posterior.predict
     yield CalibrationResult(setup, problem, laplace_result, posterior, bands, time.perf_counter() - t0)
