@@ -192,3 +192,20 @@ def test_a_pure_damping_effect_on_a_mode_changing_model_needs_no_searched_design
     assert _adds_damping_to_a_searched_submodel(result.setup)
     reference = sobol_reference_log_posterior(record, window, effects)
     assert float(result.laplace.map.log_posterior) >= reference - 1.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name, fraction, effects", [
+    ("lab_run_2", 0.45, ("air_damping", "clamp_compliance")),  # 3.1 nats short before the ridge copies
+    ("lab_run_3", 0.2, ("air_damping", "patch_stiffening", "sensor_mass")),  # 158 nats lower before
+])
+def test_long_windows_reach_the_brute_force_optimum_from_the_ridge_of_equal_frequencies(name, fraction, effects):
+    """Narrow basins along the ridge of equal frequencies: the stratified design's copies with
+    EI from their own spectral match reach them (see ``stratified_design``)."""
+    from beam.io.measurement import read_measurement
+
+    record = read_measurement(ASSETS / f"{name}.csv")
+    window = _window(record, fraction)
+    engine = float(calibration_preview(record, window=window, effects=effects, modes=4).laplace.map.log_posterior)
+    reference = sobol_reference_log_posterior(record, window, effects)
+    assert engine >= reference - 1.0
