@@ -192,8 +192,8 @@ def load_upload(csv_name: str | None, csv_bytes: bytes | str | None, toml_name: 
     toml_bytes = toml_bytes.encode("utf-8") if isinstance(toml_bytes, str) else toml_bytes
     for name, data, limit in ((csv_name, csv_bytes, MAX_UPLOAD_BYTES), (toml_name, toml_bytes, MAX_SIDECAR_UPLOAD_BYTES)):
         if len(data) > limit:
-            raise BeamInputError(f"{name}: {upload_size_text(len(data))} is more than the "
-                                 f"{upload_size_text(limit)} an upload may have")
+            raise BeamInputError(f"{name}: {upload_size_text(len(data))} ({len(data):,} bytes) is more than the "
+                                 f"{upload_size_text(limit)} ({limit:,} bytes) an upload may have")
     stem = Path(csv_name or "upload").stem or "upload"
     stem = "".join(c if c.isalnum() or c in "-_." else "_" for c in stem)[:80] or "upload"
     with tempfile.TemporaryDirectory(prefix="beam-upload-") as tmp:
