@@ -33,7 +33,13 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
-from beam.calibration import CalibrationResult, calibration_preview, calibration_stream, known_map, remember_maps
+from beam.calibration import (
+    CalibrationResult,
+    calibration_preview,
+    calibration_stream,
+    known_map,
+    remember_maps,
+)
 from beam.discovery.ranking import (
     FIT_ERRORS,
     Candidate,

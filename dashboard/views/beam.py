@@ -13,7 +13,11 @@ import html
 import panel as pn
 import param
 
-from dashboard.jobs.beam import MAX_SIDECAR_UPLOAD_BYTES, MAX_UPLOAD_BYTES, upload_size_text
+from dashboard.jobs.beam import (
+    MAX_SIDECAR_UPLOAD_BYTES,
+    MAX_UPLOAD_BYTES,
+    upload_size_text,
+)
 from dashboard.outputs import beam as bs
 from dashboard.plots.beam import BeamTimeSeriesPlot
 from dashboard.plots.corner import CornerPlot
