@@ -69,7 +69,7 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
     session : SessionState, optional
         Default: a new one whose updates are dispatched to the current document.
     """
-    pn.extension(notifications=False)
+    pn.extension("filedropper", notifications=False)  # the upload widget (built with the Beam tab, after load)
     doc = pn.state.curdoc
     if session is None:
         session = SessionState(dispatch=session_dispatch(doc) if doc is not None else None)

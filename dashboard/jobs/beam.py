@@ -33,7 +33,13 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
-from beam.calibration import CalibrationResult, calibration_preview, calibration_stream, known_map, remember_maps
+from beam.calibration import (
+    CalibrationResult,
+    calibration_preview,
+    calibration_stream,
+    known_map,
+    remember_maps,
+)
 from beam.discovery.ranking import (
     FIT_ERRORS,
     Candidate,
@@ -56,6 +62,7 @@ from beam.discovery.report import (
 )
 from beam.errors import BeamInputError
 from beam.inference import Progress
+from beam.io.limits import MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
 from beam.io.measurement import Measurement, read_measurement
 from beam.io.simulation import read_truth
 from beam.physics.effects import EFFECTS
@@ -68,6 +75,7 @@ __all__ = [
     "ASSETS",
     "CALIBRATIONS",
     "DIAGNOSES",
+    "MAX_SIDECAR_UPLOAD_BYTES",
     "MAX_UPLOAD_BYTES",
     "REAL_DATASETS",
     "CalibrationKey",
@@ -81,13 +89,16 @@ __all__ = [
     "load_bundled",
     "load_upload",
     "read_answer",
+    "upload_size_text",
     "warm_worker",
 ]
 
 REPO = Path(__file__).resolve().parents[2]
 ASSETS = REPO / "assets"
-#: Largest accepted upload, per file (bytes).
-MAX_UPLOAD_BYTES = 20 * 1024 * 1024
+#: Largest accepted upload of a measurement CSV (bytes): the library's limit on what it reads.
+MAX_UPLOAD_BYTES = MAX_MEASUREMENT_BYTES
+#: Largest accepted upload of a TOML sidecar (bytes): the library's limit on what it reads.
+MAX_SIDECAR_UPLOAD_BYTES = MAX_TOML_BYTES
 #: Final calibrations by :class:`CalibrationKey` (bundled datasets only).
 CALIBRATIONS = LRU(24)
 #: Diagnoses by (dataset, window, effects, modes).
@@ -157,21 +168,38 @@ def read_answer(name: str) -> dict | None:
             "noise_m": float(noise) if noise is not None else None}
 
 
-def load_upload(csv_name: str | None, csv_bytes: bytes | None, toml_name: str | None, toml_bytes: bytes | None) -> Measurement:
+def upload_size_text(n_bytes: int) -> str:
+    """``n_bytes`` in decimal megabytes as the upload widget shows sizes: ``"67.1 MB"``."""
+    return f"{n_bytes / 1e6:.1f} MB"
+
+
+def load_upload(csv_name: str | None, csv_bytes: bytes | str | None, toml_name: str | None,
+                toml_bytes: bytes | str | None) -> Measurement:
     """Check an uploaded measurement (CSV + TOML sidecar) and read it.
+
+    Parameters
+    ----------
+    csv_name, toml_name : str or None
+        The files' names as uploaded.
+    csv_bytes, toml_bytes : bytes, str or None
+        Their contents; text (the upload widget decodes ``text/*`` files as UTF-8) is encoded back
+        to UTF-8.
 
     Raises
     ------
     BeamInputError
-        A missing or too large file, or any problem :func:`read_measurement` finds (one line).
+        A missing file, one larger than :data:`MAX_UPLOAD_BYTES` (CSV) or
+        :data:`MAX_SIDECAR_UPLOAD_BYTES` (TOML), or any problem :func:`read_measurement` finds (one line).
     """
     if not csv_bytes or not toml_bytes:
         missing = "the CSV data file" if not csv_bytes else "the TOML sidecar"
         raise BeamInputError(f"upload both files of a measurement: {missing} is missing")
-    for name, data in ((csv_name, csv_bytes), (toml_name, toml_bytes)):
-        if len(data) > MAX_UPLOAD_BYTES:
-            raise BeamInputError(f"{name}: {len(data) / 2**20:.1f} MB is more than the "
-                                 f"{MAX_UPLOAD_BYTES // 2**20} MB an upload may have")
+    csv_bytes = csv_bytes.encode("utf-8") if isinstance(csv_bytes, str) else csv_bytes
+    toml_bytes = toml_bytes.encode("utf-8") if isinstance(toml_bytes, str) else toml_bytes
+    for name, data, limit in ((csv_name, csv_bytes, MAX_UPLOAD_BYTES), (toml_name, toml_bytes, MAX_SIDECAR_UPLOAD_BYTES)):
+        if len(data) > limit:
+            raise BeamInputError(f"{name}: {upload_size_text(len(data))} ({len(data):,} bytes) is more than the "
+                                 f"{upload_size_text(limit)} ({limit:,} bytes) an upload may have")
     stem = Path(csv_name or "upload").stem or "upload"
     stem = "".join(c if c.isalnum() or c in "-_." else "_" for c in stem)[:80] or "upload"
     with tempfile.TemporaryDirectory(prefix="beam-upload-") as tmp:

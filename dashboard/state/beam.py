@@ -227,11 +227,13 @@ class BeamState(_Runs):
         self._apply_defaults(self.dataset, previous)
         self.request()
 
-    def upload(self, csv_name: str | None, csv_bytes: bytes | None, toml_name: str | None,
-               toml_bytes: bytes | None) -> bool:
+    def upload(self, csv_name: str | None, csv_bytes: bytes | str | None, toml_name: str | None,
+               toml_bytes: bytes | str | None) -> bool:
         """Check and select an uploaded measurement; False (and ``error`` set) when it is rejected.
 
-        A rejected upload keeps the current dataset and result.
+        The contents are bytes or (a ``text/*`` file from the upload widget) UTF-8 decoded text;
+        see :func:`~dashboard.jobs.beam.load_upload`. A rejected upload keeps the current dataset
+        and result.
         """
         try:
             m = load_upload(csv_name, csv_bytes, toml_name, toml_bytes)

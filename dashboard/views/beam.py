@@ -13,7 +13,11 @@ import html
 import panel as pn
 import param
 
-from dashboard.jobs.beam import MAX_UPLOAD_BYTES
+from dashboard.jobs.beam import (
+    MAX_SIDECAR_UPLOAD_BYTES,
+    MAX_UPLOAD_BYTES,
+    upload_size_text,
+)
 from dashboard.outputs import beam as bs
 from dashboard.plots.beam import BeamTimeSeriesPlot
 from dashboard.plots.corner import CornerPlot
@@ -33,7 +37,12 @@ from dashboard.views.panes import (
 )
 from dashboard.views.texts import beam_guide
 
-__all__ = ["BeamCalibrationView"]
+__all__ = ["UPLOAD_CHUNK_BYTES", "BeamCalibrationView"]
+
+#: Size of the pieces an upload is sent in (bytes): each is one websocket message, well under the
+#: 20 MB Bokeh's server accepts by default (``--websocket-max-message-size``), so files up to the
+#: library's 64 MiB pass with the plain ``panel serve`` command; 16 pieces for the largest file.
+UPLOAD_CHUNK_BYTES = 4 * 2**20
 
 _STAGE_TEXT = {
     "idle": "Open this tab to calibrate.",
@@ -229,17 +238,39 @@ class BeamCalibrationView(pn.viewable.Viewer):
         sync()
         beam.param.watch(sync, ["dataset", "uploads"])
         select.param.watch(lambda e: setattr(beam, "dataset", e.new) if e.new != beam.dataset else None, "value")
-        mb = MAX_UPLOAD_BYTES // 2**20
-        csv = pn.widgets.FileInput(accept=".csv", sizing_mode="stretch_width", css_classes=["beam-upload-csv"])
-        toml = pn.widgets.FileInput(accept=".toml", sizing_mode="stretch_width", css_classes=["beam-upload-toml"])
+        # FileDropper (FilePond) sends a file in UPLOAD_CHUNK_BYTES pieces, shows each file's progress
+        # and refuses a file over max_file_size in the browser ("File is too large"), before sending
+        # anything. No type filter: browsers report a CSV as text/csv, application/vnd.ms-excel or
+        # nothing, a TOML file mostly as nothing; the contents are checked on the server.
+        droppers = {}
+        for kind, limit in (("csv", MAX_UPLOAD_BYTES), ("toml", MAX_SIDECAR_UPLOAD_BYTES)):
+            droppers[kind] = pn.widgets.FileDropper(
+                multiple=False, max_file_size=str(limit), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
+                layout="compact", width=None, sizing_mode="stretch_width", margin=(0, 10, 5, 10),
+                css_classes=[f"beam-upload-{kind}"])
+        csv, toml = droppers["csv"], droppers["toml"]
+
+        def last(dropper: pn.widgets.FileDropper) -> tuple[str | None, bytes | str | None]:
+            """The dropper's (latest) file as (name, contents); (None, None) before one is uploaded."""
+            return next(reversed(dropper.value.items()), (None, None))
+
         load = pn.widgets.Button(label="Load the uploaded measurement", color="primary", sizing_mode="stretch_width",
-                                 css_classes=["beam-upload-load"])
-        load.on_click(lambda e: beam.upload(csv.filename, csv.value, toml.filename, toml.value))
+                                 css_classes=["beam-upload-load"], disabled=True)
+
+        def ready(*_) -> None:
+            load.disabled = not (csv.value and toml.value)
+
+        csv.param.watch(ready, "value")
+        toml.param.watch(ready, "value")
+        load.on_click(lambda e: beam.upload(*last(csv), *last(toml)))
         return pn.Card(
             select,
             Markdown(f"**Upload** a record: `NAME.csv` (`time_s`, then `voltage_V`, `force_N` or no input column "
                      "for a free response, then `displacement_m`, `velocity_m_s` or `acceleration_m_s2`) and its "
-                     f"sidecar `NAME.toml` (geometry, sensor position), at most {mb} MB each.", margin=(0, 10)),
+                     f"sidecar `NAME.toml` (geometry, sensor position); the CSV at most "
+                     f"{upload_size_text(MAX_UPLOAD_BYTES)} ({MAX_UPLOAD_BYTES // 2**20} MiB), the sidecar at most "
+                     f"{upload_size_text(MAX_SIDECAR_UPLOAD_BYTES)}. Drop or browse both, then load them.",
+                     margin=(0, 10)),
             Markdown("Data file (.csv)", margin=(0, 10)), csv,
             Markdown("Sidecar (.toml)", margin=(0, 10)), toml, load,
             title="Measurement", collapsible=False, sizing_mode="stretch_width")

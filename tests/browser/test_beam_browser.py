@@ -53,8 +53,9 @@ def test_invalid_upload_shows_an_error_and_keeps_the_result(page):
         files=[{"name": "broken.csv", "mimeType": "text/csv", "buffer": b"time_s,voltage_V,displacement_m\n0,zero,1\n"}])
     page.locator(".beam-upload-toml input[type=file]").set_input_files(
         files=[{"name": "broken.toml", "mimeType": "application/toml", "buffer": b"title = 'no geometry'\n"}])
-    page.wait_for_timeout(500)
-    page.get_by_role("button", name="Load the uploaded measurement").click()
+    load = page.get_by_role("button", name="Load the uploaded measurement")
+    expect(load).to_be_enabled(timeout=30000)  # both files reached the server
+    load.click()
     page.locator(".beam-cal-error").get_by_text("upload rejected").first.wait_for(timeout=30000)
     state = read_status(page)
     assert state["dataset"] == "lab_run_1" and state["requested"] == shown["requested"]

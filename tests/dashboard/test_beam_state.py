@@ -128,9 +128,30 @@ def test_invalid_upload_keeps_the_dataset_and_result(session):
 
 
 def test_too_large_upload_is_refused_before_parsing(monkeypatch):
-    monkeypatch.setattr(beam_jobs, "MAX_UPLOAD_BYTES", 10)
-    with pytest.raises(ValueError, match="more than the 0 MB"):
-        load_upload("big.csv", b"x" * 11, "big.toml", b"t")
+    monkeypatch.setattr(beam_jobs, "MAX_UPLOAD_BYTES", 1_000_000)
+    with pytest.raises(ValueError, match=r"^big.csv: 1.5 MB \(1,500,000 bytes\) is more than the 1.0 MB \(1,000,000 bytes\) an upload may have$"):
+        load_upload("big.csv", b"x" * 1_500_000, "big.toml", b"t")
+    monkeypatch.setattr(beam_jobs, "MAX_SIDECAR_UPLOAD_BYTES", 100_000)
+    with pytest.raises(ValueError, match=r"^big.toml: 0.1 MB \(150,000 bytes\) is more than the 0.1 MB \(100,000 bytes\)"):
+        load_upload("ok.csv", b"x", "big.toml", "t" * 150_000)
+
+
+def test_upload_limits_are_the_library_limits():
+    from beam.io.limits import MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
+
+    assert beam_jobs.MAX_UPLOAD_BYTES == MAX_MEASUREMENT_BYTES == 64 * 2**20
+    assert beam_jobs.MAX_SIDECAR_UPLOAD_BYTES == MAX_TOML_BYTES
+    assert beam_jobs.upload_size_text(MAX_MEASUREMENT_BYTES) == "67.1 MB"  # as the upload widget writes it
+
+
+def test_upload_as_text_reads_as_the_file(tmp_path):
+    """The upload widget hands over text/* files decoded: the same measurement as from the bytes."""
+    csv, toml = (ASSETS / "lab_run_5.csv").read_bytes(), (ASSETS / "lab_run_5.toml").read_bytes()
+    from_bytes = load_upload("a.csv", csv, "a.toml", toml)
+    from_text = load_upload("a.csv", csv.decode("utf-8"), "a.toml", toml.decode("utf-8"))
+    assert from_text.time_s.size == from_bytes.time_s.size == 2400
+    assert (from_text.displacement_m == from_bytes.displacement_m).all()
+    assert from_text.geometry == from_bytes.geometry
 
 
 def test_valid_upload_becomes_the_dataset(session):

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import numpy as np
 import panel as pn
 import pytest
 from bokeh.document import Document
@@ -11,6 +14,7 @@ from panel.io.state import set_curdoc
 from beam.discovery.ranking import candidate_effects
 from beam.physics.effects import EFFECTS
 from dashboard.app import create_app
+from dashboard.jobs.beam import load_bundled
 from dashboard.state.session import SessionState
 from dashboard.views.tabs import VIEWS
 from dashboard.views.toy import ToyView
@@ -141,6 +145,44 @@ def test_beam_view_labels_carry_units_and_results_reach_the_plot(beam_session):
             assert f"{item['label']}: {item['value']} {item['unit']}" in text
     assert "Air damping, Kelvin–Voigt damping" in text and text.count("<svg") == 1
 
+
+
+def test_upload_card_reassembles_the_pieces_and_loads_both_files(beam_session):
+    """The upload widget delivers a file in pieces (as the browser sends them); the Load button is
+    enabled once both files are complete and loads exactly the uploaded bytes."""
+    from panel.models.file_dropper import UploadEvent
+
+    from dashboard.views.beam import BeamCalibrationView
+
+    session = beam_session
+    view = BeamCalibrationView(session=session)
+    view.build()
+
+    def widget(css):
+        return view.layout.select(lambda o: css in getattr(o, "css_classes", []))[0]
+
+    csv, toml, load = widget("beam-upload-csv"), widget("beam-upload-toml"), widget("beam-upload-load")
+    assert isinstance(csv, pn.widgets.FileDropper) and load.disabled
+    assets = Path(__file__).resolve().parents[2] / "assets" / "measurements"
+    data = (assets / "lab_run_5.csv").read_bytes()
+    pieces = [data[i:i + 30_000] for i in range(0, len(data), 30_000)]
+    assert len(pieces) == 3
+    for number, piece in enumerate(pieces, 1):
+        assert load.disabled
+        csv._process_event(UploadEvent(None, data={"name": "mine.csv", "chunk": number, "total_chunks": len(pieces),
+                                                   "data": piece, "type": "text/csv"}))
+    assert csv.value["mine.csv"] == data.decode("utf-8") and load.disabled  # text/* arrives decoded
+    toml._process_event(UploadEvent(None, data={"name": "mine.toml", "chunk": 1, "total_chunks": 1, "type": "",
+                                                "data": (assets / "lab_run_5.toml").read_bytes()}))
+    assert not load.disabled
+    load.clicks += 1
+    beam = session.beam
+    assert beam.error == "" and beam.dataset.startswith("upload-1-mine")
+    bundled = load_bundled("lab_run_5")  # the same files read from disk
+    assert beam.measurement.name == "mine" and beam.measurement.time_s.size == bundled.time_s.size
+    assert np.array_equal(beam.measurement.displacement_m, bundled.displacement_m)
+    assert np.array_equal(beam.measurement.voltage_V, bundled.voltage_V)
+    assert session.wait(60) and beam.result.setup.measurement.name == "mine"
 
 
 def test_beam_results_change_no_css_classes(pool):
