@@ -21,7 +21,7 @@ import numpy as np
 
 from dashboard.outputs.beam import effect_title as _title
 from dashboard.outputs.beam import output_units
-from dashboard.plots.elements import css_class, hide_on_click, hv, name_source
+from dashboard.plots.elements import HIDE_ON_CLICK, css_class, hv, name_source
 from dashboard.plots.timeseries import COLORS
 
 __all__ = ["DiagnosisPlots"]
@@ -29,7 +29,7 @@ __all__ = ["DiagnosisPlots"]
 UM = 1e6
 RED = "#d62728"
 _TOOLS = {"default_tools": ["pan", "wheel_zoom", "box_zoom", "reset", "save"], "toolbar": "above", "height": 270,
-          "responsive": True, "fontsize": {"title": "11pt"}}
+          "responsive": True, "fontsize": {"title": "11pt", "legend": "8pt"}}
 
 
 def _empty_residual() -> dict:
@@ -77,7 +77,7 @@ class DiagnosisPlots:
         # the true noise lines in their own layer: Reveal sends two lines, not the record's residual
         self.residual = (hv.DynamicMap(self._residual, streams=[self.pipes["residual"]])
                          * hv.DynamicMap(self._true_noise, streams=[self.pipes["true_noise"]])).opts(
-            title="Residual: data − model mean", legend_position="top_right", hooks=[hide_on_click], **_TOOLS)
+            title="Residual: data − model mean", legend_position="top_right", **HIDE_ON_CLICK, **_TOOLS)
         self.spectrum = hv.DynamicMap(self._spectrum, streams=[self.pipes["spectrum"]])
         self.acf = hv.DynamicMap(self._acf, streams=[self.pipes["acf"]])
         self.backbone = hv.DynamicMap(self._backbone, streams=[self.pipes["backbone"]])
@@ -128,7 +128,7 @@ class DiagnosisPlots:
                             kdims=["x0", "y0", "x1", "y1"], label="model natural frequencies").opts(
             color=COLORS["truth"], line_dash="dashed")
         return _overlay([*lines, modes]).opts(title="Spectra of data and residual", logy=True,
-                                                legend_position="top_right", hooks=[hide_on_click], **_TOOLS)
+                                                legend_position="top_right", **HIDE_ON_CLICK, **_TOOLS)
 
     @staticmethod
     def _acf(data: dict):
