@@ -186,7 +186,10 @@ class DiagnosisView(pn.viewable.Viewer):
 
     @staticmethod
     def _plot(dmap, **kw) -> pn.pane.HoloViews:
-        return pn.pane.HoloViews(dmap, sizing_mode="stretch_width", height=280, backend="bokeh", **kw)
+        # not linked: Panel links the axes of panes whose dimensions share a name, and the spectrum's
+        # frequency axis (0-500 Hz) became the backbone's frequency axis (its points on the edge)
+        return pn.pane.HoloViews(dmap, sizing_mode="stretch_width", height=280, backend="bokeh", linked_axes=False,
+                                 **kw)
 
     @staticmethod
     def _pair(*items, basis_px: int = 380) -> pn.FlexBox:
