@@ -8,6 +8,11 @@ amplitude) of mode 1, and the error ladder — each a :class:`holoviews.DynamicM
 bokeh GridPlot beside another plot never lets the document go idle, see the dashboard README).
 They change a few times per session (a diagnosis, an added effect, Reveal), so the tens of
 milliseconds of a ``Pipe.send`` of a record's ~5,000 residual samples do not matter.
+The segments' and rectangles' key dimensions are named as the axes they are drawn on (``t``,
+``lag``, ``a``, ``f``, ``rung``; as ``x0``, ``y0`` or ``left``, ``bottom`` they labelled the axes
+so), and the views show the plots with ``linked_axes=False``: ``pn.pane.HoloViews`` links the
+axes of plots whose dimensions share a name, and the autocorrelation's lag axis took the
+backbone's amplitude range and the backbone's frequency axis the spectrum's 0-500 Hz.
 Residuals and amplitudes in the record's read-out unit (:func:`dashboard.outputs.beam.output_units`:
 µm for displacement, mm/s for velocity, m/s² for acceleration), PSDs in the output's SI unit² /Hz. The residual's data source is named ``diag-residual``, the
 ladder's ``diag-ladder``; the ladder figure carries the CSS class ``diag-ladder-plot``.
@@ -21,7 +26,7 @@ import numpy as np
 
 from dashboard.outputs.beam import effect_title as _title
 from dashboard.outputs.beam import output_units
-from dashboard.plots.elements import css_class, hide_on_click, hv, name_source
+from dashboard.plots.elements import HIDE_ON_CLICK, css_class, hv, name_source
 from dashboard.plots.timeseries import COLORS
 
 __all__ = ["DiagnosisPlots"]
@@ -29,7 +34,7 @@ __all__ = ["DiagnosisPlots"]
 UM = 1e6
 RED = "#d62728"
 _TOOLS = {"default_tools": ["pan", "wheel_zoom", "box_zoom", "reset", "save"], "toolbar": "above", "height": 270,
-          "responsive": True, "fontsize": {"title": "11pt"}}
+          "responsive": True, "fontsize": {"title": "11pt", "legend": "8pt"}}
 
 
 def _empty_residual() -> dict:
@@ -77,7 +82,7 @@ class DiagnosisPlots:
         # the true noise lines in their own layer: Reveal sends two lines, not the record's residual
         self.residual = (hv.DynamicMap(self._residual, streams=[self.pipes["residual"]])
                          * hv.DynamicMap(self._true_noise, streams=[self.pipes["true_noise"]])).opts(
-            title="Residual: data − model mean", legend_position="top_right", hooks=[hide_on_click], **_TOOLS)
+            title="Residual: data − model mean", legend_position="top_right", **HIDE_ON_CLICK, **_TOOLS)
         self.spectrum = hv.DynamicMap(self._spectrum, streams=[self.pipes["spectrum"]])
         self.acf = hv.DynamicMap(self._acf, streams=[self.pipes["acf"]])
         self.backbone = hv.DynamicMap(self._backbone, streams=[self.pipes["backbone"]])
@@ -98,7 +103,7 @@ class DiagnosisPlots:
     @staticmethod
     def _residual(data: dict):
         t, r = hv.Dimension("t", label="Time (s)"), hv.Dimension("r", label=f"Residual ({data.get('unit', 'µm')})")
-        intervals = hv.Rectangles(data["intervals"], kdims=["left", "bottom", "right", "top"],
+        intervals = hv.Rectangles(data["intervals"], kdims=[t, r, "t_end", "r_end"],
                                   label="exceedance intervals").opts(color=RED, alpha=0.12, line_alpha=0.0)
         band = hv.Area({"t": data["band_t"], "lo": data["lo"], "hi": data["hi"]}, t, ["lo", "hi"],
                        label="95 % prediction band").opts(color=COLORS["prediction"], alpha=0.45, line_alpha=0.0)
@@ -124,18 +129,18 @@ class DiagnosisPlots:
                                                                                           ylim=(y0 / 2, y1 * 2))
                  for key, color in (("data", "#7f7f7f"), ("residual", RED))]
         fm = data["modes"]
-        modes = hv.Segments({"x0": fm, "y0": [y0] * len(fm), "x1": fm, "y1": [y1] * len(fm)},
-                            kdims=["x0", "y0", "x1", "y1"], label="model natural frequencies").opts(
+        modes = hv.Segments({"f": fm, "psd": [y0] * len(fm), "f_end": fm, "psd_end": [y1] * len(fm)},
+                            kdims=[f, psd, "f_end", "psd_end"], label="model natural frequencies").opts(
             color=COLORS["truth"], line_dash="dashed")
         return _overlay([*lines, modes]).opts(title="Spectra of data and residual", logy=True,
-                                                legend_position="top_right", hooks=[hide_on_click], **_TOOLS)
+                                                legend_position="top_right", **HIDE_ON_CLICK, **_TOOLS)
 
     @staticmethod
     def _acf(data: dict):
         lag, acf = hv.Dimension("lag", label="Lag (s)"), hv.Dimension("acf", label="Autocorrelation")
         n = len(data["lag"])
-        stems = hv.Segments({"x0": data["lag"], "y0": [0.0] * n, "x1": data["lag"], "y1": data["acf"]},
-                            kdims=["x0", "y0", "x1", "y1"]).opts(color=COLORS["calibration"])
+        stems = hv.Segments({"lag": data["lag"], "acf": [0.0] * n, "lag_end": data["lag"], "acf_end": data["acf"]},
+                            kdims=[lag, acf, "lag_end", "acf_end"]).opts(color=COLORS["calibration"])
         dots = hv.Scatter({"lag": data["lag"], "acf": data["acf"]}, lag, acf).opts(color=COLORS["calibration"], size=2)
         band = [_hline(None if data["band"] is None else s * data["band"], color=RED, line_dash="dashed")
                 for s in (1.0, -1.0)]
@@ -145,8 +150,8 @@ class DiagnosisPlots:
     @staticmethod
     def _backbone(data: dict):
         a, f = hv.Dimension("a", label=f"Amplitude ({data.get('unit', 'µm')})"), hv.Dimension("f", label="Frequency (Hz)")
-        bars = hv.Segments({"x0": data["a"], "y0": data["lo"], "x1": data["a"], "y1": data["hi"]},
-                           kdims=["x0", "y0", "x1", "y1"]).opts(color="#7f7f7f")
+        bars = hv.Segments({"a": data["a"], "f": data["lo"], "a_end": data["a"], "f_end": data["hi"]},
+                           kdims=[a, f, "a_end", "f_end"]).opts(color="#7f7f7f")
         frame = {"a": data["a"], "f": data["f"]}
         return _overlay([bars, hv.Curve(frame, a, f).opts(color=COLORS["mean"]),
                            hv.Scatter(frame, a, f).opts(color=COLORS["mean"], size=6)]).opts(
@@ -161,9 +166,9 @@ class DiagnosisPlots:
         bottom = min(rmse, default=1.0) / 4
         top = max(rmse, default=1.0) * 3
         step, error = hv.Dimension("rung", label="Effect added"), hv.Dimension("rmse", label=f"Held-out error ({unit})")
-        bars = hv.Rectangles({"x0": [v - 0.3 for v in x], "y0": [bottom] * len(x), "x1": [v + 0.3 for v in x],
-                              "y1": rmse, "coverage": [r["coverage95_pct"] for r in rungs]},
-                             kdims=[hv.Dimension("x0", label=step.label), hv.Dimension("y0", label=error.label), "x1", "y1"],
+        bars = hv.Rectangles({"rung": [v - 0.3 for v in x], "rmse": [bottom] * len(x), "rung_end": [v + 0.3 for v in x],
+                              "rmse_end": rmse, "coverage": [r["coverage95_pct"] for r in rungs]},
+                             kdims=[step, error, "rung_end", "rmse_end"],
                              vdims=["coverage"]).opts(color=COLORS["mean"], alpha=0.7, logy=True,
                                                       xlim=(-0.6, max(len(rungs), 4) - 0.4), ylim=(bottom / 2, top),
                                                       hooks=[name_source("diag-ladder")])

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import holoviews as hv
 
-__all__ = ["css_class", "hide_on_click", "hv", "name_source"]
+__all__ = ["HIDE_ON_CLICK", "css_class", "hv", "name_source"]
 
 if "bokeh" not in hv.Store.renderers:
     hv.extension("bokeh", logo=False)
@@ -44,9 +44,9 @@ def css_class(css: str):
     return hook
 
 
-def hide_on_click(plot, element) -> None:
-    """A hook: clicking a legend entry hides its layer; small legend text."""
-    for legend in plot.state.legend:
-        if legend.click_policy != "hide":
-            legend.click_policy = "hide"
-            legend.label_text_font_size = "8pt"
+#: HoloViews options of an overlay whose legend entries hide their layer when clicked (the
+#: legend's small text is ``fontsize={"legend": ...}``). As the overlay's legend style, which
+#: HoloViews applies on every update, rather than a hook run after it: HoloViews reset the legend
+#: to its default ``click_policy="mute"`` on every update and the hook set it back, so each
+#: update sent the browser four legend changes.
+HIDE_ON_CLICK = {"click_policy": "hide"}

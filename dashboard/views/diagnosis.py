@@ -125,18 +125,38 @@ class DiagnosisView(pn.viewable.Viewer):
         if self._built:
             return
         self._built = True
+        self._layout[0].object = "**Diagnosing…** (the residuals come first)"
         self._main = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN,
                                css_classes=["diag-main"])
         self._side = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=["diag-guide"])
-        self._layout[:] = [pn.FlexBox(self._main, self._side, flex_wrap="wrap", align_items="flex-start",
-                                      sizing_mode="stretch_width")]
-        # the figures in one step: each piece a step added to the shown page made the browser lay out
-        # and repaint every plot already there while the diagnosis ran (~1 s of chromium's CPU each,
-        # on the two cores the diagnosis's worker processes need). The head keeps its own step:
-        # built in the figures' step, the candidates' column never reached the browser.
+        self._page = pn.FlexBox(self._main, self._side, flex_wrap="wrap", align_items="flex-start",
+                                sizing_mode="stretch_width")
+        # The pieces are made in steps off the page and put on it at once, with the diagnosis's
+        # first stage (its residual report, 2-4 s after the request) when it is on its way: each
+        # piece added to the shown page, and each first drawing of the five plots and the
+        # candidates' rows on a page already shown, made the browser lay out and repaint the
+        # whole page and every plot there (0.3-1.7 s of chromium's CPU each; JavaScript profile
+        # of a diagnosis of lab_run_1, on the two cores the diagnosis's worker processes need).
         run_steps([self._build_figures, self._build_head,
                    lambda: [step() for step in (self._build_ladder, self._build_residuals, self._build_modes,
-                                                self._build_side)]])
+                                                self._build_side)],
+                   self._attach_when_ready])
+
+    def _attach_when_ready(self) -> None:
+        """Put the built page in place now if there is something to show, else when there is."""
+        d = self._diag
+        if d.diagnosis is not None or d.stage not in ("queued", "sampling"):
+            self._layout[:] = [self._page]
+            return
+
+        def attach(_event) -> None:
+            if self._layout.objects[0] is self._page:
+                return
+            if d.diagnosis is not None or d.stage not in ("queued", "sampling"):
+                d.param.unwatch(watcher)
+                self._layout[:] = [self._page]
+
+        watcher = d.param.watch(attach, ["diagnosis", "stage"])
 
     # -- the steps of the build ------------------------------------------------------------------
     def _build_figures(self) -> None:  # the plots alone (shown by the following steps)
@@ -166,7 +186,10 @@ class DiagnosisView(pn.viewable.Viewer):
 
     @staticmethod
     def _plot(dmap, **kw) -> pn.pane.HoloViews:
-        return pn.pane.HoloViews(dmap, sizing_mode="stretch_width", height=280, backend="bokeh", **kw)
+        # not linked: Panel links the axes of panes whose dimensions share a name, and the spectrum's
+        # frequency axis (0-500 Hz) became the backbone's frequency axis (its points on the edge)
+        return pn.pane.HoloViews(dmap, sizing_mode="stretch_width", height=280, backend="bokeh", linked_axes=False,
+                                 **kw)
 
     @staticmethod
     def _pair(*items, basis_px: int = 380) -> pn.FlexBox:
@@ -262,8 +285,10 @@ class DiagnosisView(pn.viewable.Viewer):
             c = ranked.get(effect)
             present = effect in beam.effects
             title = effect_title(effect)
+            # the Add buttons are enabled when all are ranked (the rows are remade then): a
+            # button's change re-renders it and lays out the whole page (~0.2 s of chromium each)
             states[effect] = (f"Add {title}" if not present else f"{title} is in the model",
-                              c is None or present or bool(d.adding),
+                              not done or present or bool(d.adding),
                               self._candidate_text(c, diagnosis, u) if c is not None else f"**{title}**<br>*being ranked…*")
         rows = getattr(self, "_rows", {})
         # rank order and colours once all are ranked; a fixed order before

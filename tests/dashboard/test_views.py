@@ -235,6 +235,29 @@ def test_diagnosis_view_shows_candidates_with_add_buttons(beam_session):
     assert len(view.plots.data["residual"]["r"]) == 0
 
 
+def test_a_diagnosis_changes_the_page_layout_twice(pool):
+    """Over a diagnosis the candidates' rows are put in place twice (when the first stage comes, then
+    in rank order); no button is enabled one by one and no legend changes: in the browser each such
+    change re-lays out the page and repaints every plot (0.2-1.7 s of chromium's CPU each)."""
+    from dashboard.views.diagnosis import DiagnosisView
+
+    session = SessionState(pool=pool, debounce_s=0.0, beam_inputs={"target_ess": 200})
+    view = DiagnosisView(session=session)
+    doc = Document()
+    doc.add_root(view.__panel__().get_root(doc))
+    events = []
+    doc.on_change(lambda e: events.append((type(getattr(e, "model", None)).__name__, getattr(e, "attr", None))))
+    view.activate()
+    assert session.wait(60)
+    children = [m for m, attr in events if attr == "children"]
+    assert len(children) <= 3, children  # the page (at once here: nothing is staged without a server) + the rows twice
+    assert not [e for e in events if e[1] == "disabled" or e[0] == "Legend"]
+    names = [b.label for b in view.candidates.select(pn.widgets.Button)]
+    assert names[0] == "Add Patch stiffening" and not any(b.disabled for b in view.candidates.select(pn.widgets.Button))
+    session.close()
+    session.wait(30)
+
+
 def test_sweep_plots_show_the_rows_and_mark_the_window_of_the_final_result(session):
     view = ToyView(session=session)
     session.toy.request(debounce=False)
