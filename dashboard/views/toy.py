@@ -173,8 +173,10 @@ class ToyView(pn.viewable.Viewer):
         self._sweep_tab.append(self._sweep_row)
 
     def _show_sweep(self, index: int) -> None:
+        # not linked: both plots' value axis is named "value" (coverage in %, RMSE in du), and
+        # pn.pane.HoloViews links the axes of panes in one layout by dimension name
         self._sweep_row.append(pn.pane.HoloViews(self._sweep_plots[index].figure, sizing_mode="stretch_width", height=290,
-                                                 backend="bokeh"))
+                                                 backend="bokeh", linked_axes=False))
 
     def _update_sweep(self, *_) -> None:
         toy = self._toy
