@@ -317,10 +317,13 @@ def stratified_design(problem: Problem, setup: BeamCalibrationSetup, seed: int =
     along which a long window's narrow basins lie and where a point's residual RMS tells basins
     apart; on the ridge EI follows the other parameters, so those copies are binned by each
     parameter alone (the best per bin). Measured on the 98 cases of the global-mode sample
-    (seed 1): 12 MAPs better (by up to 392 nats; lab_run_2, 45 % window, air + clamp: 2.8 nats,
-    to within 0.3 of a 256-start reference), 6 lower by at most 0.03 nats and one gross misfit
-    (the random clamp record, 45 %, air + sensor mass) 105 nats lower, short of the reference
-    either way."""
+    (seed 1) against the engine of the session before: 13 MAPs better (by up to 392 nats;
+    lab_run_2, 45 % window, air + clamp: 2.8 nats, to within 0.3 of a 256-start reference),
+    5 lower by at most 0.03 nats;
+    engine CPU 330 -> 271 s (with the race; 248 s with the race alone). Half as many design
+    points with their copies (the same 512 simulations as now without them: 231 s) did as well
+    on the sample but left lab_run_1's gross misfits at the 20 % window (a tip mass for the
+    missing patch) 18 nats short of a 256-start search (tests/test_calibration_starts.py)."""
     names = [n for n in _effect_names(setup) if not _pure_damping_parameter(n)]
     if not names:
         return []
