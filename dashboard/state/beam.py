@@ -25,7 +25,7 @@ from functools import partial as bind
 
 import param
 
-from beam.calibration import DEFAULT_EFFECTS, CalibrationResult, suggest_modes
+from beam.calibration import DEFAULT_EFFECTS, CalibrationResult, known_map, suggest_modes
 from beam.calibration.modes import MAX_MODES
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
@@ -265,8 +265,10 @@ class BeamState(_Runs):
             self.request()
 
     def known_maps(self, key: CalibrationKey | None = None) -> tuple:
-        """MAPs the diagnoses found on the record, window, modes and likelihood of ``key`` (default
-        the current inputs): what a calibration or diagnosis of one of those models starts from."""
+        """MAPs the diagnoses and the final calibrations found on the record, window, modes and
+        likelihood of ``key`` (default the current inputs): what a calibration or diagnosis of one
+        of those models starts from (a teacher who ticked an effect before opening the diagnosis:
+        that candidate's fit is not searched again)."""
         key = key or self.key()
         return tuple(self._known.get((key.dataset, key.window, key.modes, key.likelihood), ()))
 
@@ -313,8 +315,11 @@ class BeamState(_Runs):
                 self.param.update(stage="preview", error="", result=update.value, shown=update.request,
                                   progress=0.0, status=update.message)
             else:
+                key = self._keys.get(update.request)
+                if key is not None:  # its MAP (cold-started: the engine's) for a later diagnosis's candidates
+                    self.remember(key, (known_map(update.value),))
                 self.param.update(stage="final", error="", result=update.value, final=update.value,
-                                  final_key=self._keys.get(update.request), shown=update.request, progress=1.0,
+                                  final_key=key, shown=update.request, progress=1.0,
                                   status=f"{update.message}: ready in {update.elapsed_s:.2f} s")
 
     # -- compare ---------------------------------------------------------------------------------

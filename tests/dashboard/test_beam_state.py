@@ -74,6 +74,19 @@ def test_request_publishes_preview_then_final(session):
     assert posterior_netcdf(beam.result).getvalue()[:4] == b"\x89HDF"
     assert posterior_netcdf(seen_results[0]) is None  # a preview has no posterior
     assert filename(beam.result, "json") == "lab_run_1_w0-1.05_m7_air_damping+kelvin_voigt_iid.json"
+    # the final's MAP is kept for a later diagnosis of the same record, window and modes, whose
+    # candidate of these effects then recalls it (the same MAP as a cold search)
+    known = dict(beam.known_maps())
+    assert known[tuple(beam.final.setup.effects)] is beam.final.laplace.map
+    from beam.calibration import calibration_preview, remember_maps
+    from beam.calibration.starts import forget_maps
+
+    forget_maps()
+    remember_maps(beam.measurement, window=beam.key().window, modes=beam.modes, maps=beam.known_maps())
+    recalled = calibration_preview(beam.measurement, window=beam.key().window, effects=beam.effects, modes=beam.modes)
+    forget_maps()
+    cold = calibration_preview(beam.measurement, window=beam.key().window, effects=beam.effects, modes=beam.modes)
+    assert recalled.laplace.map.log_posterior == pytest.approx(cold.laplace.map.log_posterior, abs=1e-6)
 
 
 def test_newer_request_cancels_the_older_and_wins(session):
