@@ -45,7 +45,7 @@ COLORS = {
     "mean": "#d62728",
     "credible": "#d62728",
     "prediction": "#ff9896",
-    "pinned": "#9467bd",
+    "pinned": "#555555",  # grey, as the beam view's: lavender was hard to tell from the pink bands
     "window": "#fdd49e",
 }
 _EMPTY_BAND = {"time_s": [], "lower": [], "upper": []}
@@ -71,10 +71,11 @@ class TimeSeriesPlot:
         Figure height in pixels (the width follows the container).
     """
 
-    def __init__(self, height: int = 380) -> None:
+    def __init__(self, height: int = 410) -> None:
         fig = figure(height=height, sizing_mode="stretch_width", x_range=Range1d(0.0, 20.0), y_range=Range1d(-1.5, 1.5),
                      tools="pan,wheel_zoom,box_zoom,reset,save", toolbar_location="above",
                      title="Data, truth and posterior predictive (calibration window shaded)")
+        fig.css_classes = ["toy-plot"]  # found by the layout tests
         fig.xaxis.axis_label = "Time (s)"
         fig.yaxis.axis_label = "Signal (du)"
         self.window = BoxAnnotation(left=0.0, right=0.0, fill_color=COLORS["window"], fill_alpha=0.35, level="underlay")
@@ -89,27 +90,44 @@ class TimeSeriesPlot:
             "pinned-mean": ColumnDataSource(dict(_EMPTY_XY), name="pinned-mean"),
             "posterior-mean": ColumnDataSource(dict(_EMPTY_XY), name="posterior-mean"),
         }
+        # drawn in this order (the data on top of the model's lines, so neither hides the other);
+        # listed in the legend in the order of ``items``
+        bands = {
+            "pinned": fig.varea("time_s", "lower", "upper", source=src["pinned-band"], color=COLORS["pinned"], alpha=0.18),
+            "prediction": fig.varea("time_s", "lower", "upper", source=src["prediction-band"],
+                                    color=COLORS["prediction"], alpha=0.45),
+            "credible": fig.varea("time_s", "lower", "upper", source=src["credible-band"], color=COLORS["credible"],
+                                  alpha=0.35),
+        }
+        lines = {
+            "pinned": fig.line("time_s", "value", source=src["pinned-mean"], color=COLORS["pinned"], line_width=1.5,
+                               line_dash="dotdash"),
+            "truth": fig.line("time_s", "value", source=src["truth"], color=COLORS["truth"], line_dash="dashed",
+                              line_width=1.5),
+            "mean": fig.line("time_s", "value", source=src["posterior-mean"], color=COLORS["mean"], line_width=2),
+        }
+        points = {
+            "calibration": fig.scatter("time_s", "value", source=src["calibration-data"], size=3,
+                                       color=COLORS["calibration"]),
+            "held_out": fig.scatter("time_s", "value", source=src["held-out-data"], size=3, color=COLORS["held_out"],
+                                    alpha=0.6),
+        }
         items = [
-            ("95 % prediction band", fig.varea("time_s", "lower", "upper", source=src["prediction-band"],
-                                               color=COLORS["prediction"], alpha=0.45)),
-            ("95 % credible band", fig.varea("time_s", "lower", "upper", source=src["credible-band"],
-                                             color=COLORS["credible"], alpha=0.35)),
-            ("data (calibration)", fig.scatter("time_s", "value", source=src["calibration-data"], size=3,
-                                               color=COLORS["calibration"])),
-            ("data (held out)", fig.scatter("time_s", "value", source=src["held-out-data"], size=3,
-                                            color=COLORS["held_out"], alpha=0.6)),
-            ("truth (noise-free)", fig.line("time_s", "value", source=src["truth"], color=COLORS["truth"],
-                                            line_dash="dashed", line_width=1.5)),
-            ("posterior predictive mean", fig.line("time_s", "value", source=src["posterior-mean"],
-                                                   color=COLORS["mean"], line_width=2)),
-            ("pinned: 95 % prediction band", fig.varea("time_s", "lower", "upper", source=src["pinned-band"],
-                                                       color=COLORS["pinned"], alpha=0.15)),
-            ("pinned: mean", fig.line("time_s", "value", source=src["pinned-mean"], color=COLORS["pinned"],
-                                      line_width=1.5, line_dash="dotdash")),
+            ("95 % prediction band", bands["prediction"]),
+            ("95 % credible band", bands["credible"]),
+            ("data (calibration)", points["calibration"]),
+            ("data (held out)", points["held_out"]),
+            ("truth (noise-free)", lines["truth"]),
+            ("posterior predictive mean", lines["mean"]),
         ]
-        legend = Legend(items=[LegendItem(label=label, renderers=[r]) for label, r in items], click_policy="hide",
-                        label_text_font_size="9pt", spacing=0)
-        fig.add_layout(legend, "right")
+        # the pinned result's entries only while one is pinned (none listed for nothing)
+        self._pinned_items = [LegendItem(label="pinned: 95 % prediction band", renderers=[bands["pinned"]], visible=False),
+                              LegendItem(label="pinned: mean", renderers=[lines["pinned"]], visible=False)]
+        # below the plot, as the beam view's: on the right it took half the plot's width at 1024 px
+        legend = Legend(items=[LegendItem(label=label, renderers=[r]) for label, r in items] + self._pinned_items,
+                        click_policy="hide", label_text_font_size="9pt", spacing=10, orientation="horizontal",
+                        nrows=2, padding=4, margin=4, glyph_width=18)  # two rows: in one it ran past the plot's left edge
+        fig.add_layout(legend, "below")
         self.figure = fig
         self._scenario = None
 
@@ -142,3 +160,6 @@ class TimeSeriesPlot:
         pb = None if pinned is None else pinned.bands
         src["pinned-band"].data = _band(pb, "prediction_lower", "prediction_upper")
         src["pinned-mean"].data = dict(_EMPTY_XY) if pb is None else _xy(pb.time_s, pb.mean)
+        for item in self._pinned_items:
+            if item.visible != (pb is not None):
+                item.visible = pb is not None

@@ -25,7 +25,12 @@ from functools import partial as bind
 
 import param
 
-from beam.calibration import DEFAULT_EFFECTS, CalibrationResult, known_map, suggest_modes
+from beam.calibration import (
+    DEFAULT_EFFECTS,
+    CalibrationResult,
+    known_map,
+    suggest_modes,
+)
 from beam.calibration.modes import MAX_MODES
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
@@ -45,6 +50,7 @@ from dashboard.jobs.beam import (
 from dashboard.outputs.beam import output_units
 from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
+from dashboard.state.editing import editing
 
 __all__ = ["DATASET_DEFAULTS", "DEFAULT_DATASET", "NO_ANSWER", "BeamState", "DiagnosisState", "ladder_rung"]
 
@@ -122,7 +128,7 @@ class _Runs(param.Parameterized):
             self._timings.pop(min(self._timings))
 
     def _fail(self, message: str, kept: bool) -> None:
-        with param.edit_constant(self):
+        with editing(self):
             self.param.update(stage="error", error=message, progress=0.0,
                               status="failed." + (" The previous result is still shown." if kept else ""))
 
@@ -166,7 +172,7 @@ class BeamState(_Runs):
         self._quiet = False
         self._previous = self.dataset
         m = self._load(self.dataset)
-        with param.edit_constant(self):
+        with editing(self):
             self.measurement = m
         if "window_s" not in params:
             self._set_window(m)
@@ -221,7 +227,7 @@ class BeamState(_Runs):
         except Exception as exc:  # noqa: BLE001 - a bundled file broken on disk: say so, keep the rest
             self._fail(user_message(sch.readable_error(exc)), self.result is not None)
             return
-        with param.edit_constant(self):
+        with editing(self):
             self.measurement = m
         self._set_window(m)
         self._apply_defaults(self.dataset, previous)
@@ -239,12 +245,12 @@ class BeamState(_Runs):
             m = load_upload(csv_name, csv_bytes, toml_name, toml_bytes)
         except Exception as exc:  # noqa: BLE001 - any failure to read an upload is shown, never raised
             message = user_message(sch.readable_error(exc))
-            with param.edit_constant(self):
+            with editing(self):
                 self.param.update(error=f"upload rejected: {message}",
                                   status="upload rejected; the previous dataset and result are kept.")
             return False
         name = f"upload-{len(self.uploads) + 1}-{m.name}"
-        with param.edit_constant(self):
+        with editing(self):
             self.uploads = {**self.uploads, name: m}
             self.error = ""
         self.param.dataset.objects = [*self.param.dataset.objects, name]
@@ -290,7 +296,7 @@ class BeamState(_Runs):
         self._keys[rid] = key
         if len(self._keys) > 50:
             self._keys.pop(min(self._keys))
-        with param.edit_constant(self):
+        with editing(self):
             self.param.update(requested=rid, stage="queued", progress=0.0, status="new inputs: calibrating")
         return rid
 
@@ -308,7 +314,7 @@ class BeamState(_Runs):
         if update.kind == "error":
             self._fail(user_message(update.message), self.result is not None)
             return
-        with param.edit_constant(self):
+        with editing(self):
             if update.kind == "progress":
                 self.param.update(stage="sampling", progress=update.fraction or 0.0, status=update.message)
             elif update.kind in ("preview", "partial"):
@@ -326,12 +332,12 @@ class BeamState(_Runs):
     def pin(self) -> None:
         """Keep the shown result for comparison with the next ones."""
         if self.result is not None:
-            with param.edit_constant(self):
+            with editing(self):
                 self.pinned = self.result
 
     def unpin(self) -> None:
         """Drop the pinned result."""
-        with param.edit_constant(self):
+        with editing(self):
             self.pinned = None
 
     @staticmethod
@@ -368,11 +374,11 @@ class DiagnosisState(_Runs):
 
     def _beam_failed(self, event) -> None:
         if event.new and self.adding:  # the re-calibration with the added effect failed: no rung
-            with param.edit_constant(self):
+            with editing(self):
                 self.param.update(adding="", status=f"adding failed: {event.new}")
 
     def _dataset_changed(self, event) -> None:
-        with param.edit_constant(self):
+        with editing(self):
             self.param.update(answer=None, adding="")
 
     def _beam_requested(self, event) -> None:
@@ -384,7 +390,7 @@ class DiagnosisState(_Runs):
             return
         self._slot.cancel()
         self._running = None
-        with param.edit_constant(self):
+        with editing(self):
             self.param.update(stage="idle", progress=0.0,
                               status="stopped: the beam view's model changed (press Diagnose for the new one)")
 
@@ -394,7 +400,7 @@ class DiagnosisState(_Runs):
         rid = self._slot.request(bind(diagnosis_run, key, self.beam.measurement, known=self.beam.known_maps(key)),
                                  debounce_s=0.0)
         self._running = (key.dataset, key.window, key.effects, key.modes)
-        with param.edit_constant(self):
+        with editing(self):
             self.param.update(requested=rid, stage="queued", progress=0.0, status="diagnosing the current model")
         return rid
 
@@ -409,7 +415,7 @@ class DiagnosisState(_Runs):
         if update.kind == "error":
             self._fail(user_message(update.message), self.diagnosis is not None)
             return
-        with param.edit_constant(self):
+        with editing(self):
             if update.kind == "progress":
                 self.param.update(stage="sampling", progress=update.fraction or 0.0, status=update.message)
             elif update.kind in ("preview", "partial"):
@@ -440,7 +446,7 @@ class DiagnosisState(_Runs):
     # -- the ladder ------------------------------------------------------------------------------
     def add(self, effect: str) -> None:
         """Add ``effect`` to the beam view's model: re-calibrate (full MCMC) and append a ladder rung."""
-        with param.edit_constant(self):
+        with editing(self):
             self.param.update(adding=effect, status=f"adding {effect}: re-calibrating with full MCMC")
         self.beam.add_effect(effect)
 
@@ -454,7 +460,7 @@ class DiagnosisState(_Runs):
         rungs = [r for r in self.ladder if r["effects"] != ", ".join(key.effects)]
         added = self.adding
         self.request()  # every view of the diagnosis (residuals, spectra, modes, candidates) for the new model
-        with param.edit_constant(self):
+        with editing(self):
             self.param.update(ladder=rungs + [ladder_rung(event.new, added, len(rungs))], adding="")
 
     def has_answer(self) -> bool:
@@ -467,7 +473,7 @@ class DiagnosisState(_Runs):
         """The hidden effects and true parameters of a bundled dataset (None for an upload or a real
         record: ``status`` then says there is no known answer, :data:`NO_ANSWER`)."""
         answer = read_answer(self.beam.dataset) if self.has_answer() else None
-        with param.edit_constant(self):
+        with editing(self):
             self.answer = answer
             if answer is None:
                 self.status = NO_ANSWER

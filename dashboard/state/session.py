@@ -32,6 +32,7 @@ from dashboard.jobs.toy import sweep_key, toy_run, toy_sweep
 from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState, DiagnosisState
+from dashboard.state.editing import editing
 
 __all__ = ["LANDING_SEED", "LIKELIHOOD_LABELS", "SessionState", "ToyState"]
 
@@ -125,7 +126,7 @@ class ToyState(param.Parameterized):
         """Run the current scenario (preview, MCMC, then the sweep); returns the request id."""
         scenario = self.scenario()
         rid = self._run_slot.request(bind(toy_run, scenario), debounce_s=None if debounce else 0.0)
-        with param.edit_constant(self):
+        with editing(self):
             self.param.update(requested=rid, stage="queued", progress=0.0, status="new inputs: calibrating")
         return rid
 
@@ -139,7 +140,7 @@ class ToyState(param.Parameterized):
         times.setdefault(update.kind, update.elapsed_s)
         if len(self._timings) > 50:
             self._timings.pop(min(self._timings))
-        with param.edit_constant(self):
+        with editing(self):
             if update.kind == "error":
                 kept = " The previous result is still shown." if self.result is not None else ""
                 self.param.update(stage="error", error=user_message(update.message), progress=0.0,
@@ -162,11 +163,11 @@ class ToyState(param.Parameterized):
             return
         self._sweep_key = sweep_key(scenario)
         self._sweep_slot.request(bind(toy_sweep, scenario), debounce_s=0.0)
-        with param.edit_constant(self):  # the old sweep belongs to another scenario: do not show it
+        with editing(self):  # the old sweep belongs to another scenario: do not show it
             self.param.update(sweep=None, sweep_status="computing the window sweep")
 
     def _on_sweep_update(self, update: sch.Update) -> None:
-        with param.edit_constant(self):
+        with editing(self):
             if update.kind == "error":
                 self.param.update(sweep_status=f"window sweep failed: {user_message(update.message)}")
             elif update.kind == "partial":  # status only: redrawing the sweep per window would load the event loop
@@ -178,12 +179,12 @@ class ToyState(param.Parameterized):
     def pin(self) -> None:
         """Keep the shown result for comparison with the next ones."""
         if self.result is not None:
-            with param.edit_constant(self):
+            with editing(self):
                 self.pinned = self.result
 
     def unpin(self) -> None:
         """Drop the pinned result."""
-        with param.edit_constant(self):
+        with editing(self):
             self.pinned = None
 
     def describe(self) -> dict:
@@ -225,7 +226,7 @@ class SessionState(param.Parameterized):
         beam.attach(self.slot("beam", beam._on_run_update))
         diagnosis = DiagnosisState(beam=beam)
         diagnosis.attach(self.slot("diagnosis", diagnosis._on_run_update, debounce_s=0.0))
-        with param.edit_constant(self):
+        with editing(self):
             self.param.update(toy=toy, beam=beam, diagnosis=diagnosis)
 
     def slot(self, name: str, on_update: Callable[[sch.Update], None], *, debounce_s: float | None = None) -> sch.RunSlot:

@@ -60,8 +60,6 @@ def _toy_guide() -> str:
     steps = "\n".join(f"{k}. *{title}.* {text}" for k, (title, text, _) in enumerate(TOY_STEPS, start=1))
     words = "\n".join(f"* **{term}** — {meaning}" for term, meaning in TOY_GLOSSARY.items())
     return f"""
-### For the class
-
 **The set-up.** The data are `A sin(2π f t + φ) + δ d(t) + noise`; the model is the sine
 alone, calibrated on the shaded window with an i.i.d. (or AR(1)) noise likelihood and judged
 on the rest of the record (held out). `δ d(t)` is physics the model misses.

@@ -21,7 +21,7 @@ from dashboard.plots.timeseries import TimeSeriesPlot
 from dashboard.plots.toy import SweepPlot
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
-from dashboard.views.panes import HTML, DataFrame, Markdown, alert_html
+from dashboard.views.panes import FLEX_ITEM_GUIDE, FLEX_ITEM_INPUTS, FLEX_ITEM_MAIN, HTML, DataFrame, Markdown, alert_html
 from dashboard.views.texts import TOY_GLOSSARY, TOY_GUIDE, TOY_STEPS
 
 __all__ = ["ToyView"]
@@ -69,10 +69,13 @@ class ToyView(pn.viewable.Viewer):
         toy.param.watch(self._sweep_arrived, "sweep")
         # A skeleton now; the pieces are built in steps (dashboard.runtime.staging: one at a time on the
         # server's event loop, so that no session holds it for long), in page order.
-        self._left = pn.Column(width=300)
-        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600)
-        self._right = pn.Column(width=320)
-        self._layout = pn.Row(self._left, self._centre, self._right, sizing_mode="stretch_width")
+        # the beam view's columns: the class panel goes below the plot where the window is narrow
+        # (in one row the plot was 374 px wide at 1024 px)
+        self._left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS)
+        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN)
+        self._right = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE)
+        self._layout = pn.FlexBox(self._left, self._centre, self._right, flex_wrap="wrap", align_items="flex-start",
+                                  sizing_mode="stretch_width")
         run_steps([self._build_status, self._build_figure, self._build_plot, self._build_controls, self._build_side,
                    self._build_guide, self._build_tabs])
 
@@ -125,7 +128,7 @@ class ToyView(pn.viewable.Viewer):
         toy.param.watch(lambda e: self._timeseries.update(toy.result, toy.pinned), ["result", "pinned"])
 
     def _build_plot(self) -> None:
-        self._centre.append(pn.pane.Bokeh(self._timeseries.figure, sizing_mode="stretch_width", height=390))
+        self._centre.append(pn.pane.Bokeh(self._timeseries.figure, sizing_mode="stretch_width", height=420))
 
     def _build_controls(self) -> None:
         self._left.extend([self._controls(), self._presets()])
@@ -134,7 +137,9 @@ class ToyView(pn.viewable.Viewer):
         self._left.extend([self._compare_buttons(), self._downloads()])
 
     def _build_guide(self) -> None:
-        self._right.append(Markdown(TOY_GUIDE, sizing_mode="stretch_width"))
+        self._right.append(pn.Card(Markdown(TOY_GUIDE, sizing_mode="stretch_width"), title="For the class",
+                                   collapsible=True, collapsed=False, sizing_mode="stretch_width",
+                                   css_classes=["toy-class-guide"]))
 
     def _build_tabs(self) -> None:
         toy = self._toy
@@ -250,7 +255,8 @@ class ToyView(pn.viewable.Viewer):
                                           nan_format="–", margin=(0, 0, 0, 12),
                                           css_classes=[f"beam-readout-{key.replace('_', '-')}"])
             tip = TOY_GLOSSARY[term] if term else _NOISE_TIP
-            items.append(pn.Row(number, pn.widgets.TooltipIcon(value=f"{term or 'noise sd'}: {tip}", margin=(4, 8))))
+            items.append(pn.Row(number, pn.widgets.TooltipIcon(value=f"{term or 'noise sd'}: {tip}", margin=(4, 8)),
+                                css_classes=["toy-readout"]))
 
         def verdict_html(result, pinned):
             kind, lines = judge(result, pinned)
@@ -258,7 +264,10 @@ class ToyView(pn.viewable.Viewer):
 
         verdict = HTML(pn.bind(verdict_html, toy.param.result, toy.param.pinned), sizing_mode="stretch_width",
                                margin=(0, 10), css_classes=["beam-verdict"])
-        return pn.Column(pn.Row(*items, sizing_mode="stretch_width"), verdict, sizing_mode="stretch_width")
+        # wrapped onto a second line where the column is narrow (in one row they ran over the class
+        # panel at 1024 and 1280 px)
+        row = pn.FlexBox(*items, flex_wrap="wrap", sizing_mode="stretch_width", css_classes=["toy-readouts"])
+        return pn.Column(row, verdict, sizing_mode="stretch_width")
 
     def _presets(self) -> pn.Card:
         """One button per preset of the "Try this" steps: it sets the inputs of the step at once."""

@@ -97,6 +97,21 @@ def test_beam_and_diagnosis_views_fit_every_class_screen(page, tmp_path):
     assert page.errors == []
 
 
+def test_toy_view_fits_every_class_screen(page, tmp_path):
+    """The toy view (the landing tab): its four read-outs wrap instead of running over the class
+    panel (they did at 1024 and 1280 px), and the plot keeps its width (its legend is below it)."""
+    wait_for_status(page, "s.stage === 'final'", css="beam-status", timeout_ms=120000)
+    for w, h in SIZES:
+        page.set_viewport_size({"width": w, "height": h})
+        page.wait_for_timeout(1200)
+        page.screenshot(path=str(tmp_path / f"toy_{w}x{h}.png"), full_page=True)
+        out = check(page, ".toy-readout", [".toy-class-guide", ".toy-plot", ".beam-verdict"], ".toy-plot")
+        assert out["readouts"] == 4
+        assert out["problems"] == [], f"toy view at {w} x {h}: {out['problems']} (screenshots in {tmp_path})"
+        assert out["plot_width"] >= 480, f"toy plot {out['plot_width']:.0f} px wide at {w} x {h}"
+    assert page.errors == []
+
+
 def test_the_class_panel_folds_away(page):
     open_tab(page, "Beam calibration")
     guide = page.locator(".beam-class-guide").first
