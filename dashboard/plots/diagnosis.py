@@ -180,7 +180,7 @@ class DiagnosisPlots:
 
     # -- updates ----------------------------------------------------------------------------------
     def update(self, diagnosis) -> None:
-        """Show a :class:`~dashboard.jobs.beam.Diagnosis` (None clears).
+        """Show a :class:`~dashboard.jobs.diagnosis.Diagnosis` (None clears).
 
         A diagnosis arrives several times (its residual report first, then after every two ranked
         candidates, then final; each a new object, unpickled from the worker) with the same

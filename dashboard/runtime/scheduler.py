@@ -48,6 +48,7 @@ import heapq
 import itertools
 import logging
 import os
+import queue
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -63,6 +64,7 @@ __all__ = [
     "final",
     "offload",
     "offload_map",
+    "OffloadQueue",
     "final_value",
     "Cancelled",
     "partial",
@@ -386,72 +388,152 @@ class Cancelled(Exception):
     """The job that called :func:`offload_map` was cancelled while the calls ran."""
 
 
+class OffloadQueue:
+    """Calls of generator functions on the pool's worker processes, submitted while earlier ones
+    run; their final values come back in the order the calls finish.
+
+    Use it inside a job, as :func:`offload`: ``submit`` a call under a key, ``next()`` waits for
+    the next call to finish and returns ``(key, final value)`` (an exception raised by a call as
+    its value; the stages other than ``final`` are dropped). As many calls run at once as the
+    pool has processes; the others wait in submission order (``first=True`` jumps the queue). A
+    call waits for a free process and gives way to any other run waiting for one
+    (:meth:`~dashboard.runtime.workers.WorkerProcesses.acquire`, ``background``). :meth:`idle`
+    tells whether a process would otherwise be left without work: the diagnosis fills it with
+    fits it will probably need (:mod:`dashboard.jobs.diagnosis`).
+
+    Cancellation (the job's ticket) stops every call at its next stage and raises
+    :class:`Cancelled` from :meth:`next`. :meth:`close` drops the calls not started; a call in
+    progress finishes on its process (a fit cannot stop between two of its own stages) and its
+    value is dropped. Outside a job of a pool with worker processes, :meth:`next` runs the first
+    waiting call on the calling thread (one at a time: :attr:`capacity` is 1).
+    """
+
+    def __init__(self) -> None:
+        pool = getattr(_current, "pool", None)
+        self._workers = None if pool is None else pool.workers
+        self._cancelled: threading.Event | None = getattr(_current, "cancelled", None)
+        self._waiting: list[tuple[Any, Callable[..., Iterator[Stage]], tuple, dict]] = []
+        self._running = 0
+        self._drivers = 0
+        self._closed = False
+        self._lock = threading.Lock()
+        self._done: queue.Queue = queue.Queue()
+        self._unread = 0
+
+    @property
+    def capacity(self) -> int:
+        """How many calls run at once (the pool's processes; 1 on the calling thread)."""
+        return 1 if self._workers is None else len(self._workers.workers)
+
+    def idle(self) -> int:
+        """Processes that no running or waiting call will occupy."""
+        with self._lock:
+            return max(self.capacity - self._running - len(self._waiting), 0)
+
+    def outstanding(self) -> int:
+        """Calls submitted whose values :meth:`next` has not returned yet."""
+        with self._lock:
+            return self._unread
+
+    def submit(self, key: Any, fn: Callable[..., Iterator[Stage]], *args: Any, first: bool = False,
+               **kwargs: Any) -> None:
+        """Queue ``fn(*args, **kwargs)`` under ``key`` (``first``: ahead of the calls waiting)."""
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("submit to a closed OffloadQueue")
+            entry = (key, fn, args, kwargs)
+            self._waiting.insert(0, entry) if first else self._waiting.append(entry)
+            self._unread += 1
+            start = self._workers is not None and self._drivers < self.capacity
+            if start:
+                self._drivers += 1
+        if start:
+            threading.Thread(target=self._drive, name="offload-queue", daemon=True).start()
+
+    def _drive(self) -> None:
+        while True:
+            with self._lock:
+                if not self._waiting or self._closed or (self._cancelled is not None and self._cancelled.is_set()):
+                    self._drivers -= 1
+                    return
+                key, fn, args, kwargs = self._waiting.pop(0)
+                self._running += 1
+            try:
+                value = final_value(self._workers.run(fn, args, kwargs, cancelled=self._cancelled, background=True))
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller as the call's value
+                value = exc
+            with self._lock:
+                self._running -= 1
+            self._done.put((key, value))
+
+    def next(self) -> tuple[Any, Any]:
+        """``(key, final value)`` of the next call to finish (waits for it).
+
+        Raises
+        ------
+        Cancelled
+            The job was cancelled.
+        LookupError
+            No call is outstanding.
+        """
+        with self._lock:
+            if self._unread == 0:
+                raise LookupError("no call is outstanding")
+        if self._workers is None:
+            if self._cancelled is not None and self._cancelled.is_set():
+                raise Cancelled()
+            if self._done.empty():
+                with self._lock:
+                    key, fn, args, kwargs = self._waiting.pop(0)
+                try:
+                    self._done.put((key, final_value(fn(*args, **kwargs))))
+                except Cancelled:
+                    raise
+                except BaseException as exc:  # noqa: BLE001 - as on a worker process
+                    self._done.put((key, exc))
+        while True:
+            try:
+                key, value = self._done.get(timeout=POLL_S)
+                break
+            except queue.Empty:
+                if self._cancelled is not None and self._cancelled.is_set():
+                    raise Cancelled() from None
+        if self._cancelled is not None and self._cancelled.is_set():
+            raise Cancelled()
+        with self._lock:
+            self._unread -= 1
+        return key, value
+
+    def close(self) -> None:
+        """Drop the calls not started (a call in progress finishes; its value is dropped)."""
+        with self._lock:
+            self._closed = True
+            self._unread -= len(self._waiting)
+            self._waiting.clear()
+
+
 def offload_map(fn: Callable[..., Iterator[Stage]], calls: list[tuple[tuple, dict]]) -> Iterator[tuple[int, Any]]:
     """Run ``fn(*args, **kwargs)`` for each ``(args, kwargs)`` of ``calls`` on the pool's worker
     processes, as many at once as the pool has processes; yield ``(index, final value)`` as each
     call finishes (completion order), an exception raised by a call as its value.
 
-    Use it inside a job, as :func:`offload`: the stages other than ``final`` are dropped. The
-    calls go out in the order given (put the slow ones first). A call waits for a free process,
-    and gives way to any other run waiting for one (:meth:`~dashboard.runtime.workers.WorkerProcesses.acquire`,
-    ``background``): a calibration asked for during a diagnosis waits at most for the fit in
-    progress on one process, not for the whole diagnosis. Cancellation (the job's ticket) stops every call at its next stage and
-    raises :class:`Cancelled` here. Outside a job of a pool with worker processes, the calls run
-    one after the other on the calling thread.
+    An :class:`OffloadQueue` with every call submitted at once, in the order given (put the
+    slow ones first); the same rules for waiting, giving way and cancellation. Leaving the
+    loop early drops the calls not started.
 
     Measured (the dashboard's diagnosis of lab_run_1, 7 modes: five candidate fits, then four
     more on top of the best; quiet 2-core machine): 12.2 s on two processes against 22.1 s with
     the calls one after the other; two threads of one process had gained only ~1.2x (the model's
     Python between the compiled kernels holds the GIL).
     """
-    pool = getattr(_current, "pool", None)
-    workers = None if pool is None else pool.workers
-    cancelled = getattr(_current, "cancelled", None)
-    if workers is None:
-        for i, (args, kwargs) in enumerate(calls):
-            if cancelled is not None and cancelled.is_set():
-                raise Cancelled()
-            yield i, final_value(fn(*args, **kwargs))
-        return
-    import queue
-
-    done: queue.Queue = queue.Queue()
-    pending = list(enumerate(calls))
-    lock = threading.Lock()
-
-    def drive() -> None:
-        while True:
-            with lock:
-                if not pending or (cancelled is not None and cancelled.is_set()):
-                    return
-                i, (args, kwargs) = pending.pop(0)
-            try:
-                value = final_value(workers.run(fn, args, kwargs, cancelled=cancelled, background=True))
-            except BaseException as exc:  # noqa: BLE001 - handed to the caller as the call's value
-                value = exc
-            done.put((i, value))
-
-    threads = [threading.Thread(target=drive, name=f"offload-map-{k}", daemon=True)
-               for k in range(min(len(workers.workers), len(calls)))]
-    for t in threads:
-        t.start()
+    calls_queue = OffloadQueue()
+    for i, (args, kwargs) in enumerate(calls):
+        calls_queue.submit(i, fn, *args, **kwargs)
     try:
         for _ in range(len(calls)):
-            while True:
-                try:
-                    i, value = done.get(timeout=POLL_S)
-                    break
-                except queue.Empty:
-                    if cancelled is not None and cancelled.is_set():
-                        raise Cancelled() from None
-            if cancelled is not None and cancelled.is_set():
-                raise Cancelled()
-            yield i, value
+            yield calls_queue.next()
     finally:
-        with lock:
-            pending.clear()
-        for t in threads:
-            t.join()
+        calls_queue.close()
 
 
 #: Seconds between two checks for cancellation while :func:`offload_map` waits.

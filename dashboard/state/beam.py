@@ -37,16 +37,15 @@ from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS
 from dashboard.jobs.beam import (
     CalibrationKey,
-    Diagnosis,
     bundled_datasets,
     calibration_run,
-    diagnosis_run,
     effect_label,
     is_real,
     load_bundled,
     load_upload,
     read_answer,
 )
+from dashboard.jobs.diagnosis import Diagnosis, diagnosis_run
 from dashboard.outputs.beam import output_units
 from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
@@ -279,7 +278,7 @@ class BeamState(_Runs):
         return tuple(self._known.get((key.dataset, key.window, key.modes, key.likelihood), ()))
 
     def remember(self, key: CalibrationKey, maps: tuple) -> None:
-        """Keep a diagnosis's MAPs (:attr:`dashboard.jobs.beam.Diagnosis.known_maps`) of ``key``'s
+        """Keep a diagnosis's MAPs (:attr:`dashboard.jobs.diagnosis.Diagnosis.known_maps`) of ``key``'s
         record, window, modes and likelihood (the last :data:`KNOWN_CONTEXTS` contexts)."""
         context = (key.dataset, key.window, key.modes, key.likelihood)
         seen = {effects: found for effects, found in self._known.pop(context, ())}

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import recorder
-from worker_jobs import counting, dying, failing, mapped, offloaded
+from worker_jobs import counting, dying, failing, mapped, offloaded, queued
 
 from beam.toy import ToyScenario
 from dashboard.jobs.toy import toy_run, toy_stages
@@ -222,3 +222,16 @@ def test_plain_arguments_equal_to_an_argument_index_come_back_whole(proc_pool):
     rid = slot.request(offloaded(counting, 1, 0))
     assert slot.wait(60)
     assert rec.of(rid)[-1].kind == "final" and rec.of(rid)[-1].value["tag"] == 0
+
+
+def test_offload_queue_takes_calls_while_others_run_and_close_drops_the_waiting(proc_pool, tmp_path):
+    marker = str(tmp_path / "dropped")
+    slot, rec = make_slot(proc_pool)
+    rid = slot.request(queued(marker))
+    assert slot.wait(60)
+    out = rec.of(rid)[-1].value
+    assert out["capacity"] == 2 and out["idle"] == [2, 0]  # two processes, both taken by the first two calls
+    order = out["order"]
+    assert order[:3] == ["short", "urgent", "waits"], order  # "urgent" took the process "short" freed
+    assert sorted(order[3:]) == ["blocker", "long"], order
+    assert not os.path.exists(marker + ".closed")  # "dropped" never started

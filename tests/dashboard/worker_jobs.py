@@ -65,3 +65,26 @@ def mapped(fn, calls):
             yield sch.partial(list(out))
         yield sch.final(out)
     return job
+
+
+def queued(marker: str):
+    """A job on an :class:`~dashboard.runtime.scheduler.OffloadQueue` with two processes: a long
+    and a short call, then one that waits and one that jumps the queue (``first``); once three
+    have ended, a blocking call takes the free process and a last one, still waiting, is dropped
+    by ``close``. Finishes with the keys in completion order and ``idle()`` along the way."""
+    def job():
+        q = sch.OffloadQueue()
+        idle = [q.idle()]
+        q.submit("long", counting, 4, "long", pause_s=0.5)
+        q.submit("short", counting, 2, "short", pause_s=0.1)
+        idle.append(q.idle())
+        q.submit("waits", counting, 1, "waits")
+        q.submit("urgent", counting, 1, "urgent", first=True)
+        order = [q.next()[0] for _ in range(3)]
+        q.submit("blocker", counting, 2, "blocker", pause_s=0.3)
+        q.submit("dropped", counting, 1, "dropped", marker=marker)
+        q.close()  # "dropped" waits for a process: it never runs
+        while q.outstanding():
+            order.append(q.next()[0])
+        yield sch.final({"order": order, "idle": idle, "capacity": q.capacity})
+    return job
