@@ -172,8 +172,9 @@ class DiagnosisPlots:
                              vdims=["coverage"]).opts(color=COLORS["mean"], alpha=0.7, logy=True,
                                                       xlim=(-0.6, max(len(rungs), 4) - 0.4), ylim=(bottom / 2, top),
                                                       hooks=[name_source("diag-ladder")])
-        labels = hv.Labels({"rung": x, "rmse": rmse, "label": [f"{r['rmse_prediction']:.3g} {r.get('unit', unit)}" for r in rungs]},
-                           [step, error], "label").opts(text_font_size="8pt", text_baseline="top")
+        # the value above its bar, dark on the white plot (inside the bar it was hard to read)
+        labels = hv.Labels({"rung": x, "rmse": rmse, "label": [f"{_amount(r['rmse_prediction'])} {r.get('unit', unit)}" for r in rungs]},
+                           [step, error], "label").opts(text_font_size="9pt", text_baseline="bottom", text_color="#222222")
         ticks = [(v, "start" if r["rung"] == 0 else _title(r["added"])) for v, r in zip(x, rungs)] or [(0.0, "start")]
         return _overlay([bars, labels]).opts(
             title="Held-out error per step", logy=True, xticks=ticks, show_legend=False, hooks=[css_class("diag-ladder-plot")], **_TOOLS)
@@ -237,3 +238,8 @@ class DiagnosisPlots:
     def update_ladder(self, rungs: list[dict]) -> None:
         """Show the error ladder rows (:func:`dashboard.state.beam.ladder_rung`)."""
         self.pipes["ladder"].send(list(rungs))
+
+
+def _amount(value: float) -> str:
+    """Three significant digits without an exponent up to 10⁶ ("1150", "46.5", "0.0123")."""
+    return f"{value:.0f}" if 100 <= abs(value) < 1e6 else f"{value:.3g}"
