@@ -264,12 +264,15 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement, known: tuple
     fits: dict[str, CalibrationResult | Exception] = {}
     frequencies: dict = {}
     explain = explainer(residuals)
+    ranking = None
     try:
         while len(fits) < len(names):
             done_key, value = fits_plan.next()
             effect = next((e for e in names if done_key == ("fit", effects_of[e])), None)
-            if effect is None or effect in fits:
-                continue  # a speculative fit or a residual check: kept for the climb
+            if effect is None or effect in fits:  # a speculative fit or a residual check: kept for the climb
+                if ranking is not None:
+                    _speculate(fits_plan, measurement, ranking, fits, names, floor)  # its process is free again
+                continue
             fits[effect], freqs = value[0], value[1]
             if freqs is not None:
                 frequencies[effect] = freqs
