@@ -73,12 +73,6 @@ TRUST_REGION_MAX_NFEV = 200
 LM_RADIUS = 1.0
 LM_MAX_RADIUS = 8.0
 LM_MIN_RADIUS = 1e-6
-#: From this many active starts on, an iteration evaluates the trial points alone first and then
-#: the forward-difference stencils of the accepted ones only (two model calls of 1 + k·accepted
-#: rows instead of one of (1 + k)·trials): a rejected trial then costs one row, not 1 + k.
-#: Below it the second call's fixed cost (~0.3-0.6 ms of Python and model set-up) outweighs the
-#: rows saved.
-LM_SPLIT_STARTS = 16
 LM_BOX_FACTORS = 4.0 ** np.arange(0, 9)
 #: A start more than LM_DROP_MARGIN nats worse than a converged one and nearly settled (the
 #: Gauss–Newton model expects less than LM_DROP_SETTLED nats, and less than a tenth of the gap)
@@ -172,25 +166,7 @@ class _Objective:
         z[:, self.model_index] = x
         return z
 
-    def point(self, x: np.ndarray, template: np.ndarray):
-        """Internal points (noise profiled), log posteriors and predictions (m, n) at points ``x``
-        (m, k): one model row per point, no stencil (a trial step judged before its Jacobian is
-        paid for, see :data:`LM_SPLIT_STARTS`)."""
-        problem = self.problem
-        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-            prediction = problem.predict(problem.from_internal(self.full(x, template)))
-        residual = problem.data - prediction
-        z = template.copy()
-        z[:, self.model_index] = x
-        z = self._profiled_noise(residual, z)
-        values = problem.from_internal(z)
-        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-            lp = problem.log_prior(z) + log_likelihood(problem.likelihood, residual,
-                                                       {n: values[n] for n in problem.noise_names})
-        return z, np.where(np.isfinite(lp), lp, -np.inf), prediction
-
-    def evaluate(self, x: np.ndarray, template: np.ndarray, *, profile: bool = True,
-                 point: np.ndarray | None = None):
+    def evaluate(self, x: np.ndarray, template: np.ndarray, *, profile: bool = True):
         """Internal points, log posteriors, stacked residuals (m, N) and Jacobians (m, N, k) at
         points ``x`` (m, k).
 
@@ -199,8 +175,7 @@ class _Objective:
         stencil row of a parameter the prediction is proportional to
         (:attr:`~beam.inference.Problem.proportional_to`) is the point's prediction scaled by
         the perturbed value over the value, not a model call: the same finite difference for one
-        row in 1 + k fewer (a seventh of the rows of a patch model's search). ``point`` (m, n), the
-        points' own predictions when already known (:meth:`point`), saves their rows too.
+        row in 1 + k fewer (a seventh of the rows of a patch model's search).
         """
         problem, k = self.problem, self.k
         m = x.shape[0]
@@ -210,26 +185,19 @@ class _Objective:
         called = np.ones(1 + k, dtype=bool)
         if self.proportional >= 0:
             called[1 + self.proportional] = False
-        if point is not None:
-            called[0] = False
         width = int(called.sum())
+        rows = self.full(stencil[:, called].reshape(m * width, k), np.repeat(template, width, axis=0))
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            computed = problem.predict(problem.from_internal(rows)).reshape(m, width, -1)
         if width == 1 + k:
-            rows = self.full(stencil.reshape(m * width, k), np.repeat(template, width, axis=0))
-            with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-                prediction = problem.predict(problem.from_internal(rows)).reshape(m, width, -1)
+            prediction = computed
         else:
-            prediction = np.empty((m, 1 + k, problem.data.size))
-            if width:
-                rows = self.full(stencil[:, called].reshape(m * width, k), np.repeat(template, width, axis=0))
-                with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-                    prediction[:, called] = problem.predict(problem.from_internal(rows)).reshape(m, width, -1)
-            if point is not None:
-                prediction[:, 0] = point
-        if self.proportional >= 0:
             c, prior = self.proportional, self.proportional_prior
+            prediction = np.empty((m, 1 + k, computed.shape[-1]))
+            prediction[:, called] = computed
             with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
                 ratio = prior.from_internal(x[:, c] + h[:, c]) / prior.from_internal(x[:, c])
-            prediction[:, 1 + c] = prediction[:, 0] * ratio[:, None]
+            prediction[:, 1 + c] = computed[:, 0] * ratio[:, None]
         residual = problem.data - prediction
         z = template.copy()
         z[:, self.model_index] = x
@@ -469,18 +437,9 @@ def levenberg_marquardt(
             break
         index, steps, step_gain, clipped = index[keep], steps[keep], step_gain[keep], clipped[keep]
         trial = np.clip(x[index] + steps, lo + margin, hi - margin)
-        if index.size >= LM_SPLIT_STARTS:  # the trial points first, the stencils of the accepted ones then
-            z_t, lp_t, point = objective.point(trial, z[index])
-            gain = lp_t - lp[index]
-            better = gain > 0.0
-            if np.any(better):
-                z_t[better], lp_t[better], r_a, jac_a = objective.evaluate(trial[better], z_t[better], profile=False,
-                                                                            point=point[better])
-        else:
-            z_t, lp_t, r_t, jac_t = objective.evaluate(trial, z[index])
-            gain = lp_t - lp[index]
-            better = gain > 0.0
-            r_a, jac_a = r_t[better], jac_t[better]
+        z_t, lp_t, r_t, jac_t = objective.evaluate(trial, z[index])
+        gain = lp_t - lp[index]
+        better = gain > 0.0
         accepted, rejected = index[better], index[~better]
         rho = np.minimum(gain[better] / np.maximum(step_gain[better], 1e-300), 1.0)
         lam[accepted] *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
@@ -488,7 +447,7 @@ def levenberg_marquardt(
         grow = accepted[clipped[better] & (rho > 0.75)]
         radius[grow] = np.minimum(2.0 * radius[grow], LM_MAX_RADIUS)
         x[accepted], z[accepted], lp[accepted] = trial[better], z_t[better], lp_t[better]
-        r[accepted], jac[accepted] = r_a, jac_a
+        r[accepted], jac[accepted] = r_t[better], jac_t[better]
         lam[rejected] *= nu[rejected]
         nu[rejected] *= 2.0
         shrink = rejected[clipped[~better]]
