@@ -83,3 +83,22 @@ def test_jacobian_with_the_proportional_shortcut_matches_full_finite_differences
         central = -(problem.predict(problem.from_internal(up)) - problem.predict(problem.from_internal(down)))[0] / (2 * h * sd)
         n = central.size
         assert np.linalg.norm(jac_short[i, :n, c] - central) <= 1e-5 * np.linalg.norm(central)
+
+
+def test_the_last_drop_before_the_continuations_measures_against_the_best_start_reached():
+    """Before the trust-region continuations a start that cannot catch up (far behind, expecting
+    little) is dropped even when no start converged: the best start's log posterior is already
+    reached. A start still climbing (the Gauss–Newton model expects a good share of the gap) goes on,
+    and without ``reference`` the rule still waits for a converged start."""
+    from beam.calibration.fit import _drop_worse_basins
+
+    lp = np.array([10383.2, 5992.9, 7501.4, 10380.0])
+    predicted = np.array([3.3, 6.8, 517.0, 2.0])  # nats the Gauss–Newton model expects to gain
+    converged = np.zeros(4, dtype=bool)
+    dropped = np.zeros(4, dtype=bool)
+    _drop_worse_basins(lp, predicted, converged, dropped, settled=np.inf)
+    assert not dropped.any()  # nothing converged: no reference
+    _drop_worse_basins(lp, predicted, converged, dropped, settled=np.inf, reference=float(lp.max()))
+    # 4,390 nats behind expecting 6.8: dropped; 2,882 behind expecting 517 (> a tenth of the gap):
+    # kept; 3.2 behind: within the margin, kept; the best itself: kept
+    assert dropped.tolist() == [False, True, False, False]
