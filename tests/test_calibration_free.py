@@ -477,3 +477,30 @@ def test_correction_by_cholesky_matches_the_eigen_form():
     assert fit["certified"].all()
     np.testing.assert_allclose(correction, reference, rtol=1e-9, atol=1e-6)
     np.testing.assert_allclose(fit["amplitudes"], amplitudes, rtol=1e-7, atol=1e-9 * np.max(np.abs(amplitudes)))
+
+
+def test_repeated_sets_fit_as_each_alone():
+    """A batch whose sets repeat (only the noise sd differs, as in the Newton polish's stencil)
+    gives every set the fit, prediction and marginal correction it gets alone."""
+    record = read_measurement(REAL / "adxl_50cm_114655.csv")
+    keep = (record.time_s >= 0.5) & (record.time_s < 1.0)
+    model = _free_model(("modal_damping", "sensor_mass"))
+    forward = ProjectedFreeModel(model, 3, "acceleration", record.time_s[keep], record.output[keep])
+    rng = np.random.default_rng(4)
+    distinct = {"bending_stiffness_Nm2": rng.uniform(1.9, 2.3, 5), "sensor_mass_kg": rng.uniform(1e-3, 8e-3, 5)}
+    distinct |= {f"damping_ratio_mode_{i}": rng.uniform(0.002, 0.05, 5) for i in (1, 2, 3)}
+    pick = np.array([3, 0, 3, 1, 4, 0, 2, 3])
+    batch = {name: v[pick] for name, v in distinct.items()} | {NOISE_SD: rng.uniform(0.05, 0.5, pick.size)}
+    correction = forward.log_likelihood_correction(batch)
+    later = record.time_s[(record.time_s >= 1.0) & (record.time_s < 1.2)]
+    prediction = forward(batch, later)
+    for row, i in enumerate(pick):
+        one = {name: v[i : i + 1] for name, v in distinct.items()} | {NOISE_SD: batch[NOISE_SD][row : row + 1]}
+        alone = ProjectedFreeModel(model, 3, "acceleration", record.time_s[keep], record.output[keep])
+        fit = alone.fit(one)
+        np.testing.assert_allclose(forward.fit(batch)["amplitudes"][row], fit["amplitudes"][0], rtol=1e-12)
+        np.testing.assert_allclose(forward.fit(batch)["fitted"][row], fit["fitted"][0], rtol=1e-12,
+                                   atol=1e-12 * np.max(np.abs(fit["fitted"])))
+        np.testing.assert_allclose(correction[row], alone.log_likelihood_correction(one)[0], rtol=1e-12)
+        np.testing.assert_allclose(prediction[row], alone(one, later)[0], rtol=1e-12,
+                                   atol=1e-12 * np.max(np.abs(prediction[row])))

@@ -467,6 +467,12 @@ class ProjectedFreeModel:
         key, rho = self._key(values)
         if self._cache is not None and self._cache[0] == key:
             return self._cache[1]
+        distinct, inverse = self._distinct_sets(values, rho)
+        if distinct is not None:  # repeated sets (only the noise differs): each distinct one fitted once
+            unique = self.fit(distinct)
+            result = {name: array[inverse] for name, array in unique.items()}
+            self._cache = (key, result)
+            return result
         poles = self.poles(values)
         parts = [self._fit_rows(poles[i : i + FIT_CHUNK], None if rho is None else rho[i : i + FIT_CHUNK])
                  for i in range(0, poles.shape[0], FIT_CHUNK)]
@@ -475,6 +481,30 @@ class ProjectedFreeModel:
                   "certified": certified}
         self._cache = (key, result)
         return result
+
+    def _distinct_sets(self, values: Mapping[str, np.ndarray],
+                       rho: np.ndarray | None) -> tuple[dict[str, np.ndarray] | None, np.ndarray | None]:
+        """The distinct parameter sets of ``values`` (the model's names, and the AR(1)
+        coefficient for that likelihood) and the index of each set among them; (None, None)
+        when every set is distinct.
+
+        The fit depends on these alone, not on the noise sd: the Newton polish's
+        finite-difference stencil (:func:`beam.inference.optimize.fd_derivatives`) moves the
+        noise sd alone in 2 + 4 (d - 1) of its 1 + 2 d² points (26 of 99 for the strip's
+        sensor-mass model, d = 7), each the fit of a set already in the call.
+        """
+        arrays = np.broadcast_arrays(*[np.atleast_1d(np.asarray(values[name], dtype=float)) for name in self.names],
+                                     *(() if rho is None else (rho,)))
+        table = np.stack(arrays, axis=-1).reshape(-1, len(arrays))
+        if table.shape[0] < 2 or not np.all(np.isfinite(table)):
+            return None, None
+        _, first, inverse = np.unique(table, axis=0, return_index=True, return_inverse=True)
+        if first.size == table.shape[0]:
+            return None, None
+        distinct = {name: table[first, i] for i, name in enumerate(self.names)}
+        if rho is not None:
+            distinct[AR1_COEFFICIENT] = table[first, -1]
+        return distinct, inverse.reshape(-1)
 
     @staticmethod
     def spectral(fit: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
