@@ -299,12 +299,14 @@ def _credible_quantiles(mu, low_virtual, high_virtual, low_cut, high_cut, low_bu
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def _column_moments(mu, sd2):
     """Mean, variance, skewness and excess kurtosis (without the 3 E[sd⁴] term) of the mixture
-    (1/S) Σ N(mu_s, sd2_s), the spread of ``mu`` alone, and its minimum and maximum (one pass,
-    moments about mu[0])."""
+    (1/S) Σ N(mu_s, sd2_s) and the spread of ``mu`` alone (one pass, moments about mu[0]).
+
+    No minimum or maximum here: with them the loop did not vectorise (9 ms against 1 ms for the
+    strip's 19,400 samples of 400 draws); :func:`_bands_kernel` takes them while it gathers.
+    """
     n = mu.size
     origin = mu[0]
     s1 = s2 = s3 = s4 = t0 = t1 = t2 = 0.0
-    low = high = origin
     for s in range(n):
         d = mu[s] - origin
         d2 = d * d
@@ -316,8 +318,6 @@ def _column_moments(mu, sd2):
         t0 += v
         t1 += d * v
         t2 += d2 * v
-        low = min(low, mu[s])
-        high = max(high, mu[s])
     a = s1 / n  # mean - origin
     m2 = max(s2 / n - a * a, 0.0)
     m3 = s3 / n - 3.0 * a * s2 / n + 2.0 * a**3
@@ -325,7 +325,7 @@ def _column_moments(mu, sd2):
     v0, v1, v2 = t0 / n, t1 / n - a * t0 / n, t2 / n - 2.0 * a * t1 / n + a * a * t0 / n
     var = m2 + v0
     skew = (m3 + 3.0 * v1) / var**1.5
-    return origin + a, var, skew, (m4 + 6.0 * v2) / (var * var) - 3.0, math.sqrt(m2), low, high
+    return origin + a, var, skew, (m4 + 6.0 * v2) / (var * var) - 3.0, math.sqrt(m2)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -347,9 +347,13 @@ def _bands_kernel(f, sd, alpha, z_alpha, z_cut_low, z_cut_high, rtol, table, out
     high_buf = np.empty(n_draws + 1)
     scratch = np.empty(n_draws)
     for t in range(n_times):
+        low = high = f[0, t]
         for s in range(n_draws):  # the sample's draws, contiguous (consecutive samples share cache lines)
-            mu[s] = f[s, t]
-        mean, var, skew, kurt, spread, low, high = _column_moments(mu, sd2)
+            x = f[s, t]
+            mu[s] = x
+            low = min(low, x)
+            high = max(high, x)
+        mean, var, skew, kurt, spread = _column_moments(mu, sd2)
         kurt += 3.0 * mean_sd4 / (var * var)
         out[0, t] = mean
         out[1, t], out[2, t] = _credible_quantiles(mu, low_index, high_index, mean + z_cut_low * spread,
