@@ -10,7 +10,7 @@ import pytest
 from scipy.special import logsumexp
 
 from beam.calibration import calibration_preview, make_setup
-from beam.calibration.free import ProjectedFreeModel, free_basis_at
+from beam.calibration.free import ProjectedFreeModel, free_basis_at, free_prediction_at, free_rows_at
 from beam.inference import NOISE_SD
 from beam.io.measurement import Measurement, read_measurement
 from beam.physics import modal
@@ -504,3 +504,43 @@ def test_repeated_sets_fit_as_each_alone():
         np.testing.assert_allclose(correction[row], alone.log_likelihood_correction(one)[0], rtol=1e-12)
         np.testing.assert_allclose(prediction[row], alone(one, later)[0], rtol=1e-12,
                                    atol=1e-12 * np.max(np.abs(prediction[row])))
+
+
+def test_chained_and_tabulated_paths_match_the_closed_form_with_gaps():
+    """Stamps in increasing order take the chain over their distinct steps (an exact anchor every
+    128 samples), the same stamps in another order the two-level power tables: both equal
+    exp(lambda tau) evaluated directly on a record with gaps up to 100 median steps (distinct
+    steps from 0.8 to 100 ms), a reference inside the record, and sets of different damping in
+    one call (terms left out at different samples)."""
+    from beam.calibration.free import ChainLayout, _layout
+
+    rng = np.random.default_rng(12)
+    steps = rng.uniform(0.8e-3, 1.2e-3, 6_000)
+    steps[rng.choice(steps.size, 40, replace=False)] = rng.uniform(5e-3, 0.1, 40)  # gaps
+    t = np.round(np.cumsum(steps), 6) + 0.5
+    reference = t[50]
+    base = np.array([-0.3 + 38.0j, -0.3 - 38.0j, -2.0 + 245.0j, -2.0 - 245.0j, -40.0 + 694.0j, -40.0 - 694.0j,
+                     -30.0 + 0.0j, -700.0 + 0.0j])
+    poles = np.array([base * scale for scale in (1.0, 1.3, 0.7, 2.0, 0.2)])  # five sets: one group of four and one
+    assert isinstance(_layout(t - reference), ChainLayout)
+    order = rng.permutation(t.size)
+    assert not isinstance(_layout(t[order] - reference), ChainLayout)
+    tau = t - reference
+    amplitudes = rng.normal(size=(poles.shape[0], 9))
+    for stamps, index in ((t, np.arange(t.size)), (t[order], order)):
+        rows = free_rows_at(poles, stamps, reference, 1)
+        predicted = free_prediction_at(poles, amplitudes, stamps, reference, offset=True)
+        for b in range(poles.shape[0]):
+            columns = []
+            for j in (0, 2, 4):
+                z = np.exp(poles[b, j] * tau)
+                columns += [z.real, z.imag]
+            columns += [np.exp(poles[b, 6].real * tau), np.exp(poles[b, 7].real * tau)]
+            exact = np.array(columns)[:, index]
+            envelope = np.maximum(np.exp(np.repeat(poles[b, [0, 2, 4, 6, 7]].real, [2, 2, 2, 1, 1])[:, None] * tau[index]),
+                                  1.0)
+            assert np.all(np.abs(rows[b, :-1] - exact) <= 1e-12 * envelope)
+            assert np.all(rows[b, -1] == 1.0)
+            expected = amplitudes[b, :8] @ exact + amplitudes[b, 8]
+            bound = 1e-12 * (np.abs(amplitudes[b, :8]) @ envelope + abs(amplitudes[b, 8]))
+            assert np.all(np.abs(predicted[b] - expected) <= bound)
