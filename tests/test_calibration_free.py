@@ -544,3 +544,23 @@ def test_chained_and_tabulated_paths_match_the_closed_form_with_gaps():
             expected = amplitudes[b, :8] @ exact + amplitudes[b, 8]
             bound = 1e-12 * (np.abs(amplitudes[b, :8]) @ envelope + abs(amplitudes[b, 8]))
             assert np.all(np.abs(predicted[b] - expected) <= bound)
+
+
+def test_remembered_free_start_is_the_records_own():
+    """free_start_indices remembers its last records: asked again (another object with the same
+    samples) it answers as computed afresh, and a record whose output differs is not confused
+    with one remembered."""
+    from dataclasses import replace
+
+    from beam.calibration.free import free_response_start, free_start_indices, retained_band
+
+    record, _ = _released_decay()
+    fresh = free_response_start(record.time_s, record.output, *retained_band(record, 3))
+    assert free_start_indices(record, 3) == fresh
+    assert free_start_indices(replace(record, acceleration_m_s2=record.output.copy()), 3) == fresh
+    moved = np.concatenate([np.zeros(200), record.output[:-200]])  # released 200 samples later
+    other = replace(record, acceleration_m_s2=moved)
+    expected = free_response_start(other.time_s, other.output, *retained_band(other, 3))
+    assert expected != fresh
+    assert free_start_indices(other, 3) == expected
+    assert free_start_indices(record, 3) == fresh

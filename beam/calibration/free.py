@@ -947,8 +947,28 @@ def retained_band(measurement, modes: int) -> tuple[float | None, float]:
     return edge, 1.0 / frequencies[0]
 
 
+#: Records whose free-response start was found last (:func:`free_start_indices`): copies of the
+#: stamps and output, the band edge and period, and the result.
+_START_MEMO: list[tuple[np.ndarray, np.ndarray, float | None, float, tuple[int, int]]] = []
+_START_MEMO_SIZE = 4
+
+
 def free_start_indices(measurement, modes: int) -> tuple[int, int]:
     """(release, first sample of the free response) of a free record fitted with ``modes`` modes
-    (:func:`free_response_start` with the band of :func:`retained_band`)."""
+    (:func:`free_response_start` with the band of :func:`retained_band`).
+
+    Remembered for the last :data:`_START_MEMO_SIZE` records (stamps and output compared in
+    full, ~30 µs): a preview asked twice (its setup and the window's check, ~2 ms each on the
+    strip's 20 s record), and every model of a record in a diagnosis, the same question.
+    """
     edge, period_s = retained_band(measurement, modes)
-    return free_response_start(measurement.time_s, measurement.output, edge, period_s)
+    t = np.asarray(measurement.time_s, dtype=float)
+    y = np.asarray(measurement.output, dtype=float)
+    for time_s, output, memo_edge, memo_period, found in _START_MEMO:
+        if (memo_edge == edge and memo_period == period_s and time_s.shape == t.shape
+                and np.array_equal(time_s, t) and np.array_equal(output, y)):
+            return found
+    found = free_response_start(t, y, edge, period_s)
+    _START_MEMO.insert(0, (t.copy(), y.copy(), edge, period_s, found))
+    del _START_MEMO[_START_MEMO_SIZE:]
+    return found
