@@ -564,3 +564,25 @@ def test_remembered_free_start_is_the_records_own():
     assert expected != fresh
     assert free_start_indices(other, 3) == expected
     assert free_start_indices(record, 3) == fresh
+
+
+def test_spectral_scales_by_products_and_by_log_sums_agree():
+    """The product kernel (up to 16 modes) picks the scale the sum of logarithms picks, for 1 to
+    16 modes, some beyond Nyquist; 20 modes take the sums themselves."""
+    from beam.calibration.free_starts import _best_scales, _best_scales_product, record_spectrum, spectral_scales
+    from beam.calibration.starts import SCALE_GRID
+
+    record = read_measurement(REAL / "adxl_50cm_114759.csv")
+    inside = (record.time_s > 0.5) & (record.time_s < 3.0)
+    frequencies, power = record_spectrum(record.time_s[inside], record.output[inside])
+    floor = power.max() * 1e-12 + 1e-300
+    roots = np.sqrt(np.asarray(SCALE_GRID, dtype=float))
+    rng = np.random.default_rng(8)
+    for modes in (1, 2, 4, 7, 16, 20):
+        model = np.sort(rng.uniform(2.0, 700.0, (30, modes)), axis=1)
+        by_logs = _best_scales(model, roots, power, float(frequencies[1]), float(frequencies[-1]), floor)
+        if modes <= 16:
+            by_products = _best_scales_product(model, roots, power / power.max(), float(frequencies[1]),
+                                               float(frequencies[-1]), floor / power.max())
+            np.testing.assert_array_equal(by_products, by_logs)
+        np.testing.assert_array_equal(spectral_scales(model, (frequencies, power)), np.asarray(SCALE_GRID)[by_logs])
