@@ -56,6 +56,20 @@ def test_band_kernel_is_exact_on_hard_mixtures(level):
             _check_bands(f + 5.0, sd, level)
 
 
+def test_smallest_sorted_keeps_the_k_smallest_in_order():
+    """_smallest_sorted leaves the k smallest of the first n values sorted in front (ties,
+    k >= n and k = 0 included), as numpy's sort gives them."""
+    from beam.calibration.bands import _smallest_sorted
+
+    rng = np.random.default_rng(9)
+    for n, k in ((30, 11), (30, 30), (12, 20), (1, 1), (5, 0), (400, 37)):
+        for values in (rng.standard_normal(n), np.round(rng.standard_normal(n), 1)):
+            a = np.concatenate([values, [99.0, -99.0]])  # beyond n: untouched and ignored
+            _smallest_sorted(a, n, k)
+            np.testing.assert_array_equal(a[: min(k, n)], np.sort(values)[: min(k, n)])
+            np.testing.assert_array_equal(a[n:], [99.0, -99.0])
+
+
 def test_band_kernel_marks_times_with_a_draw_not_finite():
     """A time at which a draw is inf or NaN gets NaN bands and is counted (fast_predictive_bands
     raises on it); the other times keep the bands they have without it."""

@@ -265,11 +265,32 @@ def _insertion_sort(a, n):
 
 
 @numba.njit(cache=True, nogil=True)
+def _smallest_sorted(a, n, k):
+    """Reorder ``a[:n]`` so that ``a[:k]`` holds its k smallest values in increasing order (the
+    rest of ``a[:n]`` is left undefined): an insertion sort of the first k, then each later value
+    inserted only when it is below the k-th. The credible band needs the 11th and 12th of ~30
+    values beyond a cut; a full insertion sort of the 30 moved ~2.5 x as many values."""
+    k = min(k, n)
+    if k <= 0:
+        return
+    _insertion_sort(a, k)
+    for i in range(k, n):
+        x = a[i]
+        if x < a[k - 1]:
+            j = k - 2
+            while j >= 0 and a[j] > x:
+                a[j + 1] = a[j]
+                j -= 1
+            a[j + 1] = x
+
+
+@numba.njit(cache=True, nogil=True)
 def _credible_quantiles(mu, low_virtual, high_virtual, low_cut, high_cut, low_buf, high_buf, scratch):
     """numpy's 'linear' quantiles of ``mu`` at two virtual indices, one in each tail.
 
     The values below ``low_cut`` and above ``high_cut`` (cuts expected to hold a few times the
-    order statistics needed) are gathered without branches and sorted; when a cut holds too few
+    order statistics needed) are gathered without branches and the order statistics needed sorted in front
+    (:func:`_smallest_sorted`); when a cut holds too few
     or too many, quickselect on a copy decides.
     """
     n = mu.size
@@ -287,8 +308,8 @@ def _credible_quantiles(mu, low_virtual, high_virtual, low_cut, high_cut, low_bu
         n_high += x >= high_cut
     limit = 4 * max(need_low, need_high) + 32
     if need_low <= n_low <= limit and need_high <= n_high <= limit and need_high >= 2 and high_below < n - 1:
-        _insertion_sort(low_buf, n_low)
-        _insertion_sort(high_buf, n_high)
+        _smallest_sorted(low_buf, n_low, need_low)
+        _smallest_sorted(high_buf, n_high, need_high)
         low = _lerp(low_buf[need_low - 2], low_buf[need_low - 1], low_virtual - low_below)
         high = _lerp(-high_buf[need_high - 1], -high_buf[need_high - 2], high_virtual - high_below)
         return low, high
