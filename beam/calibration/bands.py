@@ -20,7 +20,8 @@ a contiguous buffer):
    point of each edge, which for the nearly Gaussian mixtures of a calibrated model is already
    close to the root;
 2. the credible band's order statistics: the draws beyond two cuts placed from the moments
-   (a few times the tail needed) are gathered without branches and insertion-sorted, with
+   (a few times the tail needed) are gathered without branches and the order statistics
+   needed insertion-sorted in front (:func:`_smallest_sorted`), with
    quickselect as the fall-back when a cut holds too few or too many;
 3. the mixture CDF and its first two derivatives at both edges in one pass over the draws,
    with the normal CDF from a table (cubic Hermite interpolation of Φ with φ as slopes, step
