@@ -10,7 +10,7 @@ import pytest
 from scipy.special import logsumexp
 
 from beam.calibration import calibration_preview, make_setup
-from beam.calibration.free import ProjectedFreeModel, free_basis_at
+from beam.calibration.free import ProjectedFreeModel, free_basis_at, free_prediction_at, free_rows_at
 from beam.inference import NOISE_SD
 from beam.io.measurement import Measurement, read_measurement
 from beam.physics import modal
@@ -477,3 +477,112 @@ def test_correction_by_cholesky_matches_the_eigen_form():
     assert fit["certified"].all()
     np.testing.assert_allclose(correction, reference, rtol=1e-9, atol=1e-6)
     np.testing.assert_allclose(fit["amplitudes"], amplitudes, rtol=1e-7, atol=1e-9 * np.max(np.abs(amplitudes)))
+
+
+def test_repeated_sets_fit_as_each_alone():
+    """A batch whose sets repeat (only the noise sd differs, as in the Newton polish's stencil)
+    gives every set the fit, prediction and marginal correction it gets alone."""
+    record = read_measurement(REAL / "adxl_50cm_114655.csv")
+    keep = (record.time_s >= 0.5) & (record.time_s < 1.0)
+    model = _free_model(("modal_damping", "sensor_mass"))
+    forward = ProjectedFreeModel(model, 3, "acceleration", record.time_s[keep], record.output[keep])
+    rng = np.random.default_rng(4)
+    distinct = {"bending_stiffness_Nm2": rng.uniform(1.9, 2.3, 5), "sensor_mass_kg": rng.uniform(1e-3, 8e-3, 5)}
+    distinct |= {f"damping_ratio_mode_{i}": rng.uniform(0.002, 0.05, 5) for i in (1, 2, 3)}
+    pick = np.array([3, 0, 3, 1, 4, 0, 2, 3])
+    batch = {name: v[pick] for name, v in distinct.items()} | {NOISE_SD: rng.uniform(0.05, 0.5, pick.size)}
+    correction = forward.log_likelihood_correction(batch)
+    later = record.time_s[(record.time_s >= 1.0) & (record.time_s < 1.2)]
+    prediction = forward(batch, later)
+    for row, i in enumerate(pick):
+        one = {name: v[i : i + 1] for name, v in distinct.items()} | {NOISE_SD: batch[NOISE_SD][row : row + 1]}
+        alone = ProjectedFreeModel(model, 3, "acceleration", record.time_s[keep], record.output[keep])
+        fit = alone.fit(one)
+        np.testing.assert_allclose(forward.fit(batch)["amplitudes"][row], fit["amplitudes"][0], rtol=1e-12)
+        np.testing.assert_allclose(forward.fit(batch)["fitted"][row], fit["fitted"][0], rtol=1e-12,
+                                   atol=1e-12 * np.max(np.abs(fit["fitted"])))
+        np.testing.assert_allclose(correction[row], alone.log_likelihood_correction(one)[0], rtol=1e-12)
+        np.testing.assert_allclose(prediction[row], alone(one, later)[0], rtol=1e-12,
+                                   atol=1e-12 * np.max(np.abs(prediction[row])))
+
+
+def test_chained_and_tabulated_paths_match_the_closed_form_with_gaps():
+    """Stamps in increasing order take the chain over their distinct steps (an exact anchor every
+    128 samples), the same stamps in another order the two-level power tables: both equal
+    exp(lambda tau) evaluated directly on a record with gaps up to 100 median steps (distinct
+    steps from 0.8 to 100 ms), a reference inside the record, and sets of different damping in
+    one call (terms left out at different samples)."""
+    from beam.calibration.free import ChainLayout, _layout
+
+    rng = np.random.default_rng(12)
+    steps = rng.uniform(0.8e-3, 1.2e-3, 6_000)
+    steps[rng.choice(steps.size, 40, replace=False)] = rng.uniform(5e-3, 0.1, 40)  # gaps
+    t = np.round(np.cumsum(steps), 6) + 0.5
+    reference = t[50]
+    base = np.array([-0.3 + 38.0j, -0.3 - 38.0j, -2.0 + 245.0j, -2.0 - 245.0j, -40.0 + 694.0j, -40.0 - 694.0j,
+                     -30.0 + 0.0j, -700.0 + 0.0j])
+    poles = np.array([base * scale for scale in (1.0, 1.3, 0.7, 2.0, 0.2)])  # five sets: one group of four and one
+    assert isinstance(_layout(t - reference), ChainLayout)
+    order = rng.permutation(t.size)
+    assert not isinstance(_layout(t[order] - reference), ChainLayout)
+    tau = t - reference
+    amplitudes = rng.normal(size=(poles.shape[0], 9))
+    for stamps, index in ((t, np.arange(t.size)), (t[order], order)):
+        rows = free_rows_at(poles, stamps, reference, 1)
+        predicted = free_prediction_at(poles, amplitudes, stamps, reference, offset=True)
+        for b in range(poles.shape[0]):
+            columns = []
+            for j in (0, 2, 4):
+                z = np.exp(poles[b, j] * tau)
+                columns += [z.real, z.imag]
+            columns += [np.exp(poles[b, 6].real * tau), np.exp(poles[b, 7].real * tau)]
+            exact = np.array(columns)[:, index]
+            envelope = np.maximum(np.exp(np.repeat(poles[b, [0, 2, 4, 6, 7]].real, [2, 2, 2, 1, 1])[:, None] * tau[index]),
+                                  1.0)
+            assert np.all(np.abs(rows[b, :-1] - exact) <= 1e-12 * envelope)
+            assert np.all(rows[b, -1] == 1.0)
+            expected = amplitudes[b, :8] @ exact + amplitudes[b, 8]
+            bound = 1e-12 * (np.abs(amplitudes[b, :8]) @ envelope + abs(amplitudes[b, 8]))
+            assert np.all(np.abs(predicted[b] - expected) <= bound)
+
+
+def test_remembered_free_start_is_the_records_own():
+    """free_start_indices remembers its last records: asked again (another object with the same
+    samples) it answers as computed afresh, and a record whose output differs is not confused
+    with one remembered."""
+    from dataclasses import replace
+
+    from beam.calibration.free import free_response_start, free_start_indices, retained_band
+
+    record, _ = _released_decay()
+    fresh = free_response_start(record.time_s, record.output, *retained_band(record, 3))
+    assert free_start_indices(record, 3) == fresh
+    assert free_start_indices(replace(record, acceleration_m_s2=record.output.copy()), 3) == fresh
+    moved = np.concatenate([np.zeros(200), record.output[:-200]])  # released 200 samples later
+    other = replace(record, acceleration_m_s2=moved)
+    expected = free_response_start(other.time_s, other.output, *retained_band(other, 3))
+    assert expected != fresh
+    assert free_start_indices(other, 3) == expected
+    assert free_start_indices(record, 3) == fresh
+
+
+def test_spectral_scales_by_products_and_by_log_sums_agree():
+    """The product kernel (up to 16 modes) picks the scale the sum of logarithms picks, for 1 to
+    16 modes, some beyond Nyquist; 20 modes take the sums themselves."""
+    from beam.calibration.free_starts import _best_scales, _best_scales_product, record_spectrum, spectral_scales
+    from beam.calibration.starts import SCALE_GRID
+
+    record = read_measurement(REAL / "adxl_50cm_114759.csv")
+    inside = (record.time_s > 0.5) & (record.time_s < 3.0)
+    frequencies, power = record_spectrum(record.time_s[inside], record.output[inside])
+    floor = power.max() * 1e-12 + 1e-300
+    roots = np.sqrt(np.asarray(SCALE_GRID, dtype=float))
+    rng = np.random.default_rng(8)
+    for modes in (1, 2, 4, 7, 16, 20):
+        model = np.sort(rng.uniform(2.0, 700.0, (30, modes)), axis=1)
+        by_logs = _best_scales(model, roots, power, float(frequencies[1]), float(frequencies[-1]), floor)
+        if modes <= 16:
+            by_products = _best_scales_product(model, roots, power / power.max(), float(frequencies[1]),
+                                               float(frequencies[-1]), floor / power.max())
+            np.testing.assert_array_equal(by_products, by_logs)
+        np.testing.assert_array_equal(spectral_scales(model, (frequencies, power)), np.asarray(SCALE_GRID)[by_logs])

@@ -56,6 +56,41 @@ def test_band_kernel_is_exact_on_hard_mixtures(level):
             _check_bands(f + 5.0, sd, level)
 
 
+def test_smallest_sorted_keeps_the_k_smallest_in_order():
+    """_smallest_sorted leaves the k smallest of the first n values sorted in front (ties,
+    k >= n and k = 0 included), as numpy's sort gives them."""
+    from beam.calibration.bands import _smallest_sorted
+
+    rng = np.random.default_rng(9)
+    for n, k in ((30, 11), (30, 30), (12, 20), (1, 1), (5, 0), (400, 37)):
+        for values in (rng.standard_normal(n), np.round(rng.standard_normal(n), 1)):
+            a = np.concatenate([values, [99.0, -99.0]])  # beyond n: untouched and ignored
+            _smallest_sorted(a, n, k)
+            np.testing.assert_array_equal(a[: min(k, n)], np.sort(values)[: min(k, n)])
+            np.testing.assert_array_equal(a[n:], [99.0, -99.0])
+
+
+def test_band_kernel_marks_times_with_a_draw_not_finite():
+    """A time at which a draw is inf or NaN gets NaN bands and is counted (fast_predictive_bands
+    raises on it); the other times keep the bands they have without it."""
+    from beam.calibration.bands import _mixture_bands
+
+    rng = np.random.default_rng(5)
+    f = rng.standard_normal((400, 50)) * 0.1 + 1.0
+    sd = 0.5 + 0.01 * rng.random(400)
+    clean, count = _mixture_bands(f, sd, 0.95, BAND_RTOL)
+    assert count == 0 and all(np.all(np.isfinite(row)) for row in clean)
+    bad = f.copy()
+    bad[7, 3], bad[0, 10], bad[399, 20], bad[5, 21] = np.inf, np.nan, -np.inf, np.inf
+    rows, count = _mixture_bands(bad, sd, 0.95, BAND_RTOL)
+    assert count == 4
+    marked = np.zeros(50, dtype=bool)
+    marked[[3, 10, 20, 21]] = True
+    for got, expected in zip(rows, clean):
+        assert np.all(np.isnan(got[marked]))
+        np.testing.assert_array_equal(got[~marked], expected[~marked])
+
+
 def test_fast_bands_match_the_reference_on_a_calibration():
     record = simulated_measurement(TRUE_BASE, seed=31)
     setup, problem = prepare(record, window=(0.0, 1.0))

@@ -72,9 +72,52 @@ def spectral_scales(frequencies_Hz: np.ndarray, spectrum: tuple[np.ndarray, np.n
         return spectral_scales(rows, spectrum)[inverse.ravel()]
     floor = power.max() * 1e-12 + 1e-300
     scales = np.ascontiguousarray(SCALE_GRID, dtype=float)
-    best = _best_scales(np.ascontiguousarray(model, dtype=float), np.sqrt(scales), np.ascontiguousarray(power, dtype=float),
-                        float(frequencies[1]), float(nyquist), float(floor))
+    model = np.ascontiguousarray(model, dtype=float)
+    if model.shape[1] <= _PRODUCT_MODES:  # the product of the powers, on the scale of the largest
+        peak = power.max() + 1e-300
+        best = _best_scales_product(model, np.sqrt(scales), np.ascontiguousarray(power / peak, dtype=float),
+                                    float(frequencies[1]), float(nyquist), float(floor / peak))
+    else:
+        best = _best_scales(model, np.sqrt(scales), np.ascontiguousarray(power, dtype=float),
+                            float(frequencies[1]), float(nyquist), float(floor))
     return scales[best]
+
+
+#: Up to this many modes :func:`spectral_scales` compares products of the powers (each at least
+#: 1e-12 of the largest: no underflow), more modes the sums of their logarithms.
+_PRODUCT_MODES = 16
+
+
+@numba.njit(cache=True, nogil=True)
+def _best_scales_product(model, root_scales, power, bin_Hz, nyquist, floor):  # pragma: no cover - jitted
+    """:func:`_best_scales` by the product of the interpolated powers (``power`` and ``floor``
+    divided by the largest power, so that a product of up to :data:`_PRODUCT_MODES` factors
+    neither overflows nor underflows): the logarithm is increasing, so the same maximum without
+    a logarithm per mode and scale (6 ms of a point-mass preview's 190 design rows x 1,201
+    scales x 4 modes)."""
+    rows, modes = model.shape
+    last = power.size - 1.0
+    out = np.empty(rows, dtype=np.int64)
+    for r in range(rows):
+        best = -1.0
+        best_index = 0
+        for i in range(root_scales.size):
+            score = 1.0
+            for j in range(modes):
+                f = model[r, j]
+                scaled = root_scales[i] * f
+                if f > 0 and f < 0.8 * nyquist and scaled < 0.95 * nyquist:
+                    position = min(max(scaled / bin_Hz, 0.0), last)
+                    index = min(int(position), power.size - 2)
+                    fraction = position - index
+                    score *= power[index] * (1.0 - fraction) + power[index + 1] * fraction + floor
+                else:
+                    score *= floor
+            if score > best:
+                best = score
+                best_index = i
+        out[r] = best_index
+    return out
 
 
 @numba.njit(cache=True, nogil=True)
