@@ -569,7 +569,7 @@ def test_remembered_free_start_is_the_records_own():
 def test_spectral_scales_by_products_and_by_log_sums_agree():
     """The product kernel (up to 16 modes) picks the scale the sum of logarithms picks, for 1 to
     16 modes, some beyond Nyquist; 20 modes take the sums themselves."""
-    from beam.calibration.free_starts import _best_scales, _best_scales_product, record_spectrum, spectral_scales
+    from beam.calibration.free_starts import _best_scales, record_spectrum, spectral_scales
     from beam.calibration.starts import SCALE_GRID
 
     record = read_measurement(REAL / "adxl_50cm_114759.csv")
@@ -580,9 +580,9 @@ def test_spectral_scales_by_products_and_by_log_sums_agree():
     rng = np.random.default_rng(8)
     for modes in (1, 2, 4, 7, 16, 20):
         model = np.sort(rng.uniform(2.0, 700.0, (30, modes)), axis=1)
-        by_logs = _best_scales(model, roots, power, float(frequencies[1]), float(frequencies[-1]), floor)
+        by_logs = _best_scales(model, roots, power, float(frequencies[1]), float(frequencies[-1]), floor, False)
         if modes <= 16:
-            by_products = _best_scales_product(model, roots, power / power.max(), float(frequencies[1]),
-                                               float(frequencies[-1]), floor / power.max())
+            by_products = _best_scales(model, roots, power / power.max(), float(frequencies[1]),
+                                       float(frequencies[-1]), floor / power.max(), True)
             np.testing.assert_array_equal(by_products, by_logs)
         np.testing.assert_array_equal(spectral_scales(model, (frequencies, power)), np.asarray(SCALE_GRID)[by_logs])

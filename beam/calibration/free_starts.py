@@ -75,11 +75,11 @@ def spectral_scales(frequencies_Hz: np.ndarray, spectrum: tuple[np.ndarray, np.n
     model = np.ascontiguousarray(model, dtype=float)
     if model.shape[1] <= _PRODUCT_MODES:  # the product of the powers, on the scale of the largest
         peak = power.max() + 1e-300
-        best = _best_scales_product(model, np.sqrt(scales), np.ascontiguousarray(power / peak, dtype=float),
-                                    float(frequencies[1]), float(nyquist), float(floor / peak))
+        best = _best_scales(model, np.sqrt(scales), np.ascontiguousarray(power / peak, dtype=float),
+                            float(frequencies[1]), float(nyquist), float(floor / peak), True)
     else:
         best = _best_scales(model, np.sqrt(scales), np.ascontiguousarray(power, dtype=float),
-                            float(frequencies[1]), float(nyquist), float(floor))
+                            float(frequencies[1]), float(nyquist), float(floor), False)
     return scales[best]
 
 
@@ -89,45 +89,18 @@ _PRODUCT_MODES = 16
 
 
 @numba.njit(cache=True, nogil=True)
-def _best_scales_product(model, root_scales, power, bin_Hz, nyquist, floor):  # pragma: no cover - jitted
-    """:func:`_best_scales` by the product of the interpolated powers (``power`` and ``floor``
-    divided by the largest power, so that a product of up to :data:`_PRODUCT_MODES` factors
-    neither overflows nor underflows): the logarithm is increasing, so the same maximum without
-    a logarithm per mode and scale (6 ms of a point-mass preview's 190 design rows x 1,201
-    scales x 4 modes)."""
-    rows, modes = model.shape
-    last = power.size - 1.0
-    out = np.empty(rows, dtype=np.int64)
-    for r in range(rows):
-        best = -1.0
-        best_index = 0
-        for i in range(root_scales.size):
-            score = 1.0
-            for j in range(modes):
-                f = model[r, j]
-                scaled = root_scales[i] * f
-                if f > 0 and f < 0.8 * nyquist and scaled < 0.95 * nyquist:
-                    position = min(max(scaled / bin_Hz, 0.0), last)
-                    index = min(int(position), power.size - 2)
-                    fraction = position - index
-                    score *= power[index] * (1.0 - fraction) + power[index + 1] * fraction + floor
-                else:
-                    score *= floor
-            if score > best:
-                best = score
-                best_index = i
-        out[r] = best_index
-    return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _best_scales(model, root_scales, power, bin_Hz, nyquist, floor):  # pragma: no cover - jitted
+def _best_scales(model, root_scales, power, bin_Hz, nyquist, floor, products):  # pragma: no cover - jitted
     """Index of the best scale for each row of ``model`` (see :func:`spectral_scales`): the summed
     log of the power, linearly interpolated on its uniform grid of step ``bin_Hz``, at
     sqrt(scale) x each mode below 0.8 x Nyquist (log(floor) for a mode scaled beyond 0.95 x
     Nyquist); the first of equal maxima. Compiled: numpy's version, over arrays of
     rows x 1,201 scales x modes, took 20 ms for 190 rows of 4 modes (the design of a preview
-    with a sensor or tip mass), this 6 ms (the logarithms)."""
+    with a sensor or tip mass), this 6 ms (the logarithms).
+
+    With ``products`` the same maximum by the product of the interpolated powers (``power`` and
+    ``floor`` divided by the largest power, so that a product of up to :data:`_PRODUCT_MODES`
+    factors neither overflows nor underflows): the logarithm is increasing, and the 6 ms of
+    logarithms fall to 1.9 ms."""
     rows, modes = model.shape
     last = power.size - 1.0
     log_floor = np.log(floor)
@@ -136,7 +109,7 @@ def _best_scales(model, root_scales, power, bin_Hz, nyquist, floor):  # pragma: 
         best = -np.inf
         best_index = 0
         for i in range(root_scales.size):
-            score = 0.0
+            score = 1.0 if products else 0.0
             for j in range(modes):
                 f = model[r, j]
                 scaled = root_scales[i] * f
@@ -144,7 +117,13 @@ def _best_scales(model, root_scales, power, bin_Hz, nyquist, floor):  # pragma: 
                     position = min(max(scaled / bin_Hz, 0.0), last)
                     index = min(int(position), power.size - 2)
                     fraction = position - index
-                    score += np.log(power[index] * (1.0 - fraction) + power[index + 1] * fraction + floor)
+                    value = power[index] * (1.0 - fraction) + power[index + 1] * fraction + floor
+                    if products:
+                        score *= value
+                    else:
+                        score += np.log(value)
+                elif products:
+                    score *= floor
                 else:
                     score += log_floor
             if score > best:
