@@ -126,10 +126,16 @@ def read_state(page) -> dict:
 
 def wait_for_result(page, *, after_request: int = 0, stage: str = "final", timeout_ms: float = 60000) -> dict:
     """Wait until the page shows ``stage`` for a request newer than ``after_request``; returns the state."""
-    page.wait_for_function(
-        f"""() => {{ const s = ({READ_STATE_JS})();
-                   return s.stage === '{stage}' && s.shown > {after_request} && s.shown === s.requested && s.band_n > 0; }}""",
-        timeout=timeout_ms, polling="raf")
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+    try:
+        page.wait_for_function(
+            f"""() => {{ const s = ({READ_STATE_JS})();
+                       return s.stage === '{stage}' && s.shown > {after_request} && s.shown === s.requested && s.band_n > 0; }}""",
+            timeout=timeout_ms, polling="raf")
+    except PlaywrightTimeout:  # say what the page showed instead (a lost update, an error, a slow run)
+        raise AssertionError(f"no {stage!r} result for a request after {after_request} within {timeout_ms / 1000:g} s; "
+                             f"the page shows {read_state(page)}") from None
     return read_state(page)
 
 
