@@ -5,7 +5,7 @@ from scipy.integrate import solve_ivp
 
 from beam.physics.geometry import BeamGeometry
 from beam.physics.model import BeamModel
-from beam.physics.nonlinear import choose_substeps, integrate_tip_cubic
+from beam.physics.nonlinear import _triple_quartic_sum, choose_substeps, integrate_tip_cubic
 
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)
 PARAMETERS = {"bending_stiffness_Nm2": 0.491, "patch_coupling_NmV": 1.746e-2, "air_damping_Ns_m2": 0.013,
@@ -158,3 +158,19 @@ def test_rows_stepped_together_match_the_one_row_kernel_checked_against_solve_iv
         one = model.modal_system({k: v[i:i + 1] for k, v in batch.items()}, modes=3)
         alone = integrate_tip_cubic(one, batch["tip_cubic_stiffness_N_m3"][i:i + 1], voltage, DT, substeps=substeps[i:i + 1])
         assert np.abs(together[i] - alone[0]).max() <= 1e-10 * np.abs(alone).max()
+
+
+def test_the_substep_rule_s_quartic_sum_by_moments_equals_the_triple_sum():
+    """The force-content sum of :func:`choose_substeps`, sum_ijk c_i c_j c_k (w_i + w_j + w_k)^4,
+    formed from five moments (multinomial theorem), against the explicit triple sum over every
+    (i, j, k): weights spanning decades, unused slots at zero, frequencies of 1 to 1e4 rad/s."""
+    rng = np.random.default_rng(17)
+    weights = 10.0 ** rng.uniform(-6, -2, (40, 9))
+    weights[:, -2:] = 0.0  # padded slots of rows with fewer pairs
+    frequencies = 10.0 ** rng.uniform(0, 4, (40, 9))
+    c, w = weights, frequencies
+    explicit = np.einsum(
+        "bi,bj,bk,bijk->b", c, c, c,
+        (w[:, :, None, None] + w[:, None, :, None] + w[:, None, None, :]) ** 4,
+    )
+    np.testing.assert_allclose(_triple_quartic_sum(weights, frequencies), explicit, rtol=1e-13)
