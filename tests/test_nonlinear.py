@@ -5,7 +5,7 @@ from scipy.integrate import solve_ivp
 
 from beam.physics.geometry import BeamGeometry
 from beam.physics.model import BeamModel
-from beam.physics.nonlinear import choose_substeps, integrate_tip_cubic
+from beam.physics.nonlinear import _triple_quartic_sum, choose_substeps, integrate_tip_cubic
 
 GEOMETRY = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.27438)
 PARAMETERS = {"bending_stiffness_Nm2": 0.491, "patch_coupling_NmV": 1.746e-2, "air_damping_Ns_m2": 0.013,
@@ -158,3 +158,63 @@ def test_rows_stepped_together_match_the_one_row_kernel_checked_against_solve_iv
         one = model.modal_system({k: v[i:i + 1] for k, v in batch.items()}, modes=3)
         alone = integrate_tip_cubic(one, batch["tip_cubic_stiffness_N_m3"][i:i + 1], voltage, DT, substeps=substeps[i:i + 1])
         assert np.abs(together[i] - alone[0]).max() <= 1e-10 * np.abs(alone).max()
+
+
+def test_the_substep_rule_s_quartic_sum_by_moments_equals_the_triple_sum():
+    """The force-content sum of :func:`choose_substeps`, sum_ijk c_i c_j c_k (w_i + w_j + w_k)^4,
+    formed from five moments (multinomial theorem), against the explicit triple sum over every
+    (i, j, k): weights spanning decades, unused slots at zero, frequencies of 1 to 1e4 rad/s."""
+    rng = np.random.default_rng(17)
+    weights = 10.0 ** rng.uniform(-6, -2, (40, 9))
+    weights[:, -2:] = 0.0  # padded slots of rows with fewer pairs
+    frequencies = 10.0 ** rng.uniform(0, 4, (40, 9))
+    c, w = weights, frequencies
+    explicit = np.einsum(
+        "bi,bj,bk,bijk->b", c, c, c,
+        (w[:, :, None, None] + w[:, None, :, None] + w[:, None, None, :]) ** 4,
+    )
+    np.testing.assert_allclose(_triple_quartic_sum(weights, frequencies), explicit, rtol=1e-13)
+
+
+def _residue_matrices(system):
+    """Poles (B, 2m) sorted and each pole's residue matrix output x input (B, 2m, n_out, n_in)."""
+    order = np.lexsort((system.poles.imag, system.poles.real), axis=-1)
+    poles = np.take_along_axis(system.poles, order, axis=1)
+    outputs = np.take_along_axis(system.output_gains, order[:, None, :], axis=2)
+    inputs = np.take_along_axis(system.input_gains, order[:, None, :], axis=2)
+    return poles, np.einsum("boj,bij->bjoi", outputs, inputs)
+
+
+def test_the_compiled_complex_modes_of_the_spring_path_equal_lapack_s():
+    """The spring's modal system by the compiled Rayleigh-functional iteration
+    (``modal.quadratic_complex_modes``) against dgeev on the first-order matrix (``complex_modes``):
+    the same poles and residue matrices (voltage and tip force in, sensor and tip out) to 1e-10,
+    with a non-proportional damping added, one overdamped set (left to dgeev), and the spring's
+    response the same to 1e-10 of its peak."""
+    from beam.physics import modal
+
+    model = BeamModel(GEOMETRY, EFFECTS)
+    rng = np.random.default_rng(11)
+    count = 6
+    batch = {name: value * np.exp(rng.uniform(-0.3, 0.3, count)) for name, value in PARAMETERS.items()}
+    batch["tip_cubic_stiffness_N_m3"] = np.full(count, 3e7)
+    reduced, _, _ = model.reduced_system(batch, modes=4)
+    extra = rng.normal(size=(count, 4, 4))
+    damping = reduced["damping"] + 2.0 * (extra @ np.swapaxes(extra, 1, 2))  # symmetric, non-proportional (1/s)
+    damping[-1] += np.diag([2.0 * np.sqrt(reduced["omega2"][-1, 0]) * 3.0, 0, 0, 0])  # first mode overdamped
+    inputs = np.stack([reduced["force"], reduced["tip"]], axis=1)
+    outputs = np.stack([reduced["sensor"], reduced["tip"]], axis=1)
+    lapack = modal.complex_modes(reduced["omega2"], damping, inputs, outputs)
+    compiled = modal.quadratic_complex_modes(reduced["omega2"], damping, inputs, outputs)
+    assert np.all(compiled.poles[:-1, 0::2].imag > 0)  # pairs adjacent, Im > 0 first, as from dgeev
+    np.testing.assert_array_equal(compiled.poles[:-1, 1::2], np.conj(compiled.poles[:-1, 0::2]))
+    poles_a, residues_a = _residue_matrices(lapack)
+    poles_b, residues_b = _residue_matrices(compiled)
+    np.testing.assert_allclose(poles_b, poles_a, rtol=1e-10)
+    scale = np.abs(residues_a).max(axis=(1, 2, 3), keepdims=True)
+    assert np.all(np.abs(residues_b - residues_a) <= 1e-10 * scale)
+    k3 = batch["tip_cubic_stiffness_N_m3"]
+    voltage = chirp(400)
+    by_lapack = integrate_tip_cubic(lapack, k3, voltage, DT, static_gains=reduced["static"])
+    by_compiled = integrate_tip_cubic(compiled, k3, voltage, DT, static_gains=reduced["static"])
+    assert np.abs(by_compiled - by_lapack).max() <= 1e-10 * np.abs(by_lapack).max()

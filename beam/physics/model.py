@@ -1125,7 +1125,7 @@ def _shape_signs(tip_values: np.ndarray) -> np.ndarray:
 
 
 def _complex_modes_of(reduced: dict[str, np.ndarray]) -> modal.ComplexModes:
-    return modal.complex_modes(
+    return modal.quadratic_complex_modes(
         reduced["omega2"],
         reduced["damping"],
         np.stack([reduced["force"], reduced["tip"]], axis=1),
