@@ -36,6 +36,7 @@ sys.path.insert(0, str(ROOT))
 
 from beam.calibration import prepare  # noqa: E402
 from beam.calibration.fit import fast_map  # noqa: E402
+from beam.calibration.starts import ridge_walk  # noqa: E402
 from beam.io.measurement import read_measurement  # noqa: E402
 from beam.physics.effects import EFFECTS  # noqa: E402
 from tests.simulated_data import HIDDEN_EFFECTS, random_beam_case  # noqa: E402
@@ -69,11 +70,14 @@ def reference_log_posterior(measurement, window, effects, modes, starts: int, se
 
 def engine_log_posterior(measurement, window, effects, modes: int) -> float:
     """Log posterior of the engine's MAP: the search of :func:`beam.calibration.calibration_preview`
-    (:func:`~beam.calibration.fit.fast_map` from the problem's starting points) without the
+    (:func:`~beam.calibration.fit.fast_map` from the problem's starting points, then the walk
+    along the ridge of equal frequencies, :func:`beam.calibration.starts.ridge_walk`) without the
     Laplace draws and bands that follow it (a case whose MAP sits where the Laplace Gaussian
     falls outside the prior support would otherwise fail for a reason that is not the start)."""
-    _, problem = prepare(measurement, window=window, effects=effects, modes=modes)
-    return float(fast_map(problem, problem.initial_guesses(problem)).log_posterior)
+    setup, problem = prepare(measurement, window=window, effects=effects, modes=modes)
+    found = fast_map(problem, problem.initial_guesses(problem))
+    found = ridge_walk(problem, setup, found) or found
+    return float(found.log_posterior)
 
 
 def records(n_random: int, linear_only: bool):
