@@ -40,7 +40,14 @@ from beam.calibration.setup import (
     build_problem,
     make_setup,
 )
-from beam.calibration.starts import SEARCH_GAIN_NATS, recall_map, remember_map, searched_map, starting_points  # noqa: F401
+from beam.calibration.starts import (  # noqa: F401
+    SEARCH_GAIN_NATS,
+    has_second_stage,
+    recall_map,
+    remember_map,
+    searched_map,
+    starting_points,
+)
 from beam.errors import BeamInputError
 from beam.inference import (
     NOISE_SD,
@@ -102,6 +109,9 @@ class CalibrationResult:
     seconds: float
     _draws: dict[str, np.ndarray] = field(default=None, repr=False)
     _map_output: np.ndarray = field(default=None, repr=False)
+    #: A screening fit (:func:`calibration_preview` with ``search=False``): the first of the engine's
+    #: two stages only. Never remembered as the model's MAP (:func:`known_map` refuses it).
+    screened: bool = False
 
     # -- draws ------------------------------------------------------------------------------
     @property
@@ -417,7 +427,9 @@ def _remember(setup: BeamCalibrationSetup, found: MapResult, cold: bool) -> None
 
 def known_map(result: CalibrationResult) -> tuple[tuple[str, ...], MapResult]:
     """``(effects, MAP)`` of a cold-started preview or calibration, for :func:`remember_maps`
-    in another process."""
+    in another process (not of a screening fit: its MAP is the first stage's only)."""
+    if result.screened:
+        raise ValueError("a screening fit's MAP is not the engine's: it is not remembered")
     return tuple(result.setup.effects), result.laplace.map
 
 
@@ -442,6 +454,7 @@ def calibration_preview(
     extra_guesses: Iterable[dict[str, float]] = (),
     start: Mapping[str, float] | None = None,
     seed: int = 0,
+    search: bool = True,
 ) -> CalibrationResult:
     """MAP + Laplace only: parameters, bands, RMSE and coverage in a fraction of a second.
 
@@ -468,6 +481,14 @@ def calibration_preview(
         times longer, another record) it may lead to a worse optimum than the cold search.
     seed : int
         Seed of the Laplace draws behind the predictive bands.
+    search : bool
+        False for a **screening fit**: the engine's first stage only (the quick search from the
+        short-window, spectral, nested and screened-design starts), without the searched stratified
+        design and the walk along the ridge (:func:`beam.calibration.starts.searched_map`); marked
+        ``screened`` and never remembered as the model's MAP (unless the model has no second stage,
+        :func:`beam.calibration.starts.has_second_stage`: then it is the engine's MAP). The diagnosis's climb screens its candidates so
+        (:func:`beam.discovery.report.climb_on`). A remembered two-stage MAP of the model is used
+        when there is one.
     """
     t0 = time.perf_counter()
     extra_guesses = tuple(extra_guesses)
@@ -475,11 +496,17 @@ def calibration_preview(
                              extra_guesses=extra_guesses, start=start, search=False)
     cold = start is None and not extra_guesses
     laplace_result = _recalled_laplace(problem, setup, cold)
-    if laplace_result is None:
+    screened = False
+    if laplace_result is None and not search:
+        laplace_result = preview_fit(problem)  # the first stage only
+        screened = has_second_stage(setup)  # else it is the engine's MAP: remembered as such
+        if not screened:
+            _remember(setup, laplace_result.map, cold)
+    elif laplace_result is None:
         laplace_result = _searched_laplace(problem, setup, preview_fit(problem))  # the two stages of calibration_stream
         _remember(setup, laplace_result.map, cold)
     bands = preview_bands(laplace_result, setup, seed)
-    return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0)
+    return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0, screened=screened)
 
 
 def preview_bands(laplace_result: LaplaceResult, setup: BeamCalibrationSetup, seed: int) -> PredictiveBands:

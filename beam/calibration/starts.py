@@ -604,6 +604,15 @@ def ridge_walk(problem: Problem, setup: BeamCalibrationSetup, found: MapResult) 
     return polished if polished.log_posterior > found.log_posterior + SEARCH_GAIN_NATS else None
 
 
+def has_second_stage(setup: BeamCalibrationSetup) -> bool:
+    """Whether :func:`searched_map` can move the quick stage's MAP of this model: a driven model
+    (a free response's starts are projected, see :mod:`beam.calibration.free_starts`) with an effect
+    that changes the modes, not one that only adds damping to such a sub-model."""
+    if "patch_coupling_NmV" not in setup.physical_names or _adds_damping_to_a_searched_submodel(setup):
+        return False
+    return any(not _pure_damping_parameter(name) for name in _effect_names(setup))
+
+
 def _adds_damping_to_a_searched_submodel(setup: BeamCalibrationSetup) -> bool:
     """Whether the model has a pure damping effect besides the default damping and an effect that
     changes the modes (then :func:`nested_starts` starts it from the two-stage MAP of the model

@@ -175,12 +175,14 @@ Fitter = Callable[[list[tuple[str, ...]]], list["CalibrationResult | Exception"]
 FIT_ERRORS = (RuntimeError, FloatingPointError, ValueError, BeamInputError)
 
 
-def thread_fitter(measurement: Measurement, window: tuple[float, float], modes: int, workers: int = 2) -> Fitter:
+def thread_fitter(measurement: Measurement, window: tuple[float, float], modes: int, workers: int = 2,
+                  search: bool = True) -> Fitter:
     """The default :data:`Fitter`: previews in ``workers`` threads (the compiled kernels release
-    the GIL; the Python between them does not, so two threads gain ~1.2x on two cores)."""
+    the GIL; the Python between them does not, so two threads gain ~1.2x on two cores);
+    ``search=False``: screening fits (:func:`beam.calibration.calibration_preview`)."""
     def fit(effects: tuple[str, ...]) -> CalibrationResult | Exception:
         try:
-            return calibration_preview(measurement, window=window, effects=effects, modes=modes)
+            return calibration_preview(measurement, window=window, effects=effects, modes=modes, search=search)
         except FIT_ERRORS as exc:  # a failed fit: ranked last
             return exc
 

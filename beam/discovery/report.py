@@ -574,7 +574,7 @@ MAX_CLIMB = 2
 
 
 def climb_on(measurement: Measurement, result: CalibrationResult, remaining: Remaining, floor: dx.NoiseFloor, *,
-             mcmc: bool = False, seed: int = 0, fitter=None,
+             mcmc: bool = False, seed: int = 0, fitter=None, screen=None,
              remaining_of=None) -> tuple[list[tuple[str, CalibrationResult]], Remaining]:
     """Before calling what remains "outside the catalogue": rank the candidates left on top of
     ``result`` (the last rung, a repaired model), and climb while one materially improves it.
@@ -584,9 +584,24 @@ def climb_on(measurement: Measurement, result: CalibrationResult, remaining: Rem
     only once the first is in. Measured on lab_run_1 (7 modes): after patch_stiffening 3.1× the
     noise remained; ranked on top of it, patch_damping gains 188 nats and leaves 1.1×.
 
-    ``fitter`` fits each rung's candidates (see :data:`beam.discovery.ranking.Fitter`; default threads);
-    ``remaining_of(result)`` is :func:`remaining_error` of a rung against ``floor`` (the dashboard
-    computes it in a worker process).
+    Each rung's candidates are **screened**: ranked by screening fits (the engine's first stage,
+    :func:`beam.calibration.calibration_preview` with ``search=False``), whose starts hold the MAPs
+    of both sub-models (the rung below with the effect barely on; the base with the effect, with
+    the rung's effects barely on). Only the best material one is then fitted by both stages (the
+    rung is the engine's MAP, as ``beam calibrate`` finds it) and must still improve on the rung
+    below. Why: the second stage (the searched stratified design and the walk along the ridge) is
+    most of what a model with two mode-changing effects costs, and on top of a repaired model it
+    seldom finds another basin. Measured on lab_run_1 (0-1.1 s, 8 modes, on top of patch
+    stiffening): screening 0.4-0.9 s of CPU per candidate against 0.4-2.5 s for both stages, and
+    the second stage found nothing better for any of the four. ``beam diagnose`` gives the same
+    ladder, rung for rung, screened or not, on 15 cases: the five bundled records at the default
+    window, lab_run_1 and lab_run_2 at 20 % and 45 %, and five records with two hidden effects
+    (``tests/benchmarks/bench_climb.py``; tests/test_discovery_climb.py).
+
+    ``fitter`` fits a rung by both stages and ``screen`` screens its candidates (see
+    :data:`beam.discovery.ranking.Fitter`; default threads); ``remaining_of(result)`` is
+    :func:`remaining_error` of a rung against ``floor`` (the dashboard computes it in a worker
+    process).
 
     Returns
     -------
@@ -594,17 +609,24 @@ def climb_on(measurement: Measurement, result: CalibrationResult, remaining: Rem
         The rungs climbed (at most :data:`MAX_CLIMB`) and the distance of the last one from the noise.
     """
     from beam.calibration import calibrate
-    from beam.discovery.ranking import improves
+    from beam.discovery.ranking import improves, thread_fitter, with_effect
 
     climbed: list[tuple[str, CalibrationResult]] = []
     last = result
+    window, modes = result.setup.window, result.setup.modes
+    fitter = fitter or thread_fitter(measurement, window, modes)
+    screen = screen or thread_fitter(measurement, window, modes, search=False)
     while remaining.outside_catalogue and len(climbed) < MAX_CLIMB:
         ranking = rank_candidates(measurement, base=last.setup.effects, modes=last.setup.modes, base_result=last,
-                                  fitter=fitter)
+                                  fitter=screen)
         best = next((c for c in ranking.candidates if c.material), None)
         if best is None:
             break
         step = ranking.results[best.effect]
+        if step.screened:  # the rung itself: both stages of the engine
+            (step,) = fitter([with_effect(last.setup.effects, best.effect)])
+            if isinstance(step, Exception):
+                break
         if not improves(last, step):
             break
         if mcmc:

@@ -170,28 +170,29 @@ class DiagnosisFits:
         self.cpu_s: dict[str, float] = {}
         self._asked: set[tuple] = set()
 
-    def fit(self, effects: tuple[str, ...], *, first: bool = False) -> None:
-        """Ask for the preview of ``effects`` (nothing if asked already)."""
-        key = ("fit", tuple(effects))
+    def fit(self, effects: tuple[str, ...], *, first: bool = False, screen: bool = False) -> None:
+        """Ask for the preview of ``effects`` (nothing if asked already); ``screen``: its
+        screening fit (the engine's first stage, see :func:`beam.discovery.report.climb_on`)."""
+        key = ("screen" if screen else "fit", tuple(effects))
         if key not in self._asked:
             self._asked.add(key)
             self.queue.submit(key, candidate_fit, self.measurement, self.window, tuple(effects), self.modes,
-                              tuple(self.known), first=first)
+                              tuple(self.known), not screen, first=first)
 
-    def asked(self, effects: tuple[str, ...]) -> bool:
-        return ("fit", tuple(effects)) in self._asked
+    def asked(self, effects: tuple[str, ...], *, screen: bool = False) -> bool:
+        return ("screen" if screen else "fit", tuple(effects)) in self._asked
 
     def next(self) -> tuple[tuple, object]:
         """``(key, value)`` of the next call to end (:meth:`~dashboard.runtime.scheduler.OffloadQueue.next`)."""
         key, value = self.queue.next()
-        if key[0] == "fit":
+        if key[0] in ("fit", "screen"):
             if isinstance(value, BaseException):  # the process failed (not the fit): ranked last
                 value = (value, None, math.nan)
             result, _, cpu_s = value
             added = set(key[1]) - set(self.base_effects)
-            if len(added) == 1:
+            if len(added) == 1 and key[0] == "fit":
                 self.cpu_s[added.pop()] = cpu_s
-            if not isinstance(result, BaseException):
+            if not isinstance(result, BaseException) and not result.screened:
                 self.known.append(known_map(result))
         self.results[key] = value
         return key, value
@@ -225,13 +226,17 @@ class DiagnosisFits:
             total += math.inf if measured is None and EFFECTS[e].nonlinear else (measured or 1.0)
         return total
 
-    def fitter(self, effect_sets: list[tuple[str, ...]]) -> list[CalibrationResult | Exception]:
+    def fitter(self, effect_sets: list[tuple[str, ...]], *, screen: bool = False) -> list[CalibrationResult | Exception]:
         """A :data:`beam.discovery.ranking.Fitter` on the queue: each set asked for (the costliest
-        first) unless asked already, then all waited for."""
+        first) unless asked already, then all waited for; ``screen``: their screening fits."""
         for effects in sorted(effect_sets, key=lambda s: -self.cost(s)):
-            self.fit(effects)
-        values = self.wait([("fit", tuple(s)) for s in effect_sets])
+            self.fit(effects, screen=screen)
+        values = self.wait([("screen" if screen else "fit", tuple(s)) for s in effect_sets])
         return [value[0] for value in values]
+
+    def screener(self, effect_sets: list[tuple[str, ...]]) -> list[CalibrationResult | Exception]:
+        """:meth:`fitter` of screening fits (the climb's candidates)."""
+        return self.fitter(effect_sets, screen=True)
 
     def close(self) -> None:
         self.queue.close()
@@ -289,7 +294,7 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement, known: tuple
         if diagnosis.missing is not None and diagnosis.remaining.outside_catalogue:
             yield sch.progress(0.9, f"ranking the candidates on top of {diagnosis.missing}")
             climbed, diagnosis.remaining = climb_on(measurement, best, diagnosis.remaining, floor,
-                                                    fitter=fits_plan.fitter,
+                                                    fitter=fits_plan.fitter, screen=fits_plan.screener,
                                                     remaining_of=lambda result: fits_plan.remaining(result, floor))
             diagnosis.climbed = [effect for effect, _ in climbed]
             diagnosis.climbed_rmse = diagnosis.errors(climbed[-1][1]) if climbed else math.nan
@@ -314,8 +319,8 @@ def _speculate(fits_plan: DiagnosisFits, measurement: Measurement, ranking: Rank
     top = tuple(leader.setup.effects)
     fits_plan.remaining(leader, floor, wait=False)  # a few hundredths of a second, ahead of the fits
     ready = [with_effect(top, e) for e in candidate_effects(top, measurement) if e not in names or e in fits]
-    for effects in sorted((s for s in ready if not fits_plan.asked(s)), key=lambda s: -fits_plan.cost(s))[:free]:
-        fits_plan.fit(effects)
+    for effects in sorted((s for s in ready if not fits_plan.asked(s, screen=True)), key=lambda s: -fits_plan.cost(s))[:free]:
+        fits_plan.fit(effects, screen=True)
 
 
 def remaining_stage(result: CalibrationResult, floor) -> Iterator[sch.Stage[Remaining]]:
@@ -335,14 +340,15 @@ def diagnosis_base(key: CalibrationKey, measurement: Measurement,
 
 
 def candidate_fit(measurement: Measurement, window: tuple[float, float], effects: tuple[str, ...], modes: int,
-                  known: tuple = ()) -> Iterator[sch.Stage[tuple]]:
+                  known: tuple = (), search: bool = True) -> Iterator[sch.Stage[tuple]]:
     """One candidate's preview (in a worker process): ``(result or the exception of a failed fit,
     its MAP natural frequencies in Hz or None, the fit's process CPU in s)``. ``known``: MAPs found
-    elsewhere (:func:`beam.calibration.known_map`) for the nested starts."""
+    elsewhere (:func:`beam.calibration.known_map`) for the nested starts; ``search=False``: a
+    screening fit (:func:`beam.calibration.calibration_preview`)."""
     t0 = time.process_time()
     remember_maps(measurement, window=window, modes=modes, maps=known)
     try:
-        result = calibration_preview(measurement, window=window, effects=effects, modes=modes)
+        result = calibration_preview(measurement, window=window, effects=effects, modes=modes, search=search)
     except FIT_ERRORS as exc:  # a failed fit: ranked last
         yield sch.final((exc, None, time.process_time() - t0))
         return

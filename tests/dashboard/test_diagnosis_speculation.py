@@ -33,7 +33,7 @@ def test_the_climb_starts_before_the_ranking_ends_and_keeps_its_answer(proc_pool
     fit, next_ = jobs.DiagnosisFits.fit, jobs.DiagnosisFits.next
 
     def recording_fit(self, effects, **kw):
-        if not self.asked(effects):
+        if not self.asked(effects, **{k: v for k, v in kw.items() if k == "screen"}):
             asked.append((tuple(effects), sum(1 for k in ended if k[0] == "fit" and len(k[1]) == len(BASE) + 1)))
         return fit(self, effects, **kw)
 
