@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import beam.residuals as dx
-from beam.calibration import calibration_preview, known_map
+from beam.calibration import calibration_preview, known_map, remember_maps
+from beam.calibration.run import FIRST_STAGE
 from beam.calibration import starts
 from beam.discovery.ranking import thread_fitter
 from beam.discovery.report import climb_on, remaining_error
@@ -27,13 +28,22 @@ def test_a_screening_fit_is_marked_and_not_remembered_unless_it_is_the_engines_m
     two_stage = (*BASE, "patch_stiffening", "tip_mass")  # two mode-changing effects: a second stage
     screened = calibration_preview(record, window=WINDOW, effects=two_stage, modes=4, search=False)
     assert screened.screened
-    assert starts.recall_map(screened.setup) is None
-    with pytest.raises(ValueError):
-        known_map(screened)
+    assert starts.recall_map(screened.setup) is None  # not the model's MAP
+    assert known_map(screened)[0] == (FIRST_STAGE, *screened.setup.effects)
     full = calibration_preview(record, window=WINDOW, effects=two_stage, modes=4)
     assert not full.screened
     # the second stage keeps the first stage's MAP unless it gains (searched_map): never lower
     assert full.laplace.map.log_posterior >= screened.laplace.map.log_posterior - 1e-9
+    # the second stage started from the remembered first stage ends where both stages from nothing end
+    starts.forget_maps()
+    cold = calibration_preview(record, window=WINDOW, effects=two_stage, modes=4)
+    assert starts.recall_first_stage(cold.setup) is None
+    assert cold.laplace.map.values == full.laplace.map.values
+    # handed to another process with the other MAPs: a first-stage MAP is not taken for the model's
+    starts.forget_maps()
+    remember_maps(record, window=WINDOW, modes=4, maps=[known_map(screened)])
+    assert starts.recall_map(screened.setup) is None
+    assert starts.recall_first_stage(screened.setup).values == screened.laplace.map.values
 
     # damping added to a mode-changing sub-model has no second stage: its screening fit is the
     # engine's MAP, remembered, and the preview that follows recalls it

@@ -639,6 +639,31 @@ def forget_maps() -> None:
     """Drop every remembered MAP (benchmarks that time a cold calibration; tests)."""
     with _SUBMODEL_LOCK:
         _SUBMODEL_CACHE.clear()
+        _FIRST_STAGE_CACHE.clear()
+
+
+#: First-stage MAPs (:func:`remember_first_stage`), least recently used dropped first.
+_FIRST_STAGE_CACHE: OrderedDict[tuple, MapResult] = OrderedDict()
+
+
+def remember_first_stage(setup: BeamCalibrationSetup, found: MapResult) -> None:
+    """Keep the MAP of the first stage of a cold calibration of the setup's model (the quick search
+    from :func:`starting_points` without the search; a screening fit's MAP): the second stage of a
+    later calibration of the model starts from it instead of repeating the first (the same starts,
+    the same MAP: they depend only on the record, window, modes, likelihood, effects and the
+    sub-models' MAPs). Not the model's MAP (:func:`recall_map`)."""
+    key = _model_key(setup, setup.effects)
+    with _SUBMODEL_LOCK:
+        _FIRST_STAGE_CACHE[key] = found
+        _FIRST_STAGE_CACHE.move_to_end(key)
+        while len(_FIRST_STAGE_CACHE) > SUBMODEL_CACHE_SIZE:
+            _FIRST_STAGE_CACHE.popitem(last=False)
+
+
+def recall_first_stage(setup: BeamCalibrationSetup) -> MapResult | None:
+    """The remembered first-stage MAP of the setup's model (:func:`remember_first_stage`), or None."""
+    with _SUBMODEL_LOCK:
+        return _FIRST_STAGE_CACHE.get(_model_key(setup, setup.effects))
 
 
 def recall_map(setup: BeamCalibrationSetup) -> MapResult | None:

@@ -192,8 +192,8 @@ class DiagnosisFits:
             added = set(key[1]) - set(self.base_effects)
             if len(added) == 1 and key[0] == "fit":
                 self.cpu_s[added.pop()] = cpu_s
-            if not isinstance(result, BaseException) and not result.screened:
-                self.known.append(known_map(result))
+            if not isinstance(result, BaseException):
+                self.known.append(known_map(result))  # a screening fit's: its first stage's
         self.results[key] = value
         return key, value
 

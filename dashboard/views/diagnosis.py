@@ -143,8 +143,7 @@ class DiagnosisView(pn.viewable.Viewer):
         # whole page and every plot there (0.3-1.7 s of chromium's CPU each; JavaScript profile
         # of a diagnosis of lab_run_1, on the two cores the diagnosis's worker processes need).
         run_steps([self._build_figures, self._build_head,
-                   lambda: [step() for step in (self._build_ladder, self._build_residuals, self._build_modes,
-                                                self._build_side)],
+                   lambda: [step() for step in (self._build_ladder, self._build_residuals, self._build_side)],
                    self._attach_when_ready])
 
     def _attach_when_ready(self) -> None:
@@ -220,22 +219,29 @@ class DiagnosisView(pn.viewable.Viewer):
             self._pair(table, self._plot(self._plots.ladder))])
 
     def _build_residuals(self) -> None:
+        """Where the model fails: the residual over time, the spectra with the autocorrelation, and
+        the modes with the backbone, one tab each (only the open one is drawn: ``dynamic``).
+
+        Why tabs: each pair of plots drawn with the page cost the browser 0.3-0.5 s and the server
+        0.2-0.3 s of CPU while the diagnosis's fits ran on the same two cores (diagnosis of
+        lab_run_1 at 7 modes, `/proc`, two runs each: complete 7.2-7.9 s with both pairs, 6.7-7.1 s
+        without either one); a tab is drawn when it is opened."""
         p, d = self._plots, self._diag
         whiteness = Markdown(pn.bind(_whiteness_text, d.param.diagnosis), margin=(0, 10), sizing_mode="stretch_width",
                              css_classes=["diag-whiteness"])
-        self._main.extend([Markdown("### Where the model fails", margin=(0, 10)), self._plot(p.residual),
-                           self._pair(self._plot(p.spectrum), pn.Column(self._plot(p.acf), whiteness,
-                                                                       sizing_mode="stretch_width"))])
-
-    def _build_modes(self) -> None:
-        self._main.append(self._pair(
+        spectra = self._pair(self._plot(p.spectrum), pn.Column(self._plot(p.acf), whiteness, sizing_mode="stretch_width"))
+        modes = self._pair(
             pn.Column(Markdown("**Modes: measured in the free decay vs the model**"),
-                      DataFrame(pn.bind(modes_table, self._diag.param.diagnosis), escape=True,
-                                        sizing_mode="stretch_width", css_classes=["diag-modes-table"]),
+                      DataFrame(pn.bind(modes_table, d.param.diagnosis), escape=True,
+                                sizing_mode="stretch_width", css_classes=["diag-modes-table"]),
                       sizing_mode="stretch_width"),
-            pn.Column(self._plot(self._plots.backbone), Markdown(pn.bind(_backbone_text, self._diag.param.diagnosis),
-                                                                 margin=(0, 10), sizing_mode="stretch_width"),
-                      sizing_mode="stretch_width"), basis_px=560))  # the modes table has seven columns
+            pn.Column(self._plot(p.backbone), Markdown(pn.bind(_backbone_text, d.param.diagnosis),
+                                                       margin=(0, 10), sizing_mode="stretch_width"),
+                      sizing_mode="stretch_width"), basis_px=560)  # the modes table has seven columns
+        tabs = pn.Tabs(("Residual over time", self._plot(p.residual)), ("Spectra and whiteness", spectra),
+                       ("Modes and backbone", modes), dynamic=True, sizing_mode="stretch_width",
+                       css_classes=["diag-residual-tabs"])
+        self._main.extend([Markdown("### Where the model fails", margin=(0, 10)), tabs])
 
     def _build_side(self) -> None:
         self._side.extend([pn.Card(Markdown(DIAGNOSIS_GUIDE, sizing_mode="stretch_width"), title="For the class",

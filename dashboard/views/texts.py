@@ -169,7 +169,7 @@ def beam_guide(measurement, simulated: bool) -> str:
 
 DIAGNOSIS_GUIDE = """
 The diagnosis looks at the beam view's current model (record, window, modes, effects) over
-the **whole** record:
+the **whole** record (three tabs under *Where the model fails*):
 
 * **Residual** (data − model) — where the data leave the 95 % band (red intervals).
 * **Spectra** — residual power piled up near a model mode means that mode is wrong
