@@ -627,12 +627,17 @@ def remember_map(setup: BeamCalibrationSetup, found: MapResult) -> None:
     elsewhere: never remember those), for the nested starts of every larger model (the
     diagnosis's candidates, base + each effect, are the sub-models of the climb's fits) and for
     a later calibration of the same model (:func:`recall_map`)."""
-    key = _model_key(setup, setup.effects)
+    _keep(_SUBMODEL_CACHE, _model_key(setup, setup.effects), found)
+
+
+def _keep(cache: OrderedDict, key: tuple, found: MapResult) -> None:
+    """Put ``found`` in one of the MAP caches, the least recently used dropped past
+    :data:`SUBMODEL_CACHE_SIZE`."""
     with _SUBMODEL_LOCK:
-        _SUBMODEL_CACHE[key] = found
-        _SUBMODEL_CACHE.move_to_end(key)
-        while len(_SUBMODEL_CACHE) > SUBMODEL_CACHE_SIZE:
-            _SUBMODEL_CACHE.popitem(last=False)
+        cache[key] = found
+        cache.move_to_end(key)
+        while len(cache) > SUBMODEL_CACHE_SIZE:
+            cache.popitem(last=False)
 
 
 def forget_maps() -> None:
@@ -652,12 +657,7 @@ def remember_first_stage(setup: BeamCalibrationSetup, found: MapResult) -> None:
     later calibration of the model starts from it instead of repeating the first (the same starts,
     the same MAP: they depend only on the record, window, modes, likelihood, effects and the
     sub-models' MAPs). Not the model's MAP (:func:`recall_map`)."""
-    key = _model_key(setup, setup.effects)
-    with _SUBMODEL_LOCK:
-        _FIRST_STAGE_CACHE[key] = found
-        _FIRST_STAGE_CACHE.move_to_end(key)
-        while len(_FIRST_STAGE_CACHE) > SUBMODEL_CACHE_SIZE:
-            _FIRST_STAGE_CACHE.popitem(last=False)
+    _keep(_FIRST_STAGE_CACHE, _model_key(setup, setup.effects), found)
 
 
 def recall_first_stage(setup: BeamCalibrationSetup) -> MapResult | None:
