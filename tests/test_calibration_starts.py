@@ -278,3 +278,46 @@ def test_ridge_neighbours_step_one_parameter_with_ei_and_the_coupling_refitted()
                    if n not in ("tip_mass_kg", "bending_stiffness_Nm2", "patch_coupling_NmV"))
         assert coupling.lower < guess["patch_coupling_NmV"] < coupling.upper
         assert guess["patch_coupling_NmV"] == pytest.approx(least_squares_coupling(setup, guess, problem), rel=1e-6)
+
+
+@pytest.mark.slow
+def test_modal_damping_can_damp_the_upper_modes_away():
+    """random1, 20 % window, tip mass + patch stiffening + modal damping: the best optimum damps
+    modes 3-4 away (their damping ratios at the prior's top) and fits modes 1-2 with a heavy tip
+    mass and a stiff patch. Without the damped-away starts the engine followed all four modes and
+    ended 91 nats below it; an independent 256-start Sobol search finds it."""
+    record = _random_clamp_record()
+    window = _window(record, 0.2)
+    effects = ("tip_mass", "patch_stiffening", "modal_damping")
+    engine = calibration_preview(record, window=window, effects=effects, modes=4).laplace.map
+    reference = sobol_reference_map(record, window, effects)
+    assert float(engine.log_posterior) >= float(reference.log_posterior) - 1.0
+    assert engine.values["damping_ratio_mode_3"] > 0.2 and engine.values["damping_ratio_mode_4"] > 0.2
+
+
+def test_damped_away_starts_keep_each_count_of_lower_modes():
+    """One start per count k of kept modes below the retained M: modes above k damped at the
+    prior's top, the others barely on, the rest the MAP of the model without modal damping on k
+    modes (inside the prior; on the true tip mass once two modes are kept); none for a model
+    without modal damping."""
+    from beam.calibration.starts import DAMPED_AWAY, damped_away_starts
+
+    truth = dict(TRUE_BASE, tip_mass_kg=2e-3)
+    record = simulated_measurement(truth, noise_m=1.5e-5, seed=7, name="tip")
+    setup, problem = prepare(record, window=(0.0, 0.6), effects=("tip_mass", "modal_damping"), modes=3)
+    starts = damped_away_starts(problem, setup)
+    assert len(starts) == 2
+    prior = problem.parameter("damping_ratio_mode_1").prior
+    top = np.exp(np.log(prior.upper) - DAMPED_AWAY * np.log(prior.upper / prior.lower))
+    for kept, start in enumerate(starts, start=1):
+        assert set(start) == set(setup.physical_names)
+        for j in range(1, 4):
+            ratio = start[f"damping_ratio_mode_{j}"]
+            assert ratio == pytest.approx(top, rel=1e-9) if j > kept else ratio < 2e-5
+        if kept == 2:  # two modes tell the tip mass from EI (one cannot): the true ones, 2 g and 0.491 N m²
+            assert start["tip_mass_kg"] == pytest.approx(2e-3, rel=0.1)
+            assert start["bending_stiffness_Nm2"] == pytest.approx(TRUE_BASE["bending_stiffness_Nm2"], rel=0.03)
+        for name, value in start.items():
+            assert problem.parameter(name).prior.lower < value < problem.parameter(name).prior.upper
+    setup, problem = prepare(record, window=(0.0, 0.6), effects=("tip_mass",), modes=3)
+    assert damped_away_starts(problem, setup) == []
