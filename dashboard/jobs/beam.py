@@ -31,6 +31,7 @@ from pathlib import Path
 
 from beam.calibration import (
     CalibrationResult,
+    CalibrationSpec,
     calibration_preview,
     calibration_stream,
     remember_maps,
@@ -78,15 +79,22 @@ DIAGNOSES = LRU(8)
 
 @dataclass(frozen=True)
 class CalibrationKey:
-    """Everything a calibration depends on; ``dataset`` is a bundled name or an upload id."""
+    """Everything a calibration depends on; ``dataset`` is a bundled name or an upload id, the
+    rest the fields of its :attr:`spec` (defaults: :class:`beam.calibration.CalibrationSpec`'s)."""
 
     dataset: str
     window: tuple[float, float]
     effects: tuple[str, ...]
     modes: int
-    likelihood: str
-    seed: int = 0
-    target_ess: float = 1000.0
+    likelihood: str = CalibrationSpec.likelihood
+    seed: int = CalibrationSpec.seed
+    target_ess: float = CalibrationSpec.target_ess
+
+    @property
+    def spec(self) -> CalibrationSpec:
+        """The :class:`~beam.calibration.CalibrationSpec` of the calibration."""
+        return CalibrationSpec(window=self.window, effects=self.effects, modes=self.modes, likelihood=self.likelihood,
+                               seed=self.seed, target_ess=self.target_ess)
 
 
 # -- datasets ---------------------------------------------------------------------------------
@@ -229,8 +237,7 @@ def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: 
     """The computation of :func:`calibration_run` (in a worker process; no cache)."""
     if known:
         remember_maps(measurement, window=key.window, modes=key.modes, maps=known, likelihood=key.likelihood)
-    stream = calibration_stream(measurement, window=key.window, effects=key.effects, modes=key.modes,
-                                likelihood=key.likelihood, seed=key.seed, target_ess=key.target_ess, every=every)
+    stream = calibration_stream(measurement, key.spec, every=every)
     done = 0.0
     try:
         for event in stream:
