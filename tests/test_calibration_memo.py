@@ -10,7 +10,7 @@ import numpy as np
 
 from beam.calibration import calibration_preview, known_map, remember_maps
 from beam.calibration import starts
-from beam.calibration.engine import default_engine
+from beam.calibration.engine import default_engine, forget_maps
 from beam.io.measurement import read_measurement
 
 RECORD = Path(__file__).resolve().parents[1] / "assets" / "measurements" / "lab_run_1.csv"
@@ -19,7 +19,7 @@ WINDOW = (0.0, 1.05)
 
 
 def forget() -> None:
-    starts.forget_maps()
+    forget_maps()
 
 
 def test_a_map_handed_to_a_fresh_process_is_the_map_it_would_find():

@@ -65,30 +65,33 @@ def test_cli_api_and_dashboard_defaults_are_the_specs():
         spec.likelihood, spec.seed, spec.target_ess)
     assert state.WINDOW_FRACTION == spec.window_fraction
     key = CalibrationKey("lab_run_1", (0.0, 1.0), spec.effects, 4)
-    assert (key.likelihood, key.seed, key.target_ess) == (spec.likelihood, spec.seed, spec.target_ess)
     assert key.spec == CalibrationSpec(window=(0.0, 1.0), modes=4)
 
 
-def test_a_default_changed_in_the_spec_is_seen_by_the_cli_the_api_and_the_dashboard(monkeypatch):
-    """Change the spec's defaults (its ``__init__`` defaults, as editing the class would) and every
-    front end sees the change."""
-    names = [f.name for f in dataclasses.fields(CalibrationSpec)]
-    defaults = dict(zip(names, CalibrationSpec.__init__.__defaults__))
-    changed = dict(defaults, effects=("air_damping",), modes=3, likelihood="ar1", seed=7, window_fraction=0.4)
-    monkeypatch.setattr(CalibrationSpec.__init__, "__defaults__", tuple(changed[n] for n in names))
+def test_a_default_changed_in_one_place_is_seen_by_the_cli_the_api_and_the_dashboard(monkeypatch):
+    """Change the defaults in :mod:`beam.calibration.defaults` (the one place) and every front end
+    sees the change: the spec, the command line, the model builder and the dashboard's inputs."""
+    from beam.calibration import defaults
+
+    for name, value in (("DEFAULT_EFFECTS", ("air_damping",)), ("AUTO_MODES", 3), ("DEFAULT_LIKELIHOOD", "ar1"),
+                        ("DEFAULT_SEED", 7), ("DEFAULT_WINDOW_FRACTION", 0.4), ("DEFAULT_TARGET_ESS", 500.0)):
+        monkeypatch.setattr(defaults, name, value)
+    spec = CalibrationSpec()
+    assert (spec.modes, spec.effects, spec.likelihood, spec.seed, spec.window_fraction, spec.target_ess) == (
+        3, ("air_damping",), "ar1", 7, 0.4, 500.0)
     args = _cli_defaults()
     assert (args.modes, args.effects, args.likelihood, args.seed) == (3, "air_damping", "ar1", 7)
-    api = CalibrationSpec.of()
-    assert (api.modes, api.effects, api.likelihood, api.seed) == (3, ("air_damping",), "ar1", 7)
-    from dashboard.state import beam as state
-
+    assert CalibrationSpec.of() == spec
     record = simulated_measurement(TRUE_BASE, duration_s=2.0)
-    monkeypatch.setattr(state, "DEFAULTS", CalibrationSpec())  # what the dashboard reads at import
-    assert state._default_window(record) == (0.0, round(0.4 * float(record.time_s[-1]), 2))
-    # the library's default window follows too
     from beam.calibration.setup import make_setup
 
     assert make_setup(record, modes=4).window[1] == pytest.approx(0.4 * record.time_s[-1])
+    from dashboard.jobs.beam import CalibrationKey
+    from dashboard.state import beam as state
+
+    monkeypatch.setattr(state, "DEFAULTS", CalibrationSpec())  # what the dashboard reads when imported
+    assert state._default_window(record) == (0.0, round(0.4 * float(record.time_s[-1]), 2))
+    assert CalibrationKey("x", (0.0, 1.0), ("air_damping",), 4).spec.target_ess == 500.0  # key's default: the spec's
 
 
 def test_resolve_fills_the_window_and_auto_modes_once():

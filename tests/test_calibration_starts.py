@@ -15,6 +15,7 @@ from beam.calibration import (
     prepare,  # noqa: E402
 )
 from beam.calibration.fit import fast_map  # noqa: E402
+from beam.calibration.engine import default_engine  # noqa: E402
 from beam.calibration.starts import design_points, starting_points  # noqa: E402
 from tests.benchmarks.bench_starts import reference_log_posterior  # noqa: E402
 from tests.simulated_data import HIDDEN_EFFECTS, TRUE_BASE, random_beam_case, simulated_measurement  # noqa: E402
@@ -56,7 +57,7 @@ def test_design_covers_each_effect_barely_on_and_the_ranges(patch_record):
     sobol = ~(barely_mass | barely_clamp)
     tenths = np.floor(10 * np.log(mass[sobol] / lo_m) / np.log(hi_m / lo_m))
     assert set(tenths.astype(int)) == set(range(10))
-    starts = starting_points(problem, setup)
+    starts = starting_points(problem, setup, engine=default_engine())
     assert len(starts) >= 3 and all(set(s) == set(setup.physical_names) for s in starts)
 
 

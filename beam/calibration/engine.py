@@ -27,9 +27,10 @@ import numpy as np
 
 from beam.calibration.fit import fast_map
 from beam.calibration.setup import BeamCalibrationSetup, build_problem
+from beam.calibration.spec import CalibrationSpec
 from beam.inference import MapResult, Problem
 
-__all__ = ["FIRST_STAGE", "MAP", "Engine", "Memory", "default_engine", "record_digest"]
+__all__ = ["FIRST_STAGE", "MAP", "Engine", "Memory", "default_engine", "forget_maps", "record_digest"]
 
 #: Kinds of remembered optima: a model's MAP (both stages) and a first stage's MAP.
 MAP = "map"
@@ -46,12 +47,14 @@ class Memory(NamedTuple):
 
 
 def record_digest(measurement) -> str:
-    """Content hash of what a record's optima depend on: its output and input samples, geometry,
-    nominal values, sampling step and start."""
-    digest = hashlib.blake2b(np.ascontiguousarray(measurement.displacement_m).tobytes(), digest_size=16)
-    digest.update(np.ascontiguousarray(measurement.voltage_V).tobytes())
-    digest.update(repr((measurement.geometry, sorted(measurement.nominal.items()), measurement.sample_interval_s,
-                        float(measurement.time_s[0]))).encode())
+    """Content hash of what a record's optima depend on: its time stamps, output and input samples,
+    their kinds, the geometry and the nominal values."""
+    digest = hashlib.blake2b(np.ascontiguousarray(measurement.time_s, dtype=float).tobytes(), digest_size=16)
+    digest.update(np.ascontiguousarray(measurement.output, dtype=float).tobytes())
+    if measurement.input is not None:
+        digest.update(np.ascontiguousarray(measurement.input, dtype=float).tobytes())
+    digest.update(repr((measurement.output_kind, measurement.input_kind, measurement.geometry,
+                        sorted(measurement.nominal.items()))).encode())
     return digest.hexdigest()
 
 
@@ -80,6 +83,9 @@ class Engine:
     def __repr__(self) -> str:
         return f"Engine({len(self)} optima, strategies={[s.name for s in self.strategies]})"
 
+    def __bool__(self) -> bool:  # an engine with an empty memory is still an engine
+        return True
+
     def __len__(self) -> int:
         with self._lock:
             return sum(len(m) for m in self._memory.values())
@@ -99,7 +105,8 @@ class Engine:
     def key(self, setup: BeamCalibrationSetup, effects: Iterable[str] | None = None) -> tuple:
         """The memory key of ``setup``'s model (or of the model with ``effects`` on its record,
         window, modes and likelihood): the record digest, then the spec's model key."""
-        spec = setup.spec if effects is None else setup.spec.with_effects(effects)
+        spec = CalibrationSpec.of_setup(setup)
+        spec = spec if effects is None else spec.with_effects(effects)
         return (self._digest(setup.measurement), *spec.model_key())
 
     # -- memory ----------------------------------------------------------------------------------
@@ -203,3 +210,9 @@ def default_engine() -> Engine:
         if _DEFAULT is None:
             _DEFAULT = Engine()
         return _DEFAULT
+
+
+def forget_maps(engine: Engine | None = None) -> None:
+    """Drop every optimum ``engine`` (default: the process's) remembers (benchmarks that time a
+    cold calibration; tests)."""
+    (default_engine() if engine is None else engine).forget()

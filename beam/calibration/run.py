@@ -1,5 +1,9 @@
 """Calibrate the beam on a measurement window and predict the rest of the record.
 
+What is calibrated is a :class:`~beam.calibration.spec.CalibrationSpec` (the keyword options of
+every function here build one); the MAP is searched, and remembered, by an
+:class:`~beam.calibration.engine.Engine` (default: the process's).
+
 :func:`calibrate` runs MAP + Laplace (the preview), then emcee to a target ESS (or a fixed
 number of steps), and returns a :class:`CalibrationResult` with posterior summaries, RMSE in the
 calibration and prediction windows, coverage of the 95 % prediction band on the held-out part
@@ -38,7 +42,7 @@ from beam.calibration.setup import (
     make_setup,
 )
 from beam.calibration.engine import FIRST_STAGE, MAP, Engine, default_engine
-from beam.calibration.starts import SEARCH_GAIN_NATS, has_second_stage  # noqa: F401
+from beam.calibration.starts import SEARCH_GAIN_NATS, has_second_stage, kept_nested, null_starts  # noqa: F401
 from beam.errors import BeamInputError
 from beam.inference import (
     NOISE_SD,
@@ -103,6 +107,12 @@ class CalibrationResult:
     #: A screening fit (:func:`calibration_preview` with ``search=False``): the first of the engine's
     #: two stages only. Never remembered as the model's MAP (:func:`known_map` refuses it).
     screened: bool = False
+
+    @property
+    def spec(self) -> CalibrationSpec:
+        """The resolved :class:`~beam.calibration.spec.CalibrationSpec` of the model calibrated
+        (window, effects, modes, likelihood)."""
+        return CalibrationSpec.of_setup(self.setup)
 
     # -- draws ------------------------------------------------------------------------------
     @property
@@ -284,6 +294,7 @@ def prepare(
     A record longer than :data:`beam.io.limits.MAX_CALIBRATION_SAMPLES` is decimated first (anti-
     aliased; see :mod:`beam.io.limits`): ``setup.measurement`` is then the decimated record.
     """
+    engine = default_engine() if engine is None else engine
     measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
     spec = CalibrationSpec.of(spec, **options).resolve(measurement)
     setup = make_setup(measurement, window=spec.window, effects=spec.effects, modes=spec.modes,
@@ -295,9 +306,9 @@ def prepare(
     def starts(problem: Problem) -> list[dict[str, float]]:
         warm_start = None if warm is None else clip_to_prior(problem, warm)
         if "patch_coupling_NmV" in setup.physical_names:
-            chosen = (engine or default_engine()).starting_points(problem, setup, warm_start, search=search)
+            chosen = engine.starting_points(problem, setup, warm_start, search=search)
         else:  # free response (initial state profiled out) or point force: no coupling to solve for
-            chosen = projected_starting_points(problem, setup, warm_start)
+            chosen = projected_starting_points(problem, setup, warm_start) + null_starts(problem, setup, engine)
         return chosen + (best_guesses(problem, extra) if extra else [])
 
     return setup, build_problem(setup, initial_guesses=starts)
@@ -384,6 +395,15 @@ def _laplace_at(problem: Problem, found: MapResult, seconds: float = 0.0) -> Lap
     return result
 
 
+def _kept_nested(engine: Engine, problem: Problem, setup: BeamCalibrationSetup, result: LaplaceResult) -> LaplaceResult:
+    """``result``, or the Laplace approximation at a remembered sub-model's optimum embedded in
+    the model when the search ended lower (:func:`beam.calibration.starts.kept_nested`): nested
+    fits are monotone."""
+    t0 = time.perf_counter()
+    found = kept_nested(problem, setup, result.map, engine)
+    return result if found is result.map else _laplace_at(problem, found, result.seconds + time.perf_counter() - t0)
+
+
 def _searched_laplace(engine: Engine, problem: Problem, setup: BeamCalibrationSetup,
                       quick: LaplaceResult) -> LaplaceResult:
     """``quick`` (the preview's MAP + Laplace), or the Laplace approximation at a better MAP found
@@ -394,30 +414,31 @@ def _searched_laplace(engine: Engine, problem: Problem, setup: BeamCalibrationSe
     found = engine.searched_map(problem, setup, quick.map)
     if found is None:
         return quick  # the same basin (or worse): the preview's MAP stands, to the last digit
-    return _laplace_at(problem, found, quick.seconds + time.perf_counter() - t0)
+    return _kept_nested(engine, problem, setup, _laplace_at(problem, found, quick.seconds + time.perf_counter() - t0))
 
 
 def _recalled_laplace(engine: Engine, problem: Problem, setup: BeamCalibrationSetup,
                       cold: bool) -> LaplaceResult | None:
     """For a cold start: the Laplace approximation at the engine's remembered MAP of this very
     model, or None when none is remembered (the same MAP, to the last digit)."""
-    if not cold or "patch_coupling_NmV" not in setup.physical_names:
+    if not cold:
         return None
     found = engine.recall(setup)
     return None if found is None else _laplace_at(problem, found)
 
 
 def _first_stage(engine: Engine, problem: Problem, setup: BeamCalibrationSetup, cold: bool) -> LaplaceResult:
-    """The first stage of a preview (:func:`preview_fit`), or for a cold start the engine's
-    remembered first-stage MAP of this model (a screening fit's, from the same starts)."""
-    found = engine.recall(setup, FIRST_STAGE) if cold and "patch_coupling_NmV" in setup.physical_names else None
-    return preview_fit(problem) if found is None else _laplace_at(problem, found)
+    """The first stage of a preview (:func:`preview_fit`, kept no lower than a remembered
+    sub-model's optimum), or for a cold start the engine's remembered first-stage MAP of this model
+    (a screening fit's, from the same starts)."""
+    found = engine.recall(setup, FIRST_STAGE) if cold else None
+    return _kept_nested(engine, problem, setup, preview_fit(problem)) if found is None else _laplace_at(problem, found)
 
 
 def _remember(engine: Engine, setup: BeamCalibrationSetup, found: MapResult, cold: bool, kind: str = MAP) -> None:
-    """Keep a cold-started driven calibration's MAP in the engine (for the nested starts of
+    """Keep a cold-started calibration's MAP in the engine (for the nested and null starts of
     larger models and later calibrations of this one)."""
-    if cold and "patch_coupling_NmV" in setup.physical_names:
+    if cold:
         engine.remember(setup, found, kind)
 
 
@@ -437,7 +458,7 @@ def remember_maps(measurement: Measurement, *, window: tuple[float, float], mode
     """Keep MAPs found in another process (:func:`known_map` of cold-started calibrations of this
     record, window, modes and likelihood) in ``engine`` (default: the process's): what the
     process would have found itself."""
-    engine = engine or default_engine()
+    engine = default_engine() if engine is None else engine
     measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
     for effects, found in maps:
         first = bool(effects) and effects[0] == FIRST_STAGE
@@ -492,7 +513,7 @@ def calibration_preview(
     extra_guesses = tuple(extra_guesses)
     spec = CalibrationSpec.of(spec, **options)
     seed = spec.seed
-    engine = engine or default_engine()
+    engine = default_engine() if engine is None else engine
     setup, problem = prepare(measurement, spec, extra_guesses=extra_guesses, start=start, search=False, engine=engine)
     cold = start is None and not extra_guesses
     laplace_result = _recalled_laplace(engine, problem, setup, cold)
@@ -592,10 +613,10 @@ def calibration_stream(
         raise BeamInputError(f"steps must be an integer >= 10, got {steps}")
     t0 = time.perf_counter()
     # the quick stage: every start but the searched stratified design, shown as the preview ...
-    engine = engine or default_engine()
+    engine = default_engine() if engine is None else engine
     setup, problem = prepare(measurement, spec, start=start, search=False, engine=engine)
     recalled = _recalled_laplace(engine, problem, setup, cold=start is None)  # this model's MAP, found before
-    laplace_result = preview_fit(problem) if recalled is None else recalled
+    laplace_result = _first_stage(engine, problem, setup, cold=False) if recalled is None else recalled
     yield CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, setup, seed),
                             time.perf_counter() - t0)
     if recalled is None:

@@ -37,12 +37,12 @@ import numpy as np
 
 from beam.calibration.free import ProjectedFreeModel, free_start_indices
 from beam.calibration.records import check_calibration_record
-from beam.calibration.spec import (  # noqa: F401 - the defaults' one source, re-exported
+from beam.calibration import defaults
+from beam.calibration.defaults import (  # noqa: F401 - the defaults' one source, re-exported
     AUTO_MODES,
     DEFAULT_EFFECTS,
     DEFAULT_MODES,
     DEFAULT_WINDOW_FRACTION,
-    CalibrationSpec,
 )
 from beam.errors import BeamInputError
 from beam.inference import (
@@ -108,13 +108,15 @@ def prior_centre(name: str, nominal: Mapping[str, float]) -> float:
 
 
 def resolve_window(measurement: Measurement, window: tuple[float, float] | None) -> tuple[float, float]:
-    """The calibration window [start, end] (s), default :meth:`CalibrationSpec.default_window`.
+    """The calibration window [start, end] (s), default the first
+    :data:`~beam.calibration.defaults.DEFAULT_WINDOW_FRACTION` of the record.
 
     Raises BeamInputError when it lies outside the record or holds too few samples.
     """
     t = measurement.time_s
-    if window is None:
-        start, end = CalibrationSpec().default_window(measurement)
+    if window is None:  # the default's value when asked (beam.calibration.defaults)
+        start = float(t[0])
+        end = float(t[0] + defaults.DEFAULT_WINDOW_FRACTION * (t[-1] - t[0]))
     else:
         start, end = (float(v) for v in window)
     if not (math.isfinite(start) and math.isfinite(end)) or not start < end:
@@ -259,11 +261,6 @@ class BeamCalibrationSetup:
         """A free response: the initial state (and offset) are profiled out, see :mod:`beam.calibration.free`."""
         return self.measurement.is_free
 
-    @property
-    def spec(self) -> CalibrationSpec:
-        """The resolved :class:`CalibrationSpec` of this model (window, effects, modes, likelihood)."""
-        return CalibrationSpec(self.window, self.effects, self.modes, self.likelihood, mode_choice=self.mode_choice)
-
 
 def make_setup(
     measurement: Measurement,
@@ -271,7 +268,7 @@ def make_setup(
     window: tuple[float, float] | None = None,
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
     modes: int = DEFAULT_MODES,
-    likelihood: str = "iid",
+    likelihood: str = defaults.DEFAULT_LIKELIHOOD,
     intervals: int = DEFAULT_INTERVALS,
     knots: str = DEFAULT_KNOTS,
 ) -> BeamCalibrationSetup:

@@ -3,7 +3,7 @@
 :class:`CalibrationSpec` holds the record window, the effects, the retained modes (a number or
 ``"auto"``), the likelihood, the seed and the sampling targets. Its field defaults are the
 defaults of every front end (the Python API, ``beam calibrate``, ``beam diagnose``, the
-dashboard): change one here and each of them sees it. :meth:`CalibrationSpec.resolve` fills in
+dashboard): change one in :mod:`beam.calibration.defaults` and each of them sees it. :meth:`CalibrationSpec.resolve` fills in
 what depends on the record (the default window, the ``"auto"`` number of modes) once; the
 resolved spec is the key of the engine's memory (:class:`beam.calibration.engine.Engine`).
 
@@ -16,24 +16,22 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
+from beam.calibration import defaults
+from beam.calibration.defaults import AUTO_MODES, DEFAULT_EFFECTS, DEFAULT_MODES, DEFAULT_WINDOW_FRACTION
 from beam.physics.effects import parse_effects
 
 __all__ = ["AUTO_MODES", "DEFAULT_EFFECTS", "DEFAULT_MODES", "DEFAULT_WINDOW_FRACTION", "CalibrationSpec"]
 
-#: The number of modes chosen from the record (:func:`beam.calibration.modes.suggest_modes`).
-AUTO_MODES = "auto"
-#: Effects of the default model (besides the base EI and k_p).
-DEFAULT_EFFECTS: tuple[str, ...] = ("air_damping", "kelvin_voigt")
-#: Modes retained when ``"auto"`` cannot choose (a record too short for a spectrum) and for a
-#: free response (:mod:`beam.calibration.modes`).
-DEFAULT_MODES = 4
-#: The default calibration window: this fraction of the record from its start.
-DEFAULT_WINDOW_FRACTION = 0.3
+
+def _default(field_name: str):
+    """A field whose default is read from :mod:`beam.calibration.defaults` when a spec is built."""
+    name = defaults.SPEC_DEFAULTS[field_name]
+    return field(default_factory=lambda: getattr(defaults, name))
 
 
 @dataclass(frozen=True)
 class CalibrationSpec:
-    """The settings of one calibration (frozen and hashable).
+    """The settings of one calibration (frozen and hashable; defaults from :mod:`beam.calibration.defaults`).
 
     Attributes
     ----------
@@ -63,15 +61,15 @@ class CalibrationSpec:
     """
 
     window: tuple[float, float] | None = None
-    effects: tuple[str, ...] = DEFAULT_EFFECTS
-    modes: int | str = AUTO_MODES
-    likelihood: str = "iid"
-    seed: int = 0
-    target_ess: float = 1000.0
-    max_steps: int = 20000
+    effects: tuple[str, ...] = _default("effects")
+    modes: int | str = _default("modes")
+    likelihood: str = _default("likelihood")
+    seed: int = _default("seed")
+    target_ess: float = _default("target_ess")
+    max_steps: int = _default("max_steps")
     walkers: int | None = None
     steps: int | None = None
-    window_fraction: float = DEFAULT_WINDOW_FRACTION
+    window_fraction: float = _default("window_fraction")
     mode_choice: Any = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -152,6 +150,13 @@ class CalibrationSpec:
         if not self.is_resolved:
             raise ValueError("resolve the spec first (CalibrationSpec.resolve)")
         return tuple(self.window), int(self.modes), self.likelihood, tuple(self.effects)
+
+    @classmethod
+    def of_setup(cls, setup) -> CalibrationSpec:
+        """The resolved spec of a :class:`~beam.calibration.setup.BeamCalibrationSetup` (window,
+        effects, modes, likelihood; the other fields at their defaults)."""
+        return cls(setup.window, setup.effects, setup.modes, setup.likelihood,
+                   mode_choice=getattr(setup, "mode_choice", None))
 
     def with_effects(self, effects) -> CalibrationSpec:
         """The same spec for another effect set."""

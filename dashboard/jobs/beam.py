@@ -34,6 +34,7 @@ from beam.calibration import (
     CalibrationSpec,
     calibration_preview,
     calibration_stream,
+    default_engine,
     remember_maps,
 )
 from beam.errors import BeamInputError
@@ -80,15 +81,21 @@ DIAGNOSES = LRU(8)
 @dataclass(frozen=True)
 class CalibrationKey:
     """Everything a calibration depends on; ``dataset`` is a bundled name or an upload id, the
-    rest the fields of its :attr:`spec` (defaults: :class:`beam.calibration.CalibrationSpec`'s)."""
+    rest the fields of its :attr:`spec` (None: :class:`beam.calibration.CalibrationSpec`'s default)."""
 
     dataset: str
     window: tuple[float, float]
     effects: tuple[str, ...]
     modes: int
-    likelihood: str = CalibrationSpec.likelihood
-    seed: int = CalibrationSpec.seed
-    target_ess: float = CalibrationSpec.target_ess
+    likelihood: str | None = None
+    seed: int | None = None
+    target_ess: float | None = None
+
+    def __post_init__(self) -> None:
+        defaults = CalibrationSpec()
+        for name in ("likelihood", "seed", "target_ess"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, getattr(defaults, name))
 
     @property
     def spec(self) -> CalibrationSpec:
@@ -235,9 +242,11 @@ def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int
 def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: int = 25,
                        known: tuple = ()) -> Iterator[sch.Stage[CalibrationResult]]:
     """The computation of :func:`calibration_run` (in a worker process; no cache)."""
+    engine = default_engine()  # this worker process's
     if known:
-        remember_maps(measurement, window=key.window, modes=key.modes, maps=known, likelihood=key.likelihood)
-    stream = calibration_stream(measurement, key.spec, every=every)
+        remember_maps(measurement, window=key.window, modes=key.modes, maps=known, likelihood=key.likelihood,
+                      engine=engine)
+    stream = calibration_stream(measurement, key.spec, every=every, engine=engine)
     done = 0.0
     try:
         for event in stream:

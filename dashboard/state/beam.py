@@ -313,7 +313,8 @@ class BeamState(_Runs):
         else:
             self.effects = [e for e in EFFECTS if e in set(self.effects) | {effect}]
 
-    def _on_run_update(self, update: sch.Update) -> None:
+    def on_run_update(self, update: sch.Update) -> None:
+        """The run slot's callback: show an update of this state's latest request."""
         self._timed(update)
         if update.kind == "error":
             self._fail(user_message(update.message), self.result is not None)
@@ -414,7 +415,8 @@ class DiagnosisState(_Runs):
         return d is not None and (d.key.dataset, d.key.window, d.key.effects, d.key.modes) == (
             k.dataset, k.window, k.effects, k.modes)
 
-    def _on_run_update(self, update: sch.Update) -> None:
+    def on_run_update(self, update: sch.Update) -> None:
+        """The run slot's callback: show an update of this state's latest request."""
         self._timed(update)
         if update.kind == "error":
             self._fail(user_message(update.message), self.diagnosis is not None)

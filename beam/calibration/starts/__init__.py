@@ -6,6 +6,9 @@ strategy object (:class:`~beam.calibration.starts.base.StartStrategy`):
 
 - :class:`~beam.calibration.starts.nested.NestedStarts`: the sub-models' optima, the dropped
   effect barely on;
+- :class:`~beam.calibration.starts.null.NullStarts`: every sub-model's optimum the engine
+  remembers, the new parameters at their null values (with the guard
+  :func:`~beam.calibration.starts.null.kept_nested`, nested fits are monotone);
 - :class:`~beam.calibration.starts.spectral.SpectralStarts`: EI matched to the window's
   spectral peaks, k_p by least squares;
 - :class:`~beam.calibration.starts.design.ScreenedDesign`: the best points of a Sobol design over
@@ -49,6 +52,7 @@ from beam.calibration.starts.design import (
     stratified_design,
 )
 from beam.calibration.starts.nested import NestedStarts, nested_starts
+from beam.calibration.starts.null import NullStarts, kept_nested, null_starts, null_value
 from beam.calibration.starts.ridge import WALK_STEPS, ridge_neighbours, ridge_walk
 from beam.calibration.starts.search import (
     SEARCH_GAIN_NATS,
@@ -71,20 +75,21 @@ from beam.inference import Problem
 
 __all__ = [
     "BARELY_ON", "BASE_NAMES", "DAMPED_AWAY", "DEFAULT_STRATEGIES", "DESIGN_KEPT", "DESIGN_POINTS", "SCALE_GRID",
-    "SEARCH_GAIN_NATS", "STRATA", "WALK_STEPS", "NestedStarts", "ScreenedDesign", "SearchedDesign", "ShortWindowStart",
+    "SEARCH_GAIN_NATS", "STRATA", "WALK_STEPS", "NestedStarts", "NullStarts", "ScreenedDesign", "SearchedDesign", "ShortWindowStart",
     "SpectralStarts", "StartStrategy", "adds_damping_to_a_searched_submodel", "barely_on", "clip_inside_prior",
-    "damped_away_starts", "design_points", "equivalent_linear_omega2", "forget_maps", "has_second_stage",
-    "least_squares_coupling", "model_setup", "nested_starts", "prior_centres", "ridge_neighbours", "ridge_walk", "screened_design",
+    "damped_away_starts", "design_points", "equivalent_linear_omega2", "has_second_stage",
+    "kept_nested", "least_squares_coupling", "model_setup", "nested_starts", "null_starts", "null_value", "prior_centres", "ridge_neighbours", "ridge_walk", "screened_design",
     "searched_design", "searched_map", "searched_starts", "spectral_guesses", "starting_points", "stratified_design",
     "window_spectrum",
 ]
 
 #: The start strategies of every driven calibration, in the order their starts are tried.
-DEFAULT_STRATEGIES: tuple[StartStrategy, ...] = (NestedStarts(), SpectralStarts(), ScreenedDesign(), SearchedDesign())
+DEFAULT_STRATEGIES: tuple[StartStrategy, ...] = (NestedStarts(), NullStarts(), SpectralStarts(), ScreenedDesign(),
+                                                  SearchedDesign())
 
 
 def starting_points(problem: Problem, setup: BeamCalibrationSetup, warm: Mapping[str, float] | None = None,
-                    search: bool = True, engine=None,
+                    search: bool = True, *, engine,
                     strategies: Sequence[StartStrategy] | None = None) -> list[dict[str, float]]:
     """The starts of a driven calibration (natural units, physical parameters): the short-window
     MAP (or a caller's ``warm`` start in its place), then each strategy's starts in order; the
@@ -92,28 +97,16 @@ def starting_points(problem: Problem, setup: BeamCalibrationSetup, warm: Mapping
 
     Parameters
     ----------
-    engine : Engine, optional
-        Whose memory the nested starts read (default: the process's,
-        :func:`beam.calibration.engine.default_engine`).
+    engine : Engine
+        Whose memory the nested and null starts read (:class:`beam.calibration.engine.Engine`).
     strategies : sequence of StartStrategy, optional
         Default ``engine.strategies``.
     """
-    from beam.calibration.engine import default_engine
-
-    engine = engine or default_engine()
     strategies = engine.strategies if strategies is None else strategies
     by_strategy = [(s, s(problem, setup, engine)) for s in strategies if search or s.stage == "quick"]
-    # the historical order: nested, then the rest (the short window refines the rest)
+    # the nested starts first, then the others (which the short window refines)
     nested = [start for s, starts in by_strategy if s.nested for start in starts]
     others = [start for s, starts in by_strategy if not s.nested for start in starts]
     if warm is not None:
         return [dict(warm)] + nested + others
     return ShortWindowStart()(setup, others) + nested + others
-
-
-def forget_maps(engine=None) -> None:
-    """Drop every optimum ``engine`` (default: the process's) remembers (benchmarks that time a
-    cold calibration; tests)."""
-    from beam.calibration.engine import default_engine
-
-    (engine or default_engine()).forget()

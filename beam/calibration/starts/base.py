@@ -6,16 +6,20 @@ calibration: physical parameters in natural units, each inside its prior's suppo
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import numpy as np
 
 from beam.calibration.setup import BeamCalibrationSetup, BeamForwardModel, prior_centre
 from beam.inference import Problem
 from beam.physics.model import BeamModel
 
-__all__ = ["BARELY_ON", "BASE_NAMES", "DAMPED_AWAY", "SCALE_GRID", "StartStrategy", "barely_on", "clip_inside_prior",
-           "damping_only", "effect_names", "log_range", "model_setup", "prior_centres", "pure_damping_parameter"]
+__all__ = ["BARELY_ON", "BASE_NAMES", "DAMPED_AWAY", "SCALE_GRID", "SEARCH_GAIN_NATS", "StartStrategy", "barely_on",
+           "clip_inside_prior", "damping_only", "effect_names", "log_range", "model_setup", "prior_centres", "pure_damping_parameter"]
+
+#: Log-posterior gain (nats) by which the searched design's MAP must beat the quick stage's to
+#: replace it: far below the 1 nat that tells optima apart, far above the search's tolerance,
+#: so that the same basin keeps the quick stage's MAP exactly (the CLI's, the dashboard's preview's
+#: and final's, the diagnosis's candidates' MAPs are then one; tests/dashboard/test_one_engine.py).
+SEARCH_GAIN_NATS = 1e-3
 
 
 class StartStrategy:

@@ -10,7 +10,7 @@ import numpy as np
 
 from beam.calibration.fit import internal_starts, levenberg_marquardt, newton_polish
 from beam.calibration.setup import BeamCalibrationSetup
-from beam.calibration.starts.base import effect_names, log_range, pure_damping_parameter
+from beam.calibration.starts.base import SEARCH_GAIN_NATS, effect_names, log_range, pure_damping_parameter
 from beam.calibration.starts.spectral import batched_scales, coupled_response
 from beam.inference import MapResult, Problem
 

@@ -12,6 +12,7 @@ from beam.calibration.setup import BeamCalibrationSetup, build_problem
 from beam.calibration.spec import DEFAULT_EFFECTS
 from beam.calibration.starts.base import (
     DAMPED_AWAY,
+    SEARCH_GAIN_NATS,
     StartStrategy,
     barely_on,
     clip_inside_prior,
@@ -30,11 +31,6 @@ __all__ = ["SEARCH_GAIN_NATS", "SearchedDesign", "adds_damping_to_a_searched_sub
            "has_second_stage", "searched_map", "searched_starts"]
 
 
-#: Log-posterior gain (nats) by which the searched design's MAP must beat the quick stage's to
-#: replace it: far below the 1 nat that tells optima apart, far above the search's tolerance,
-#: so that the same basin keeps the quick stage's MAP exactly (the CLI's, the dashboard's preview's
-#: and final's, the diagnosis's candidates' MAPs are then one; tests/dashboard/test_one_engine.py).
-SEARCH_GAIN_NATS = 1e-3
 
 
 def searched_starts(problem: Problem, setup: BeamCalibrationSetup) -> list[dict[str, float]]:
