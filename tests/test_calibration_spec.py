@@ -73,7 +73,7 @@ def test_a_default_changed_in_one_place_is_seen_by_the_cli_the_api_and_the_dashb
     sees the change: the spec, the command line, the model builder and the dashboard's inputs."""
     from beam.calibration import defaults
 
-    for name, value in (("DEFAULT_EFFECTS", ("air_damping",)), ("AUTO_MODES", 3), ("DEFAULT_LIKELIHOOD", "ar1"),
+    for name, value in (("DEFAULT_EFFECTS", ("air_damping",)), ("DEFAULT_CALIBRATION_MODES", 3), ("DEFAULT_LIKELIHOOD", "ar1"),
                         ("DEFAULT_SEED", 7), ("DEFAULT_WINDOW_FRACTION", 0.4), ("DEFAULT_TARGET_ESS", 500.0)):
         monkeypatch.setattr(defaults, name, value)
     spec = CalibrationSpec()

@@ -16,6 +16,7 @@ from beam.cli.arguments import (
     positive_int,
     time_window,
 )
+from beam.calibration.defaults import AUTO_MODES
 from beam.calibration.spec import CalibrationSpec
 
 LIKELIHOOD_CHOICES = ("iid", "ar1")
@@ -34,7 +35,7 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _modes_text(modes) -> str:
-    return "chosen from the record's excited band" if modes == "auto" else str(modes)
+    return "chosen from the record's excited band" if modes == AUTO_MODES else str(modes)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
