@@ -70,17 +70,23 @@ def test_a_nested_fit_on_a_simulated_record_is_monotone(added):
 
 def test_a_search_that_ends_below_the_sub_model_keeps_the_sub_models_optimum():
     """An engine whose only start strategy is the spectral match (no nested, null or design
-    starts) still ends no lower than the sub-model it remembers: the guard searches again from
-    the embedded optimum."""
+    starts) ends far below the sub-model it contains when it remembers nothing; remembering the
+    sub-model's optimum, it ends no lower than that optimum embedded (the guard searches again
+    from it)."""
+    from beam.calibration.fit import fast_map
     from beam.calibration.starts import SpectralStarts
 
     record = simulated_measurement({**TRUE_BASE, "tip_mass_kg": 0.004}, seed=6)
     spec = CalibrationSpec(window=(0.0, 1.0), effects=(*BASE, "tip_mass"), modes=4)
-    engine = Engine(strategies=(SpectralStarts(),))
+    larger = (*spec.effects, "clamp_compliance")
     small = calibration_preview(record, spec, engine=Engine())  # the full engine's optimum ...
-    engine.merge([engine.memory_of(small)])  # ... handed to the weak engine
-    large = calibration_preview(record, spec, effects=(*spec.effects, "patch_damping"), engine=engine)
-    nested, _ = embedded_log_posterior(record, small, large.setup.effects, small.spec)
+    nested, _ = embedded_log_posterior(record, small, larger, small.spec)
+    _, problem = prepare(record, spec, effects=larger, engine=Engine(strategies=(SpectralStarts(),)))
+    alone = fast_map(problem, problem.initial_guesses(problem))
+    assert alone.log_posterior < nested - 100.0  # the weak search alone: another basin
+    weak = Engine(strategies=(SpectralStarts(),))
+    weak.merge([weak.memory_of(small)])  # ... handed to the weak engine
+    large = calibration_preview(record, spec, effects=larger, engine=weak)
     assert large.laplace.map.log_posterior >= nested - 1e-6 * abs(nested)
     assert large.rmse_calibration_map <= 1.001 * small.rmse_calibration_map
 
