@@ -35,8 +35,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from beam.calibration import (
+    AUTO_MODES,
     DEFAULT_EFFECTS,
-    DEFAULT_MODES,
     CalibrationResult,
     calibrate,
     calibration_preview,
@@ -204,7 +204,7 @@ def rank_candidates(
     *,
     base: Iterable[str] | str = DEFAULT_EFFECTS,
     window: tuple[float, float] | None = None,
-    modes: int | str = DEFAULT_MODES,
+    modes: int | str = AUTO_MODES,
     candidates: Iterable[str] | None = None,
     explain: Explainer | None = None,
     base_result: CalibrationResult | None = None,
