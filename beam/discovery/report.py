@@ -452,6 +452,7 @@ class DiagnosisReport(VerdictFacts):
             "try_modes": None if self.remaining is None else self.remaining.more_modes,
             "ladder": [step.to_json() for step in self.ladder],
             "modes_table": [dx.jsonable(asdict(row)) for row in self.residuals.comparison],
+            "modes_table_convention": dx.DIFFERENCE_CONVENTION,
             "exceedances": [dx.jsonable(asdict(interval)) for interval in self.residuals.band.intervals],
             "whiteness": {"ljung_box_p": dx.jsonable(self.residuals.whiteness.p_value),
                           "white": bool(self.residuals.whiteness.white)},

@@ -42,10 +42,12 @@ from beam.residuals.fingerprints import (
     fingerprints,
 )
 from beam.residuals.modal_id import (
+    DIFFERENCE_CONVENTION,
     IdentifiedModes,
     ModeMatch,
     ModeRow,
     compare_modes,
+    difference_words,
     free_decay_start,
     identify_modes,
     matrix_pencil_poles,
@@ -75,6 +77,7 @@ from beam.residuals.whiteness import (
 )
 
 __all__ = [
+    "DIFFERENCE_CONVENTION",
     "NoiseFloor",
     "noise_floor",
     "THRESHOLDS",
@@ -99,6 +102,7 @@ __all__ = [
     "band_residuals",
     "compare_modes",
     "decay_law",
+    "difference_words",
     "default_max_lag",
     "default_nperseg",
     "effect_scores",

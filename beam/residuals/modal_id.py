@@ -41,10 +41,12 @@ from beam.residuals.common import (
 )
 
 __all__ = [
+    "DIFFERENCE_CONVENTION",
     "IdentifiedModes",
     "ModeMatch",
     "ModeRow",
     "compare_modes",
+    "difference_words",
     "free_decay_start",
     "identify_modes",
     "matrix_pencil_poles",
@@ -370,11 +372,28 @@ def identify_modes(
     )
 
 
+#: The sign convention of the modes table, stated once for the command line, the JSON and the dashboard.
+DIFFERENCE_CONVENTION = ("measured relative to the model, 100 (measured / model - 1) %: positive when the "
+                         "measured value is higher than the model's")
+
+
+def difference_words(percent: float, digits: int = 1) -> str:
+    """A modes-table difference (:data:`DIFFERENCE_CONVENTION`) in words, read as "the measured
+    value is …": ``17.5`` -> ``"17.5 % higher"``, ``-3`` -> ``"3.0 % lower"``, ``"matches"`` when
+    it rounds to zero at ``digits`` decimals, ``"–"`` when not finite (nothing measured)."""
+    if percent is None or not np.isfinite(percent):
+        return "–"
+    if round(abs(float(percent)), digits) == 0:
+        return "matches"
+    return f"{abs(float(percent)):.{digits}f} % {'higher' if percent > 0 else 'lower'}"
+
+
 @dataclass(frozen=True)
 class ModeMatch:
     """An identified mode against a model mode (NaN data fields when none matched).
 
-    ``frequency_error_pct`` = 100 (f_data / f_model − 1); ``damping_error_pct`` likewise.
+    ``frequency_error_pct`` = 100 (f_data / f_model − 1) %; ``damping_error_pct`` likewise: positive
+    when the **measured** value is higher than the model's (:data:`DIFFERENCE_CONVENTION`).
     """
 
     mode: int

@@ -15,6 +15,7 @@ import pandas as pd
 import panel as pn
 import param
 
+from beam.residuals import difference_words
 from dashboard.outputs import beam as bs
 from dashboard.outputs.beam import (
     effect_title,
@@ -51,24 +52,21 @@ _STAGE_TEXT = {
 
 
 def modes_table(diagnosis) -> pd.DataFrame:
-    """Identified (data) against model modes: frequencies (Hz), damping ratios (%), errors (%)."""
+    """Identified (data) against model modes: frequencies (Hz), damping ratios (%), and how the
+    measured value differs from the model's in words, by the one sign convention of the command
+    line and the JSON (:data:`beam.residuals.DIFFERENCE_CONVENTION`: "17.5 % higher" is
+    ``frequency_error_pct`` = +17.5, the measured frequency above the model's)."""
     if diagnosis is None or not diagnosis.residuals.comparison:
         return pd.DataFrame({"note": ["no modal identification on this record (no free decay)"]})
 
     def f(v, scale=1.0, fmt="{:.4g}"):
         return fmt.format(v * scale) if math.isfinite(v) else "–"
 
-    def off(v, digits):
-        if not math.isfinite(v):
-            return "–"
-        if round(abs(v), digits) == 0:
-            return "matches"
-        return f"{abs(v):.{digits}f} % {'high' if v > 0 else 'low'}"
-
     return pd.DataFrame([{
         "mode": m.mode, "measured f (Hz)": f(m.frequency_data_Hz), "model f (Hz)": f(m.frequency_model_Hz),
-        "model f is": off(m.frequency_error_pct, 1), "measured damping ζ (%)": f(m.damping_data, 100, "{:.2g}"),
-        "model ζ (%)": f(m.damping_model, 100, "{:.2g}"), "model ζ is": off(m.damping_error_pct, 0),
+        "measured f vs model": difference_words(m.frequency_error_pct, 1),
+        "measured damping ζ (%)": f(m.damping_data, 100, "{:.2g}"),
+        "model ζ (%)": f(m.damping_model, 100, "{:.2g}"), "measured ζ vs model": difference_words(m.damping_error_pct, 0),
     } for m in diagnosis.residuals.comparison]).set_index("mode")
 
 
@@ -231,7 +229,8 @@ class DiagnosisView(pn.viewable.Viewer):
                              css_classes=["diag-whiteness"])
         spectra = self._pair(self._plot(p.spectrum), pn.Column(self._plot(p.acf), whiteness, sizing_mode="stretch_width"))
         modes = self._pair(
-            pn.Column(Markdown("**Modes: measured in the free decay vs the model**"),
+            pn.Column(Markdown("**Modes: measured in the free decay vs the model** (“higher”, “lower”: the measured "
+                               "value against the model's)"),
                       DataFrame(pn.bind(modes_table, d.param.diagnosis), escape=True,
                                 sizing_mode="stretch_width", css_classes=["diag-modes-table"]),
                       sizing_mode="stretch_width"),
