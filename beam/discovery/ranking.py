@@ -43,7 +43,7 @@ from beam.calibration import (
 )
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
-from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, parse_effects
+from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, applicable, parse_effects
 
 #: Evidence gain (nats) a candidate needs to count as a material improvement.
 MATERIAL_LOG_EVIDENCE = 5.0
@@ -144,24 +144,38 @@ class Ranking:
 Explainer = Callable[[str, CalibrationResult, CalibrationResult], str]
 
 
+def record_features(measurement: Measurement) -> frozenset[str]:
+    """The features of a record that effects can need (:data:`beam.physics.effects.RECORD_FEATURES`)."""
+    features = set()
+    if measurement.geometry.has_patch:
+        features.add("patch")
+    if not measurement.is_free:
+        features.add("input")
+    if measurement.output_kind == "acceleration":
+        features.add("contact_sensor")
+    if measurement.uniform:
+        features.add("uniform")
+    if measurement.output_kind == "displacement":
+        features.add("displacement")
+    return frozenset(features)
+
+
 def candidate_effects(current: Iterable[str], measurement: Measurement | None = None) -> tuple[str, ...]:
     """Catalogue effects offered as candidates (:data:`beam.physics.effects.CANDIDATE_EFFECTS`) not in the
     current model, in catalogue order.
 
-    With a ``measurement`` the offer fits the record: ``sensor_mass`` joins for an acceleration
-    record (an accelerometer is a contact sensor whose mass loads the beam where it measures; a
-    laser's displacement or velocity has none); effects on the patch need a patch; the tip's
-    cubic spring (nonlinear) needs a driven record on uniform stamps with a displacement output.
+    With a ``measurement`` the offer fits the record: only effects whose needs
+    (:func:`beam.physics.effects.effect_needs`) the record has (:func:`record_features`); and
+    ``sensor_mass`` joins where it applies (an accelerometer is a contact sensor whose mass loads
+    the beam where it measures; a laser's displacement or velocity has none). So: no patch effect
+    without a patch, no input effect without an input, the tip's cubic spring (nonlinear) only on
+    a driven displacement record on uniform stamps.
     """
     present = set(parse_effects(current))
     offered = list(CANDIDATE_EFFECTS)
     if measurement is not None:
-        if measurement.output_kind == "acceleration":
-            offered.append("sensor_mass")
-        if not measurement.geometry.has_patch:
-            offered = [e for e in offered if not EFFECTS[e].needs_patch]
-        if measurement.is_free or not measurement.uniform or measurement.output_kind != "displacement":
-            offered = [e for e in offered if not EFFECTS[e].nonlinear]
+        features = record_features(measurement)
+        offered = [e for e in [*offered, "sensor_mass"] if applicable(e, features)]
     return tuple(effect for effect in EFFECTS if effect in offered and effect not in present)
 
 
