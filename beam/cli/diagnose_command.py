@@ -67,7 +67,8 @@ def format_report(summary: dict) -> str:
     ]
     for row in summary["modes_table"]:
         lines.append(f"  {row['mode']:>4d} {_m(row['frequency_data_Hz']):>12s} {_m(row['frequency_model_Hz']):>13s} "
-                     f"{_m(row['frequency_error_pct']):>16s} {_m(row['damping_data']):>10s} {_m(row['damping_model']):>11s}")
+                     f"{_m(row['frequency_error_pct']):>16s} {_m(row['damping_data']):>10s} {_m(row['damping_model']):>11s}"
+                     + (f"  not seen: {row['note']}" if row.get("note") else ""))
     lines += ["", "candidate effects, best first",
               f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE':>18s}  why"]
     for c in summary["candidates"]:

@@ -260,13 +260,33 @@ def rank_fits(base_result: CalibrationResult, names: Iterable[str],
         sentence = explain(effect, base_result, result) if explain else EFFECTS[effect].physics
         ranked.append(Candidate(effect, delta, rmse, result.rmse_calibration,
                                 result.coverage95_prediction, material, sentence, own))
-    ranked.sort(key=rank_key)
+    ranked.sort(key=lambda c: rank_key(c, base_result))
     return Ranking(base_result, ranked, results)
 
 
-def rank_key(c: Candidate) -> tuple[bool, float]:
-    """Sort key of the ranking: materially improving first, then by evidence gain, failed fits last."""
-    return (not c.material, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
+def rank_key(c: Candidate, base: CalibrationResult | None = None) -> tuple[bool, bool, float]:
+    """Sort key of the ranking: materially improving first, then (given the ``base`` fit) those whose
+    evidence is not contradicted by their held-out error (:func:`window_only`), then by evidence
+    gain, failed fits last."""
+    contradicted = base is not None and window_only(c, base)
+    return (not c.material, contradicted, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
+
+
+def held_out_change(candidate: Candidate, base: CalibrationResult) -> float:
+    """Relative change of the candidate's held-out RMSE against the base model's (0.15: 15 % higher;
+    NaN when either is unknown)."""
+    before = base.rmse_prediction_map
+    if not (math.isfinite(candidate.rmse_prediction) and math.isfinite(before) and before > 0):
+        return math.nan
+    return float(candidate.rmse_prediction / before - 1.0)
+
+
+def window_only(candidate: Candidate, base: CalibrationResult) -> bool:
+    """Whether the evidence favours ``candidate`` (at least :data:`MATERIAL_LOG_EVIDENCE`) while its
+    held-out error is higher than the base model's: the two disagree, and the evidence is then
+    no support for the effect (a base model far from the data lets any added flexibility fit the
+    calibration window better; the evidence sees only the window)."""
+    return bool(candidate.delta_log_evidence >= MATERIAL_LOG_EVIDENCE and held_out_change(candidate, base) > 0)
 
 
 def error_ladder(

@@ -31,9 +31,11 @@ from beam.residuals.envelope import (
     ModeEnvelope,
     analyse_mode,
     backbone,
+    check_backbone,
     decay_law,
     extrapolate,
     mode_envelope,
+    spectral_drift,
 )
 from beam.residuals.fingerprints import (
     THRESHOLDS,
@@ -51,8 +53,9 @@ from beam.residuals.modal_id import (
     free_decay_start,
     identify_modes,
     matrix_pencil_poles,
+    unseen_reason,
 )
-from beam.residuals.noise import NoiseFloor, noise_floor
+from beam.residuals.noise import NoiseFloor, noise_floor, record_noise_floor
 from beam.residuals.residuals import (
     BandResiduals,
     ExceedanceInterval,
@@ -80,6 +83,7 @@ __all__ = [
     "DIFFERENCE_CONVENTION",
     "NoiseFloor",
     "noise_floor",
+    "record_noise_floor",
     "THRESHOLDS",
     "Backbone",
     "BandResiduals",
@@ -100,6 +104,7 @@ __all__ = [
     "autocorrelation",
     "backbone",
     "band_residuals",
+    "check_backbone",
     "compare_modes",
     "decay_law",
     "difference_words",
@@ -117,5 +122,7 @@ __all__ = [
     "mode_envelope",
     "residual_spectrum",
     "residual_whiteness",
+    "spectral_drift",
+    "unseen_reason",
     "window_scores",
 ]

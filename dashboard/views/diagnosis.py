@@ -15,6 +15,8 @@ import pandas as pd
 import panel as pn
 import param
 
+from beam.discovery.ranking import window_only
+from beam.discovery.report import p_words
 from beam.residuals import difference_words
 from dashboard.outputs import beam as bs
 from dashboard.outputs.beam import (
@@ -64,7 +66,7 @@ def modes_table(diagnosis) -> pd.DataFrame:
 
     return pd.DataFrame([{
         "mode": m.mode, "measured f (Hz)": f(m.frequency_data_Hz), "model f (Hz)": f(m.frequency_model_Hz),
-        "measured f vs model": difference_words(m.frequency_error_pct, 1),
+        "measured f vs model": difference_words(m.frequency_error_pct, 1) if m.matched or not m.note else f"not seen: {m.note}",
         "measured damping ζ (%)": f(m.damping_data, 100, "{:.2g}"),
         "model ζ (%)": f(m.damping_model, 100, "{:.2g}"), "measured ζ vs model": difference_words(m.damping_error_pct, 0),
     } for m in diagnosis.residuals.comparison]).set_index("mode")
@@ -339,12 +341,17 @@ class DiagnosisView(pn.viewable.Viewer):
 
     @staticmethod
     def _candidate_text(c, diagnosis, u) -> str:
+        """A candidate's row: its errors, its evidence (worded as odds for the effect only when the
+        held-out error does not contradict it, :func:`beam.discovery.ranking.window_only`), its
+        explanation and parameters."""
         title = effect_title(c.effect)
-        params = "; ".join(f"{parameter_label(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
+        params = "; ".join(f"{_parameter_words(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
+        evidence = (f"{c.delta_log_evidence:+.1f} nats inside the calibration window only, not borne out on held-out data"
+                    if window_only(c, diagnosis.base) else evidence_words(c.delta_log_evidence))
         return (f"**{title}**{' — materially better' if c.material else ''}<br>"
                 f"{_errors_words(c, diagnosis, u)}, "
                 f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
-                f"<span title='{bs.GLOSSES['log evidence']}'>{evidence_words(c.delta_log_evidence)}</span>"
+                f"<span title='{bs.GLOSSES['log evidence']}'>{evidence}</span>"
                 f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
 
     def _reveal(self) -> pn.Card:
@@ -371,15 +378,25 @@ class DiagnosisView(pn.viewable.Viewer):
 
 
 def _whiteness_text(diagnosis) -> str:
-    """The Ljung–Box result in words (under the autocorrelation plot)."""
+    """The Ljung–Box result in words (under the autocorrelation plot), coherent with the verdict: a
+    pattern in a residual at the noise is a note on the noise model (:func:`beam.discovery.report.remaining_words`)."""
     if diagnosis is None:
         return ""
     w = diagnosis.residuals.whiteness
-    p = bs._p(w.p_value)
+    chance = f"Ljung–Box test: the chance that white noise shows this much pattern is {p_words(w.p_value)}"
     if w.white:
-        return f"Ljung–Box p = {p} (≥ 0.05): the residual looks like **white noise**, as for a right model."
-    return (f"Ljung–Box p = {p} (< 0.05): the residual is **not white noise** — the misfit has structure the "
-            "model does not explain.")
+        return f"{chance} (≥ 0.05): the residual looks like **white noise**, as for a right model."
+    remaining = getattr(diagnosis, "remaining", None)
+    if remaining is not None and remaining.at_noise and not diagnosis.missing:
+        return (f"{chance} (< 0.05): a small pattern in a residual already at the sensor's noise — a note about the "
+                "noise model (the AR(1) likelihood allows correlated noise), not missing physics.")
+    return f"{chance} (< 0.05): the residual is **not white noise** — the misfit has structure the model does not explain."
+
+
+def _parameter_words(name: str, si_unit: str) -> str:
+    """A parameter's label for a student: no "(1)" for a ratio without a unit."""
+    label = parameter_label(name, si_unit)
+    return label[:-4] + " (no unit)" if label.endswith(" (1)") else label
 
 
 def _backbone_text(diagnosis) -> str:
@@ -389,7 +406,9 @@ def _backbone_text(diagnosis) -> str:
     m1 = diagnosis.residuals.mode1
     bb = m1.backbone if m1 is not None else None
     if bb is None:
-        return "No backbone on this record (no free decay to measure it on)."
+        return "No backbone on this record (no free decay to measure it on, or no measured mode matches the model's mode 1)."
+    if not bb.reliable:
+        return f"How the mode-1 frequency changes with amplitude is **unknown** here: {bb.unreliable}."
     shift = 100 * bb.relative_shift
     change = "does not change" if abs(shift) < 0.05 else f"changes by {abs(shift):.2f} % ({'up' if shift > 0 else 'down'})"
     return f"The mode-1 frequency {change} over the amplitudes seen: {bb.verdict}."
