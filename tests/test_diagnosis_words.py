@@ -59,13 +59,13 @@ def test_the_dashboard_modes_table_says_what_it_computes():
 # -- the verdict and the ranking: words against numbers -----------------------------------------
 import re  # noqa: E402
 
-from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, held_out_change, window_only  # noqa: E402
+from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, contradicted, held_out_change, window_only  # noqa: E402
 from beam.discovery.report import AT_NOISE_RATIO, Remaining, remaining_words, verdict_sentence  # noqa: E402
 from beam.residuals import NoiseFloor  # noqa: E402
 
 FLOOR = NoiseFloor(1.5e-5, (350.0, 400.0), (1.5e-5,))
 #: Words that present an evidence gain as support for the effect.
-SUPPORT = re.compile(r"odds[^.;]*for the effect|support for the effect|data favour it", re.IGNORECASE)
+SUPPORT = re.compile(r"odds[^.;]*for the effect|(?<!no )support for the effect|data favour it", re.IGNORECASE)
 
 
 def test_at_the_noise_a_small_pattern_is_a_note_on_the_noise_model():
@@ -118,13 +118,14 @@ def check_ranking_words(ranking, texts: dict[str, str]) -> None:
     base = ranking.base
     for c in ranking.candidates:
         text = texts[c.effect]
-        rises = held_out_change(c, base) > 0
-        if rises:
+        if contradicted(c, base):  # a gain while the held-out error rises (beyond the optimiser's noise)
             assert not SUPPORT.search(text), (c.effect, text)
         if c.delta_log_evidence >= MATERIAL_LOG_EVIDENCE and "no sign of" in c.explanation:
-            assert "held-out error" in c.explanation, (c.effect, c.explanation)  # the explanation is there
-        if rises and c.delta_log_evidence >= MATERIAL_LOG_EVIDENCE:
-            assert f"{100 * held_out_change(c, base):.0f} %" in c.explanation, c.explanation
+            # beside a large evidence, the explanation quotes it and the error that judges it
+            assert f"+{c.delta_log_evidence:.0f} nats" in c.explanation and "error" in c.explanation, c.explanation
+        if window_only(c, base):  # the rise is quoted
+            rise = 100 * held_out_change(c, base)
+            assert any(f"{rise:.{d}f} % higher" in c.explanation for d in (0, 1)), c.explanation
     # contradicted candidates never rank above one whose evidence its held-out error does not contradict
     flags = [window_only(c, base) for c in ranking.candidates if not c.material and np.isfinite(c.delta_log_evidence)]
     assert flags == sorted(flags)

@@ -281,12 +281,24 @@ def held_out_change(candidate: Candidate, base: CalibrationResult) -> float:
     return float(candidate.rmse_prediction / before - 1.0)
 
 
+#: Relative rise of the held-out RMSE above which it "rises" (below it the optimiser's noise: the
+#: same model refitted moves it by less).
+HELD_OUT_RISE = 1e-3
+
+
+def contradicted(candidate: Candidate, base: CalibrationResult) -> bool:
+    """Whether the evidence favours ``candidate`` (a positive gain) while its held-out error rises
+    (by more than :data:`HELD_OUT_RISE`) against the base model's: the two disagree, and the evidence
+    is then no support for the effect (it sees only the calibration window)."""
+    return bool(candidate.delta_log_evidence > 0 and held_out_change(candidate, base) > HELD_OUT_RISE)
+
+
 def window_only(candidate: Candidate, base: CalibrationResult) -> bool:
-    """Whether the evidence favours ``candidate`` (at least :data:`MATERIAL_LOG_EVIDENCE`) while its
-    held-out error is higher than the base model's: the two disagree, and the evidence is then
-    no support for the effect (a base model far from the data lets any added flexibility fit the
-    calibration window better; the evidence sees only the window)."""
-    return bool(candidate.delta_log_evidence >= MATERIAL_LOG_EVIDENCE and held_out_change(candidate, base) > 0)
+    """A large evidence gain (at least :data:`MATERIAL_LOG_EVIDENCE`) that the held-out error
+    contradicts (:func:`contradicted`): a base model far from the data lets any added flexibility
+    fit the calibration window better. Ranked below the uncontradicted candidates and named by the
+    verdict."""
+    return bool(candidate.delta_log_evidence >= MATERIAL_LOG_EVIDENCE and contradicted(candidate, base))
 
 
 def error_ladder(

@@ -30,6 +30,7 @@ from beam.discovery.ranking import (
     LadderStep,
     Ranking,
     error_ladder,
+    HELD_OUT_RISE,
     held_out_change,
     improves,
     rank_candidates,
@@ -405,13 +406,15 @@ def remaining_words(remaining: Remaining, unit: str = "m", floor_text: str | Non
 def window_only_words(effect: str, gain_nats: float, held_out_change: float, free: bool = False) -> str:
     """Why a large evidence gain is no support for ``effect`` when its held-out error rises
     (:func:`beam.discovery.ranking.window_only`); ``held_out_change`` relative (0.15: 15 % higher)."""
+    percent = 100 * held_out_change
+    rise = f"{percent:.1f} %" if percent < 10 else f"{percent:.0f} %"
     if free:
-        return (f"{effect} fits the calibration window better (+{gain_nats:.0f} nats) but the rest of the decay "
-                f"{100 * held_out_change:.0f} % worse: a decay's held-out part extrapolates each mode's damping, "
-                "so it is judged on its window")
+        return (f"{effect} fits the calibration window better (+{gain_nats:.0f} nats) but its error on the rest of "
+                f"the decay is {rise} higher: a decay's held-out part extrapolates each mode's damping, so it is "
+                "judged on its window")
     return (f"{effect} gains +{gain_nats:.0f} nats of evidence inside the calibration window while its held-out "
-            f"error is {100 * held_out_change:.0f} % higher: a base model this far from the data lets any added "
-            "flexibility fit the window better, so this evidence is no support for the effect")
+            f"error is {rise} higher: a base model this far from the data lets any added flexibility fit the "
+            "window better, so this evidence is no support for the effect")
 
 
 def _more_modes(remaining: Remaining) -> str:
@@ -631,19 +634,26 @@ def explainer(residuals: ResidualReport) -> Explainer:
     def explain(effect: str, base_fit: CalibrationResult, fit: CalibrationResult) -> str:
         sentence = residuals.explanations.get(effect, "")
         gain = float(fit.laplace.log_evidence - base_fit.laplace.log_evidence)
-        ratio = base_fit.rmse_prediction_map / max(fit.rmse_prediction_map, 1e-300)
-        if gain >= MATERIAL_LOG_EVIDENCE and ratio < 1.0:
-            words = window_only_words(effect, gain, 1.0 / ratio - 1.0, base_fit.setup.is_free)
+        if gain < MATERIAL_LOG_EVIDENCE:
+            return sentence
+        held_out = fit.rmse_prediction_map / max(base_fit.rmse_prediction_map, 1e-300) - 1.0
+        if held_out > HELD_OUT_RISE:
+            words = window_only_words(effect, gain, held_out, base_fit.setup.is_free)
             return f"{words}. What the residuals show: {sentence}"
-        if gain >= MATERIAL_LOG_EVIDENCE and ratio > 1.25 and scores.get(effect, 0.0) < 1.0:
+        if scores.get(effect, 0.0) >= 1.0:
+            return sentence
+        free = base_fit.setup.is_free
+        judged = "calibration-window error" if free else "held-out error"
+        before, after = ((base_fit.rmse_calibration_map, fit.rmse_calibration_map) if free
+                         else (base_fit.rmse_prediction_map, fit.rmse_prediction_map))
+        if improves(base_fit, fit):
             pattern = sentence.split(": no sign")[0]
-            return (f"the data favour it strongly (+{gain:.0f} nats, held-out error /{ratio:.1f}) although its "
-                    f"fingerprint is ambiguous: {pattern}")
-        if gain >= MATERIAL_LOG_EVIDENCE and "no sign" in sentence and not improves(base_fit, fit):
-            return (f"the evidence rises (+{gain:.0f} nats) but the held-out error falls only "
-                    f"{100 * (1 - 1 / ratio):.0f} %: too little to call the effect missing, and its fingerprint "
-                    f"agrees: {sentence}")
-        return sentence
+            return (f"the data favour it strongly (+{gain:.0f} nats, {judged} /{before / max(after, 1e-300):.1f}) "
+                    f"although its fingerprint is ambiguous: {pattern}")
+        fall = 1 - after / before if before > 0 else 0.0
+        change = f"falls only {100 * fall:.0f} %" if fall > 0 else "does not fall"
+        return (f"the evidence rises (+{gain:.0f} nats) but the {judged} {change}: too little to call the effect "
+                f"missing, and its fingerprint agrees: {sentence}")
 
     return explain
 

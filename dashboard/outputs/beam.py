@@ -22,7 +22,7 @@ import pandas as pd
 from beam.calibration.handout import calibration_handout
 from beam.errors import BeamInputError
 from beam.physics.effects import EFFECTS, parameter_spec
-from beam.discovery.ranking import window_only
+from beam.discovery.ranking import contradicted
 from beam.discovery.report import remaining_words
 from beam.residuals.noise import record_noise_floor
 from dashboard.outputs.exports import _jsonable
@@ -485,7 +485,7 @@ def verdict_text(diagnosis) -> str:
         names = ", then ".join(effect_title(e) for e in [missing, *climbed])
         text = (f"**Missing: {names}.** With {'them' if climbed else 'it'} {what} is {fmt_value(after)} {u.unit} instead "
                 f"of {fmt_value(before)} {u.unit} ({change_words(after, before)}); evidence "
-                f"{evidence_words(best.delta_log_evidence) if not window_only(best, diagnosis.base) else f'{best.delta_log_evidence:+.1f} nats in the calibration window'}.")
+                f"{evidence_words(best.delta_log_evidence) if not contradicted(best, diagnosis.base) else f'{best.delta_log_evidence:+.1f} nats in the calibration window'}.")
         if climbed:
             text += (f" ({effect_title(climbed[0])} shows only once {effect_title(missing)} is in the model: "
                      "the diagnosis ranked the candidates again on top of it.)")

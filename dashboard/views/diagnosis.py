@@ -15,7 +15,7 @@ import pandas as pd
 import panel as pn
 import param
 
-from beam.discovery.ranking import window_only
+from beam.discovery.ranking import contradicted
 from beam.discovery.report import p_words
 from beam.residuals import difference_words
 from dashboard.outputs import beam as bs
@@ -342,12 +342,12 @@ class DiagnosisView(pn.viewable.Viewer):
     @staticmethod
     def _candidate_text(c, diagnosis, u) -> str:
         """A candidate's row: its errors, its evidence (worded as odds for the effect only when the
-        held-out error does not contradict it, :func:`beam.discovery.ranking.window_only`), its
+        held-out error does not contradict it, :func:`beam.discovery.ranking.contradicted`), its
         explanation and parameters."""
         title = effect_title(c.effect)
         params = "; ".join(f"{_parameter_words(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
         evidence = (f"{c.delta_log_evidence:+.1f} nats inside the calibration window only, not borne out on held-out data"
-                    if window_only(c, diagnosis.base) else evidence_words(c.delta_log_evidence))
+                    if contradicted(c, diagnosis.base) else evidence_words(c.delta_log_evidence))
         return (f"**{title}**{' — materially better' if c.material else ''}<br>"
                 f"{_errors_words(c, diagnosis, u)}, "
                 f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
