@@ -8,16 +8,16 @@ from playwright.sync_api import expect
 
 pytestmark = pytest.mark.browser
 
-#: The table's rows as {column: text}.
-ROWS_JS = """() => {
-  const table = document.querySelector('.diag-modes-table table') ||
-                [...document.querySelectorAll('table')].find(t => t.innerText.includes('measured f vs model'));
-  const head = [...table.querySelectorAll('thead tr:first-child th')].map(th => th.innerText.trim());
-  return [...table.querySelectorAll('tbody tr')].map(tr => {
-    const cells = [...tr.querySelectorAll('th, td')].map(td => td.innerText.trim());
-    return Object.fromEntries(head.map((h, i) => [h || 'mode', cells[i]]));
-  });
-}"""
+def table_rows(page) -> list[dict]:
+    """The modes table's rows as {column: text} (Playwright's locators pierce the shadow roots)."""
+    table = page.locator(".diag-modes-table table").first
+    head = [h.strip() for h in table.locator("thead tr").first.locator("th").all_inner_texts()]
+    head[0] = head[0] or "mode"
+    rows = []
+    for i in range(table.locator("tbody tr").count()):
+        cells = [c.strip() for c in table.locator("tbody tr").nth(i).locator("th, td").all_inner_texts()]
+        rows.append(dict(zip(head, cells)))
+    return rows
 
 
 def test_the_modes_table_words_match_its_numbers(page):
@@ -29,7 +29,7 @@ def test_the_modes_table_words_match_its_numbers(page):
     wait_for_status(page, "s.stage === 'final'", css="diag-status", timeout_ms=240000)
     page.locator(".diag-residual-tabs .bk-tab", has_text="Modes and backbone").first.click()
     expect(page.get_by_text("measured f vs model").first).to_be_visible(timeout=30000)
-    rows = page.evaluate(ROWS_JS)
+    rows = table_rows(page)
     checked = 0
     for row in rows:
         words = row["measured f vs model"]
