@@ -265,7 +265,9 @@ def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: 
 def effect_label(effect: str) -> str:
     """``"Tip mass (tip_mass_kg: kg)"``-style label of a catalogue effect, units included."""
     e = EFFECTS[effect]
-    units = ", ".join(f"{p.symbol} in {p.unit}" for p in e.parameters if p.required)
+    if e.per_mode:  # "Modal damping (ζ per mode, no unit)", not "ζ_1 in 1"
+        return f"{e.title} ({e.parameters[0].symbol.split('_')[0]} per mode{', no unit' if e.parameters[0].unit == '1' else ''})"
+    units = ", ".join(f"{p.symbol} in {p.unit}" if p.unit != "1" else f"{p.symbol}, no unit" for p in e.parameters if p.required)
     return f"{e.title} ({units})"
 
 
