@@ -19,7 +19,7 @@ from contextlib import contextmanager
 
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
-from beam.study.cells import StudyCell, error_row, run_cell
+from beam.study.cells import StudyCell, code_version, error_row, run_cell
 
 __all__ = ["SCHEDULER_ENV", "SINGLE_THREAD_ENV", "open_client", "scheduler_address", "stream_cells"]
 
@@ -36,18 +36,19 @@ def scheduler_address(given: str | None) -> str | None:
     return address or None
 
 
-def _import_engine() -> bool:
-    """Import the calibration engine and ArviZ in a worker (before its first cell, not during it)."""
+def _import_engine() -> str:
+    """Import the calibration engine and ArviZ in a worker (before its first cell, not during it);
+    returns the worker's :func:`~beam.study.cells.code_version`."""
     from beam.calibration import calibrate  # noqa: F401
     from beam.inference._arviz import import_arviz
 
     import_arviz()
-    return True
+    return code_version()
 
 
 @contextmanager
 def open_client(address: str | None = None, workers: int | None = None,
-                warm: Callable[[], None] | None = None, timeout_s: float = 30.0):
+                warm: Callable[[], None] | None = None, timeout_s: float = 60.0):
     """A :class:`distributed.Client` on the scheduler at ``address``, or on a new local cluster.
 
     Parameters
@@ -60,7 +61,7 @@ def open_client(address: str | None = None, workers: int | None = None,
         Called once in this process before a local cluster's workers start (so that they find
         the compiled kernels on disk instead of compiling them each, at the same time).
     timeout_s : float
-        How long to wait for the scheduler (s).
+        How long to wait for the scheduler, and for its first worker (s).
 
     Yields
     ------
@@ -70,7 +71,9 @@ def open_client(address: str | None = None, workers: int | None = None,
     Raises
     ------
     BeamInputError
-        ``workers`` with an address, or a scheduler that cannot be reached.
+        ``workers`` with an address; a scheduler that cannot be reached or has no worker within
+        ``timeout_s``; a worker whose ``beam`` sources differ from this process's (its cells would
+        be stored under this code's version).
     """
     from distributed import Client, LocalCluster
 
@@ -89,7 +92,14 @@ def open_client(address: str | None = None, workers: int | None = None,
                                env=SINGLE_THREAD_ENV, dashboard_address=None, silence_logs=logging.ERROR)
         client = Client(cluster)
     try:
-        client.run(_import_engine)
+        try:
+            client.wait_for_workers(1, timeout=timeout_s)
+        except TimeoutError:
+            raise BeamInputError(f"no Dask worker joined the scheduler at {address} within {timeout_s:g} s") from None
+        other = {w: v for w, v in client.run(_import_engine).items() if v != code_version()}
+        if other:
+            raise BeamInputError(f"the Dask worker {next(iter(other))} runs another version of beam than this "
+                                 "command (install the same code on the cluster)")
         yield client
     finally:
         client.close()
@@ -101,7 +111,8 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
     """Run ``cells`` on ``client``'s workers; yield ``(cell, outcome)`` as each finishes.
 
     ``records`` maps a cell's ``record_hash`` to its record; each record is sent to the cluster
-    once. ``outcome`` is :func:`beam.study.cells.run_cell`'s dict, with ``task["submitted"]``
+    once. Longer windows (the longer calibrations) are given a higher priority, so that the
+    short ones fill the workers at the end. ``outcome`` is :func:`beam.study.cells.run_cell`'s dict, with ``task["submitted"]``
     and ``task["received"]`` (epoch s, this process's clock) added.
     """
     from distributed import as_completed
@@ -115,7 +126,7 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
     futures = {}
     for index, cell in enumerate(cells):
         future = client.submit(run_cell, scattered[cell.record_hash], cell, key=f"beam-study-{run}-{index}",
-                               pure=False)
+                               pure=False, priority=cell.window[1] - cell.window[0])
         futures[future.key] = (cell, future, time.time())
     for future in as_completed([f for _, f, _ in futures.values()]):
         cell, _, submitted = futures.pop(future.key)
