@@ -70,3 +70,15 @@ def test_the_reports_abscissa_tells_the_windows_apart():
     assert label.endswith("start (s)") and list(x) == [0, 0.5, 1]
     label, x = window_axis([(0, 0.5), (0, 2), (1, 2.5)])
     assert label.endswith("centre (s)") and list(x) == [0.25, 1, 1.75]
+
+
+def test_the_scheduler_is_the_flag_then_the_environment_then_a_local_cluster(monkeypatch):
+    from beam.study.engine import SCHEDULER_ENV, scheduler_address
+
+    monkeypatch.delenv(SCHEDULER_ENV, raising=False)
+    assert scheduler_address(None) is None
+    monkeypatch.setenv(SCHEDULER_ENV, "tcp://10.0.0.5:8786")
+    assert scheduler_address(None) == "tcp://10.0.0.5:8786"
+    assert scheduler_address("tcp://127.0.0.1:9000") == "tcp://127.0.0.1:9000"
+    monkeypatch.setenv(SCHEDULER_ENV, " ")
+    assert scheduler_address(None) is None

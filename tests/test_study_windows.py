@@ -71,3 +71,11 @@ def test_command_line_errors_are_one_line_and_status_2(argv, message, capsys, tm
     assert status == 2
     assert len(err) == 1 and err[0].startswith("error:") and message in err[0]
     assert list(tmp_path.iterdir()) == []  # nothing started, nothing written
+
+
+def test_workers_with_a_scheduler_from_the_environment_is_an_error(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", "tcp://127.0.0.1:1")
+    assert main(["study", "lab_run_1", "--workers", "2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error:") and "--workers" in err[0]
