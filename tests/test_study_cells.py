@@ -82,3 +82,22 @@ def test_the_scheduler_is_the_flag_then_the_environment_then_a_local_cluster(mon
     assert scheduler_address("tcp://127.0.0.1:9000") == "tcp://127.0.0.1:9000"
     monkeypatch.setenv(SCHEDULER_ENV, " ")
     assert scheduler_address(None) is None
+
+
+def test_warming_up_never_stops_a_study(monkeypatch):
+    """A calibration that fails while the kernels are warmed fails again in its cells, which report it."""
+    import beam.calibration
+    from beam.study.run import warm_kernels
+
+    calls = []
+
+    def failing(record, **options):
+        calls.append(options)
+        raise KeyError("ar1_coefficient")
+
+    monkeypatch.setattr(beam.calibration, "calibrate", failing)
+    record = read_measurement(BUNDLED_MEASUREMENTS / "lab_run_1.csv")
+    cells = [c for _, c in study_cells([("a", record)], [(0.0, 1.0), (0.0, 2.0)], [(), ("air_damping",)], ["iid"])]
+    warm_kernels(record, cells)
+    assert [(c["effects"], c["modes"], c["steps"]) for c in calls] == [((), 2, 10), (("air_damping",), 2, 10)]
+    assert calls[0]["window"] == (0.0, pytest.approx(0.3499))
