@@ -16,6 +16,7 @@ from beam.cli.arguments import (
     positive_int,
     time_window,
 )
+from beam.cli.record_arguments import add_record_arguments, measurement_from_args
 
 LIKELIHOOD_CHOICES = ("iid", "ar1")
 
@@ -23,11 +24,13 @@ LIKELIHOOD_CHOICES = ("iid", "ar1")
 def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     """--window and --modes, shared with ``beam diagnose``."""
     parser.add_argument("data", metavar="DATA", type=measurement_path,
-                        help="measurement: NAME.csv, NAME.toml or NAME; a bundled run (e.g. lab_run_1) by its name")
+                        help="measurement: NAME.csv, NAME.toml or NAME; a bundled run (e.g. lab_run_1) by its name; or a "
+                        "record in another format (phyphox, .lvm, .mat, .npy, ...; see beam import)")
     parser.add_argument("--window", type=time_window, default=None, metavar="START:END",
                         help="calibration window in seconds, e.g. 0:1.5 (default: the first 30 %% of the record)")
     parser.add_argument("--modes", type=modes_choice, default="auto", metavar="N",
                         help="retained modes, or auto (default: chosen from the record's excited band)")
+    add_record_arguments(parser)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -60,13 +63,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.io.measurement import read_measurement
-
     if args.report is not None and not str(args.report).lower().endswith((".html", ".htm")):
         from beam.errors import BeamInputError
 
         raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
-    measurement = read_measurement(args.data)  # a bad file fails before the heavy imports
+    measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
     from beam.calibration import calibrate
     result = calibrate(
         measurement, window=args.window, effects=args.effects, modes=args.modes, likelihood=args.likelihood,
