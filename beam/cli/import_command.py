@@ -51,15 +51,13 @@ def run(args: argparse.Namespace) -> int:
     from beam.io.measurement import measurement_csv_text
     from beam.io.text import atomic_write_texts, dump_toml
 
-    document = beam_document(args, default_sensor_at_tip=True)
-    if document is None:
-        raise BeamInputError("beam import: describe the beam: --length, --width, --thickness and --material "
-                             "(or --youngs-modulus and --density), or --beam BEAM.toml")
-    measurement = measurement_from_args(args, default_sensor_at_tip=True)
+    document, measurement, summary = summarise(args)
     prefix = output_prefix(args.data, args.out)
     csv_path, toml_path = prefix.with_name(prefix.name + ".csv"), prefix.with_name(prefix.name + ".toml")
     if Path(args.data).resolve() in (csv_path.resolve(), toml_path.resolve()):
         raise BeamInputError(f"--out {prefix}: would overwrite the record {args.data}; choose another PREFIX")
+    sys.stdout.write(summary)  # the summary first: writing 80,000 rows at full precision takes longer
+    sys.stdout.flush()
     columns = measurement.columns
     sidecar = {"title": document.get("title") or f"{Path(args.data).name}, imported"}
     sidecar.update({key: value for key, value in document.items() if key != "title"})
@@ -67,8 +65,20 @@ def run(args: argparse.Namespace) -> int:
         csv_path: measurement_csv_text(*(getattr(measurement, c) for c in columns), names=columns),
         toml_path: dump_toml(sidecar, header_comment=f"The beam of {Path(args.data).name}, as described to beam import."),
     })
-    sys.stdout.write(format_import(measurement, [csv_path, toml_path]))
+    sys.stdout.write("".join(f"written: {path}\n" for path in (csv_path, toml_path)))
     return 0
+
+
+def summarise(args: argparse.Namespace):
+    """(sidecar document, measurement, summary text) of ``beam import``'s arguments."""
+    from beam.errors import BeamInputError
+
+    document = beam_document(args, default_sensor_at_tip=True)
+    if document is None:
+        raise BeamInputError("beam import: describe the beam: --length, --width, --thickness and --material "
+                             "(or --youngs-modulus and --density), or --beam BEAM.toml")
+    measurement = measurement_from_args(args, default_sensor_at_tip=True)
+    return document, measurement, format_import(measurement)
 
 
 def ideal_modes_Hz(measurement, count: int = LISTED_PEAKS) -> list[float]:
@@ -86,7 +96,7 @@ def ideal_modes_Hz(measurement, count: int = LISTED_PEAKS) -> list[float]:
     return [float(f) for f in frequencies]
 
 
-def format_import(measurement, written: list[Path]) -> str:
+def format_import(measurement) -> str:
     """The summary ``beam import`` prints (module notes)."""
     from beam.io.anchor import spectral_peaks
 
@@ -116,6 +126,4 @@ def format_import(measurement, written: list[Path]) -> str:
                 if peak else f"{'':17s} {'':11s} {'':7s}")
         right = f"   mode {k + 1}: {modes[k]:8.4g} Hz" if k < len(modes) else ""
         lines.append(left + right)
-    lines.append("")
-    lines += [f"written: {path}" for path in written]
     return "\n".join(lines) + "\n"
