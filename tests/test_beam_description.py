@@ -207,3 +207,18 @@ def test_a_simulated_record_without_nominal_calibrates_with_its_lowest_peak_on_m
     frequencies, _ = result.setup.model.natural_modes(values, 2)
     assert frequencies[0] == pytest.approx(peak.frequency_Hz, rel=0.02)
     assert values["bending_stiffness_Nm2"] == pytest.approx(TRUE_BASE["bending_stiffness_Nm2"], rel=0.01)
+
+
+def test_the_calibration_prior_follows_the_description(tmp_path):
+    from beam.calibration.run import prepare
+
+    t = np.arange(0, 3, 1 / 500)
+    rows = "time_s,acceleration_m_s2\n" + "".join(f"{a!r},{math.exp(-a) * math.sin(2 * math.pi * 6.5 * a)!r}\n"
+                                                   for a in t.tolist())
+    read = read_measurement(_pair(tmp_path, STRIP + "mass_kg = 0.01\n", rows=rows))
+    _, problem = prepare(read, effects="sensor_mass", modes=2)
+    priors = {p.name: p.prior for p in problem.parameters}
+    stiffness, mass = priors["bending_stiffness_Nm2"], priors["sensor_mass_kg"]
+    assert (stiffness.median, stiffness.sigma) == (read.nominal["bending_stiffness_Nm2"],
+                                                   read.nominal_spread["bending_stiffness_Nm2"])
+    assert (mass.median, mass.sigma) == (0.01, KNOWN_MASS_LOG_SD)

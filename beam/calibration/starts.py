@@ -551,7 +551,8 @@ def _record_key(setup: BeamCalibrationSetup) -> tuple:
     m = setup.measurement
     digest = hashlib.blake2b(np.ascontiguousarray(m.displacement_m).tobytes(), digest_size=16)
     digest.update(np.ascontiguousarray(m.voltage_V).tobytes())
-    digest.update(repr((m.geometry, sorted(m.nominal.items()), m.sample_interval_s, float(m.time_s[0]))).encode())
+    digest.update(repr((m.geometry, sorted(m.nominal.items()), sorted(m.nominal_spread.items()), m.sample_interval_s,
+                        float(m.time_s[0]))).encode())
     return digest.hexdigest(), tuple(setup.window), setup.modes, setup.likelihood
 
 

@@ -18,16 +18,19 @@ from typing import Any
 
 from beam.cli.arguments import finite_float, positive_int
 
-#: Geometry flags: (flag, dest, table, key, help).
-BEAM_FLAGS: tuple[tuple[str, str, str, str, str], ...] = (
-    ("--length", "beam_length", "beam", "length_m", "free length of the beam, clamp to tip (m)"),
-    ("--width", "beam_width", "beam", "width_m", "width of the strip (m)"),
-    ("--thickness", "beam_thickness", "beam", "thickness_m", "thickness of the strip (m)"),
-    ("--youngs-modulus", "beam_youngs_modulus", "beam", "youngs_modulus_Pa", "Young's modulus (Pa), instead of --material"),
-    ("--density", "beam_density", "beam", "density_kg_m3", "density (kg/m³), instead of --material"),
-    ("--linear-density", "beam_linear_density", "beam", "linear_density_kg_m", "mass per length (kg/m), if known"),
-    ("--sensor-at", "sensor_at", "sensor", "position_m", "sensor position, from the clamp (m; default for beam import: the tip)"),
-    ("--sensor-range", "sensor_range", "sensor", "range", "sensor's full scale in SI (e.g. 156.9 for ±16 g), for clipping"),
+#: Geometry flags: (flag, dest, table, key, metavar, help).
+BEAM_FLAGS: tuple[tuple[str, str, str, str, str, str], ...] = (
+    ("--length", "beam_length", "beam", "length_m", "M", "free length of the beam, clamp to tip (m)"),
+    ("--width", "beam_width", "beam", "width_m", "M", "width of the strip (m)"),
+    ("--thickness", "beam_thickness", "beam", "thickness_m", "M", "thickness of the strip (m)"),
+    ("--youngs-modulus", "beam_youngs_modulus", "beam", "youngs_modulus_Pa", "PA",
+     "Young's modulus (Pa), instead of --material"),
+    ("--density", "beam_density", "beam", "density_kg_m3", "KG_M3", "density (kg/m³), instead of --material"),
+    ("--linear-density", "beam_linear_density", "beam", "linear_density_kg_m", "KG_M", "mass per length (kg/m), if known"),
+    ("--sensor-at", "sensor_at", "sensor", "position_m", "M",
+     "sensor position, from the clamp (m; default for beam import: the tip)"),
+    ("--sensor-range", "sensor_range", "sensor", "range", "SI",
+     "sensor's full scale in SI units (e.g. 156.9 for ±16 g), for clipping"),
 )
 
 #: Reading options: dest -> keyword of read_record.
@@ -76,9 +79,8 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     beam = parser.add_argument_group("the beam, in a student's words (or --beam BEAM.toml)")
     beam.add_argument("--beam", dest="beam_file", default=None, metavar="BEAM.toml",
                       help="a sidecar describing the beam (the flags below override its keys)")
-    for flag, dest, _table, key, text in BEAM_FLAGS:
-        beam.add_argument(flag, dest=dest, type=positive_float, default=None,
-                          metavar="M" if key.endswith("_m") else "X", help=text)
+    for flag, dest, _table, _key, metavar, text in BEAM_FLAGS:
+        beam.add_argument(flag, dest=dest, type=positive_float, default=None, metavar=metavar, help=text)
     beam.add_argument("--material", default=None, metavar="NAME",
                       help="material preset: " + ", ".join(MATERIALS) + " (gives E, density and their spread)")
     beam.add_argument("--sensor-mass", type=sensor_mass, default=None, metavar="KG",
@@ -101,7 +103,7 @@ def beam_document(args: argparse.Namespace, default_sensor_at_tip: bool = False)
     if not document and not beam_flags_given(args):
         return None
     document = {key: (dict(value) if isinstance(value, dict) else value) for key, value in document.items()}
-    for _flag, dest, table, key, _text in BEAM_FLAGS:
+    for _flag, dest, table, key, _metavar, _text in BEAM_FLAGS:
         value = getattr(args, dest, None)
         if value is not None:
             document.setdefault(table, {})[key] = value

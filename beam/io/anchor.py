@@ -95,7 +95,7 @@ def spectral_peaks(time_s: np.ndarray, values: np.ndarray, output_kind: str = "d
     indices, prominences = indices[keep], properties["prominences"][keep]
     if indices.size == 0:
         return []
-    located = np.array([_refine(frequency, log_psd, int(i)) for i in indices])
+    located = np.array([refine_peak(frequency, log_psd, int(i)) for i in indices])
     power = density[indices] / _displacement_weight(located, output_kind)
     order = np.argsort(prominences)[::-1][:max_peaks]
     largest = float(power.max())
@@ -109,7 +109,8 @@ def _displacement_weight(frequency: np.ndarray, output_kind: str) -> np.ndarray:
     return {"acceleration": omega**4, "velocity": omega**2}.get(output_kind, np.ones_like(omega))
 
 
-def _refine(frequency: np.ndarray, log_psd: np.ndarray, i: int) -> float:
+def refine_peak(frequency: np.ndarray, log_psd: np.ndarray, i: int) -> float:
+    """Vertex of the parabola through the log-PSD at bins i - 1, i, i + 1 (Hz), within half a bin."""
     if i <= 0 or i >= log_psd.size - 1:
         return float(frequency[i])
     left, centre, right = log_psd[i - 1: i + 2]

@@ -83,6 +83,7 @@ from beam.io.limits import (
     LINEAR_DENSITY_RANGE_KG_M,
     MAX_MEASUREMENT_BYTES,
 )
+from beam.io.readers.signal import record_arrays
 from beam.io.text import (
     TomlReader,
     as_finite_float,
@@ -611,11 +612,7 @@ class MeasurementTable:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """Column name to array (time, input if any, output)."""
-        out = {"time_s": self.time_s}
-        if self.input_column is not None:
-            out[self.input_column] = self.input
-        out[self.output_column] = self.output
-        return out
+        return record_arrays(self)
 
 
 @dataclass(frozen=True)

@@ -135,28 +135,42 @@ class Record:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The project's columns: ``time_s``, the input if any, the output."""
-        out = {"time_s": self.time_s}
-        if self.input_column is not None:
-            out[self.input_column] = self.input
-        out[self.output_column] = self.output
-        return out
+        return record_arrays(self)
 
 
-def vibration_power(time_s: np.ndarray, values: np.ndarray) -> float:
-    """Power of ``values`` above max(:data:`VIBRATION_LOW_HZ`, 4 / duration) (unit²).
+def record_arrays(record) -> dict[str, np.ndarray]:
+    """``{"time_s": ..., input column: ... (if any), output column: ...}`` of anything with
+    ``time_s``, ``input_column``, ``input``, ``output_column`` and ``output``."""
+    out = {"time_s": record.time_s}
+    if record.input_column is not None:
+        out[record.input_column] = record.input
+    out[record.output_column] = record.output
+    return out
 
-    Welch's estimate on the median step (stamps need not be uniform for a ranking), segments
-    of about a quarter of the record (at most 2^16 samples).
-    """
+
+def _psd(time_s: np.ndarray, values: np.ndarray):
+    """(frequency, Welch PSD, lowest vibration frequency) of finite samples on the median step, or None.
+
+    Segments of about a quarter of the record (at most 2^16 samples); stamps need not be
+    uniform for a ranking or a block length."""
     finite = np.isfinite(values) & np.isfinite(time_s)
     t, y = time_s[finite], values[finite]
     if y.size < 8:
-        return 0.0
+        return None
     step = float(np.median(np.diff(t)))
     if not step > 0:
-        return 0.0
+        return None
     frequency, density = welch(y - np.mean(y), fs=1.0 / step, nperseg=int(min(y.size, max(64, min(2**16, y.size // 4)))))
-    low = max(VIBRATION_LOW_HZ, 4.0 / max(float(t[-1] - t[0]), step))
+    return frequency, density, max(VIBRATION_LOW_HZ, 4.0 / max(float(t[-1] - t[0]), step))
+
+
+def vibration_power(time_s: np.ndarray, values: np.ndarray) -> float:
+    """Power of ``values`` above max(:data:`VIBRATION_LOW_HZ`, 4 / duration) (unit²), from
+    Welch's estimate (:func:`_psd`)."""
+    spectrum = _psd(time_s, values)
+    if spectrum is None:
+        return 0.0
+    frequency, density, low = spectrum
     band = frequency >= low
     if not np.any(band):
         return 0.0
@@ -315,12 +329,11 @@ def clean_stamps(time_s: np.ndarray, *arrays: np.ndarray) -> tuple[np.ndarray, s
 
 def dominant_frequency(time_s: np.ndarray, values: np.ndarray) -> float | None:
     """Frequency (Hz) of the highest Welch peak above max(:data:`VIBRATION_LOW_HZ`, 4 / duration), None if none."""
-    step = float(np.median(np.diff(time_s)))
-    if values.size < 16 or not step > 0:
+    spectrum = _psd(time_s, values)
+    if spectrum is None:
         return None
-    frequency, density = welch(values - np.mean(values), fs=1.0 / step,
-                               nperseg=int(min(values.size, max(64, min(2**16, values.size // 4)))))
-    band = frequency >= max(VIBRATION_LOW_HZ, 4.0 / max(float(time_s[-1] - time_s[0]), step))
+    frequency, density, low = spectrum
+    band = frequency >= low
     if not np.any(band) or not np.any(density[band] > 0):
         return None
     return float(frequency[band][np.argmax(density[band])])
