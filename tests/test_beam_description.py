@@ -222,3 +222,33 @@ def test_the_calibration_prior_follows_the_description(tmp_path):
     assert (stiffness.median, stiffness.sigma) == (read.nominal["bending_stiffness_Nm2"],
                                                    read.nominal_spread["bending_stiffness_Nm2"])
     assert (mass.median, mass.sigma) == (0.01, KNOWN_MASS_LOG_SD)
+
+
+def test_a_peak_on_the_wrong_mode_is_said_in_words():
+    from beam.io.anchor import mode_order_warnings
+    from beam.physics.model import BeamModel
+
+    read = read_measurement(ASSETS / "real" / "adxl_50cm_114655.csv")
+    model = BeamModel(read.geometry, (), input_kind=None)
+    peak = lowest_strong_peak(read.time_s, read.output, read.output_kind)
+    right = (peak.frequency_Hz / mode1_frequency(read.geometry, 1.0)) ** 2
+    assert mode_order_warnings(read, model, {"bending_stiffness_Nm2": right}) == []
+    # EI / 6.27² puts mode 2 where mode 1 belongs (f2/f1 = 6.267 for the uniform cantilever)
+    wrong = mode_order_warnings(read, model, {"bending_stiffness_Nm2": right / 6.267**2, "noise_sd": 1.0})
+    assert len(wrong) == 1 and f"({peak.frequency_Hz:.4g} Hz) sits on model mode 2" in wrong[0]
+
+
+def test_a_burst_at_mode_2_anchors_nothing_and_warns_of_nothing(tmp_path):
+    from beam.io.anchor import mode_order_warnings
+    from beam.physics.excitation import Excitation
+    from beam.physics.model import BeamModel
+    from tests.simulated_data import GEOMETRY, TRUE_BASE, simulated_measurement
+
+    model = BeamModel(GEOMETRY, ("air_damping", "kelvin_voigt"))
+    f2 = float(model.natural_modes(TRUE_BASE, 2)[0][1])
+    burst = Excitation("burst", amplitude_V=10.0, frequency_Hz=f2, cycles=12)
+    record = simulated_measurement(TRUE_BASE, excitation=burst, seed=5, nominal={})
+    write_measurement(tmp_path / "burst", record, nominal={})
+    read = read_measurement(tmp_path / "burst.csv")
+    assert "bending_stiffness_Nm2" not in read.nominal  # the input never reached mode 1's band
+    assert mode_order_warnings(read, model, TRUE_BASE) == []

@@ -13,10 +13,12 @@ Peaks (:func:`spectral_peaks`): the output is put on a uniform grid at its media
 linear interpolation (a logger's stalls would otherwise bend every frequency), its Welch PSD
 (Hann, segments of the largest power of two <= n / 2, 50 % overlap, mean removed) is searched
 for peaks of at least :data:`PEAK_PROMINENCE_DB` prominence above max(1 Hz, 4 / duration),
-each located between bins by a parabola through the log-PSD. A peak is *strong* when its power
+each located between bins by a parabola through the log-PSD (segments zero-padded 4x). A peak is *strong* when its power
 as displacement (the PSD divided by (2 pi f)⁴ for an acceleration, (2 pi f)² for a velocity:
 an accelerometer sees high modes much larger than they move) is at least
-:data:`STRONG_FRACTION` of the largest peak's.
+:data:`STRONG_FRACTION` of the largest peak's. A driven record's lowest strong peak is called
+mode 1 only when its input's band (:func:`input_band_low_Hz`) reaches below half the peak's
+frequency: a burst at mode 2 says nothing about mode 1, and then nothing is anchored.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.signal
 
+from beam.errors import BeamInputError
 from beam.physics.geometry import BeamGeometry
 
 #: beta_1 L of the clamped-free beam (first root of 1 + cos x cosh x = 0).
@@ -41,6 +44,10 @@ MIN_ANCHOR_SAMPLES = 256
 MIN_CYCLES = 8
 #: Lowest frequency searched (Hz).
 LOW_HZ = 1.0
+#: A driven record's input band: where its PSD is at least this fraction of its largest bin.
+INPUT_BAND_FRACTION = 1e-2
+#: Welch segments are zero-padded to this many times their length (a finer grid for the parabola).
+ZERO_PADDING = 4
 
 
 @dataclass(frozen=True)
@@ -77,21 +84,14 @@ def spectral_peaks(time_s: np.ndarray, values: np.ndarray, output_kind: str = "d
                    max_peaks: int = 8) -> list[Peak]:
     """The ``max_peaks`` most prominent spectral peaks, lowest first (module notes); empty for a
     short record. Strength is judged against the largest displacement power of all peaks."""
-    time_s = np.asarray(time_s, dtype=float)
-    values = np.asarray(values, dtype=float)
-    if values.size < MIN_ANCHOR_SAMPLES:
+    spectrum = _spectrum(time_s, values)
+    if spectrum is None:
         return []
-    signal, step = uniform_grid(time_s, values)
-    n = signal.size
-    nperseg = int(2 ** int(np.floor(np.log2(max(n / 2, 16)))))
-    frequency, density = scipy.signal.welch(signal, fs=1.0 / step, window="hann", nperseg=nperseg,
-                                            noverlap=nperseg // 2, detrend="constant")
-    duration = n * step
-    low = max(LOW_HZ, MIN_CYCLES / duration, 2 * (frequency[1] - frequency[0]))
+    frequency, density, low, high = spectrum
     floor = max(float(density.max()), np.finfo(float).tiny) * 1e-30
     log_psd = 10 * np.log10(np.maximum(density, floor))
     indices, properties = scipy.signal.find_peaks(log_psd, prominence=PEAK_PROMINENCE_DB)
-    keep = frequency[indices] >= low
+    keep = (frequency[indices] >= low) & (frequency[indices] <= high)
     indices, prominences = indices[keep], properties["prominences"][keep]
     if indices.size == 0:
         return []
@@ -102,6 +102,33 @@ def spectral_peaks(time_s: np.ndarray, values: np.ndarray, output_kind: str = "d
     peaks = [Peak(float(located[j]), float(prominences[j]), float(power[j]), bool(power[j] >= STRONG_FRACTION * largest))
              for j in order]
     return sorted(peaks, key=lambda p: p.frequency_Hz)
+
+
+def _spectrum(time_s, values):
+    """(frequency, PSD, lowest and highest frequency searched) or None (too short)."""
+    time_s = np.asarray(time_s, dtype=float)
+    values = np.asarray(values, dtype=float)
+    if values.size < MIN_ANCHOR_SAMPLES:
+        return None
+    signal, step = uniform_grid(time_s, values)
+    n = signal.size
+    nperseg = int(2 ** int(np.floor(np.log2(max(n / 2, 16)))))
+    frequency, density = scipy.signal.welch(signal, fs=1.0 / step, window="hann", nperseg=nperseg,
+                                            noverlap=nperseg // 2, nfft=ZERO_PADDING * nperseg, detrend="constant")
+    low = max(LOW_HZ, MIN_CYCLES / (n * step), 2 * ZERO_PADDING * (frequency[1] - frequency[0]))
+    return frequency, density, low, float(frequency[-1])
+
+
+def input_band_low_Hz(time_s: np.ndarray, input: np.ndarray) -> float | None:
+    """Lowest frequency (Hz) where a driven record's input PSD reaches :data:`INPUT_BAND_FRACTION`
+    of its largest bin (None for an input without power)."""
+    spectrum = _spectrum(time_s, input)
+    if spectrum is None:
+        return None
+    frequency, density, _, _ = spectrum
+    if not density.max() > 0:
+        return None
+    return float(frequency[np.flatnonzero(density >= INPUT_BAND_FRACTION * density.max())[0]])
 
 
 def _displacement_weight(frequency: np.ndarray, output_kind: str) -> np.ndarray:
@@ -119,9 +146,16 @@ def refine_peak(frequency: np.ndarray, log_psd: np.ndarray, i: int) -> float:
     return float(frequency[i] + np.clip(shift, -0.5, 0.5) * (frequency[1] - frequency[0]))
 
 
-def lowest_strong_peak(time_s: np.ndarray, values: np.ndarray, output_kind: str) -> Peak | None:
-    """The lowest strong peak (module notes), None when there is none."""
-    return next((p for p in spectral_peaks(time_s, values, output_kind) if p.strong), None)
+def lowest_strong_peak(time_s: np.ndarray, values: np.ndarray, output_kind: str,
+                       input: np.ndarray | None = None) -> Peak | None:
+    """The lowest strong peak (module notes), None when there is none, or when a driven record's
+    input leaves the band below it unexplored (its power starts above half the peak's
+    frequency: a mode 1 below would not show, so the peak cannot be called mode 1)."""
+    peak = next((p for p in spectral_peaks(time_s, values, output_kind) if p.strong), None)
+    if peak is None or input is None:
+        return peak
+    low = input_band_low_Hz(time_s, input)
+    return peak if low is not None and low <= 0.5 * peak.frequency_Hz else None
 
 
 def mode1_frequency(geometry: BeamGeometry, bending_stiffness_Nm2: float, sensor_mass_kg: float | None = None,
@@ -151,7 +185,8 @@ def anchored_bending_stiffness(geometry: BeamGeometry, peak_Hz: float, sensor_ma
 
 
 def anchor_nominal(geometry: BeamGeometry, nominal: dict[str, float], time_s: np.ndarray, output: np.ndarray,
-                   output_kind: str, input_kind: str | None = None) -> tuple[dict[str, float], dict[str, str]]:
+                   output_kind: str, input_kind: str | None = None,
+                   input: np.ndarray | None = None) -> tuple[dict[str, float], dict[str, str]]:
     """``nominal`` with the bending stiffness anchored on the record when it has none.
 
     Returns
@@ -164,7 +199,7 @@ def anchor_nominal(geometry: BeamGeometry, nominal: dict[str, float], time_s: np
     """
     if "bending_stiffness_Nm2" in nominal:
         return dict(nominal), {}
-    peak = lowest_strong_peak(time_s, output, output_kind)
+    peak = lowest_strong_peak(time_s, output, output_kind, input)
     if peak is None:
         return dict(nominal), {}
     mass = nominal.get("sensor_mass_kg")
@@ -175,3 +210,35 @@ def anchor_nominal(geometry: BeamGeometry, nominal: dict[str, float], time_s: np
     origin = {"bending_stiffness_Nm2": f"the record's lowest strong spectral peak ({peak.frequency_Hz:.4g} Hz) on mode 1"
                                        f"{with_mass}"}
     return {**nominal, "bending_stiffness_Nm2": stiffness}, origin
+
+
+def mode_order_warnings(measurement, model, parameters) -> list[str]:
+    """A warning in words when a calibrated model does not put the record's lowest strong peak
+    on its mode 1 (empty when it does, or when the record has no strong peak).
+
+    Parameters
+    ----------
+    measurement : beam.io.measurement.Measurement
+        The record.
+    model : beam.physics.model.BeamModel
+        The calibrated model.
+    parameters : mapping
+        Its parameter values (the MAP); names the model does not take are ignored.
+
+    The model mode nearest the peak in log frequency is the one the calibration put it on.
+    """
+    peak = lowest_strong_peak(measurement.time_s, measurement.output, measurement.output_kind, measurement.input)
+    if peak is None:
+        return []
+    accepted = set(model.accepted_parameter_names)
+    values = {name: float(value) for name, value in parameters.items() if name in accepted}
+    try:
+        frequencies, _ = model.natural_modes(values, min(model.size, 6))
+    except BeamInputError:  # a model whose frequencies need more than the values given: nothing to say
+        return []
+    nearest = int(np.argmin(np.abs(np.log(np.maximum(frequencies, 1e-300) / peak.frequency_Hz))))
+    if nearest == 0:
+        return []
+    return [f"the record's lowest strong spectral peak ({peak.frequency_Hz:.4g} Hz) sits on model mode {nearest + 1} "
+            f"({frequencies[nearest]:.4g} Hz), not on mode 1 ({frequencies[0]:.4g} Hz): the calibrated stiffness puts "
+            "the modes out of order; give the beam's material, width and thickness or [nominal] bending_stiffness_Nm2"]

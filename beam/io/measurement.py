@@ -711,7 +711,7 @@ def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record
     sidecar = load_sidecar(toml_path, input_kind=INPUT_COLUMNS.get(input_column))
     table = _table_from_lines(csv_path, lines, sidecar.sensor_range)
     nominal, origin = anchored(sidecar, table.time_s, table.output, OUTPUT_COLUMNS[table.output_column],
-                               INPUT_COLUMNS.get(input_column))
+                               INPUT_COLUMNS.get(input_column), table.input)
     return Measurement(
         name=csv_path.stem, title=sidecar.title if sidecar.title is not None else csv_path.stem,
         geometry=sidecar.geometry, time_s=table.time_s, nominal=nominal, csv_path=csv_path,
@@ -721,12 +721,12 @@ def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record
 
 
 def anchored(sidecar: Sidecar, time_s: np.ndarray, output: np.ndarray, output_kind: str,
-             input_kind: str | None) -> tuple[dict[str, float], dict[str, str]]:
+             input_kind: str | None, input: np.ndarray | None = None) -> tuple[dict[str, float], dict[str, str]]:
     """The sidecar's nominal values plus, without a bending stiffness, the one anchored on the
     record's lowest strong spectral peak (:func:`beam.io.anchor.anchor_nominal`); and their origins."""
     from beam.io.anchor import anchor_nominal
 
-    nominal, origin = anchor_nominal(sidecar.geometry, sidecar.nominal, time_s, output, output_kind, input_kind)
+    nominal, origin = anchor_nominal(sidecar.geometry, sidecar.nominal, time_s, output, output_kind, input_kind, input)
     return nominal, {**sidecar.nominal_origin, **origin}
 
 
@@ -1217,7 +1217,7 @@ def measurement_from_record(record: Any, beam: Any = None) -> Measurement:
         toml_path = Path(beam)
     name = path.stem if path.suffix else path.name
     output_kind = record.output_column.split("_", 1)[0]
-    nominal, origin = anchored(sidecar, record.time_s, record.output, output_kind, input_kind)
+    nominal, origin = anchored(sidecar, record.time_s, record.output, output_kind, input_kind, record.input)
     return Measurement(
         name=name, title=sidecar.title if sidecar.title is not None else name, geometry=sidecar.geometry,
         time_s=record.time_s, nominal=nominal, csv_path=None, toml_path=toml_path,
