@@ -48,7 +48,13 @@
     :data:`beam.io.limits.LENGTH_RANGE_M` (0.01-100 m) and
     :data:`beam.io.limits.LINEAR_DENSITY_RANGE_KG_M` (1e-3 to 1e4 kg/m), where the model is finite;
     optional ``[nominal]`` prior centres keyed by parameter names of
-    :data:`beam.physics.effects.PARAMETER_SPECS` (positive finite). Unknown tables or keys are errors.
+    :data:`beam.physics.effects.PARAMETER_SPECS` (positive finite). The beam may instead be
+    described in a student's words (:func:`read_description`): ``[beam]`` ``width_m``,
+    ``thickness_m`` and ``material`` (or ``youngs_modulus_Pa`` and ``density_kg_m3``) give the
+    linear density and a nominal bending stiffness; ``[sensor]`` ``mass_kg`` (with
+    ``mass_approximate = true`` when not weighed) the sensor's mass. Without a nominal
+    bending stiffness the record's lowest strong spectral peak sets it (:mod:`beam.io.anchor`).
+    Unknown tables or keys are errors.
     At most :data:`beam.io.limits.MAX_TOML_BYTES` (1 MiB).
 
 Clipping
