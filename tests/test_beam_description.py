@@ -252,3 +252,16 @@ def test_a_burst_at_mode_2_anchors_nothing_and_warns_of_nothing(tmp_path):
     read = read_measurement(tmp_path / "burst.csv")
     assert "bending_stiffness_Nm2" not in read.nominal  # the input never reached mode 1's band
     assert mode_order_warnings(read, model, TRUE_BASE) == []
+
+
+def test_the_dashboard_upload_reads_a_phyphox_export_with_a_described_beam():
+    from dashboard.jobs.beam import load_upload
+
+    t = np.arange(0, 3, 2e-3)
+    z = np.sin(2 * np.pi * 7 * t) * np.exp(-0.5 * t)
+    from tests.record_files import phyphox_csv_text
+
+    text = phyphox_csv_text(["Time (s)", "Linear Acceleration z (m/s^2)"], [t, z], "\t", ",")
+    read = load_upload("Raw Data.csv", text.encode(), "Raw Data.toml", STRIP.encode())
+    np.testing.assert_allclose(read.output, z, rtol=1e-9, atol=1e-12)
+    assert read.nominal_origin["bending_stiffness_Nm2"].startswith("E b h³ / 12 from aluminium's E")
