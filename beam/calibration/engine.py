@@ -55,7 +55,7 @@ def record_digest(measurement) -> str:
         digest.update(np.ascontiguousarray(measurement.input, dtype=float).tobytes())
     digest.update(repr((measurement.output_kind, measurement.input_kind, measurement.geometry,
                         sorted(measurement.nominal.items()),
-                        sorted(getattr(measurement, "nominal_spread", {}).items()))).encode())
+                        sorted(measurement.nominal_spread.items()))).encode())
     return digest.hexdigest()
 
 
