@@ -617,7 +617,7 @@ def _name_unseen(result: CalibrationResult, values: dict, comparison: list[dx.Mo
         _, coefficients = model.mode_shapes(values, setup.modes)
         x = np.linspace(0.0, geometry.length_m, 401)
         shapes = model.parts.basis.evaluate(x) @ coefficients
-    except (BeamInputError, ValueError, KeyError):
+    except (BeamInputError, ValueError, KeyError, np.linalg.LinAlgError):  # no shapes: the rows stay unexplained
         return comparison
     nyquist = 0.5 * setup.measurement.rate_Hz
     return [row if row.matched or row.mode > shapes.shape[1] else replace(row, note=dx.unseen_reason(
