@@ -26,6 +26,7 @@ import numpy as np
 
 from beam.calibration.starts import SCALE_GRID, design_points, prior_centres
 from beam.errors import BeamInputError
+from beam.inference.likelihood import AR1_COEFFICIENT
 
 __all__ = ["DAMPED_AWAY", "damped_away_base", "damped_away_starts", "projected_starting_points", "record_spectrum", "spectral_scales"]
 
@@ -157,7 +158,7 @@ def projected_starting_points(problem, setup, warm: Mapping[str, float] | None =
     if size:
         with np.errstate(all="ignore"):
             try:  # the centre (row 0) scored with the design: the damped-away starts' base is the best of all
-                rms = np.sqrt(np.mean((problem.data - problem.predict(batch)) ** 2, axis=1))
+                rms = np.sqrt(np.mean((problem.data - problem.predict(_screening_values(problem, batch))) ** 2, axis=1))
             except BeamInputError:
                 rms = np.full(size + 1, np.inf)
         rms[~np.isfinite(rms)] = np.inf
@@ -167,6 +168,13 @@ def projected_starting_points(problem, setup, warm: Mapping[str, float] | None =
         if np.any(np.isfinite(rms)):
             damped_base = damped_away_base(starts[0], {name: float(v[int(np.argmin(rms))]) for name, v in batch.items()})
     return ([dict(warm)] if warm is not None else []) + starts + damped_away_starts(problem, damped_base)
+
+
+def _screening_values(problem, batch: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``batch`` with the noise parameters the forward model reads: the AR(1) coefficient at 0
+    (the screen ranks starts by the plain residual RMS, whatever the likelihood)."""
+    size = next(iter(batch.values())).size
+    return dict(batch, **{name: np.zeros(size) for name in problem.noise_names if name == AR1_COEFFICIENT})
 
 
 def damped_away_base(centre: Mapping[str, float], best: Mapping[str, float]) -> dict[str, float]:

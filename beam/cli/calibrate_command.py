@@ -97,15 +97,13 @@ def run(args: argparse.Namespace) -> int:
 
         summary["report"] = str(atomic_write_texts({args.report: calibration_handout(result)})[0])
     if args.json:
-        json.dump(summary, sys.stdout, allow_nan=False, default=_null_nan)
+        from beam.residuals.common import jsonable
+
+        json.dump(jsonable(summary), sys.stdout, allow_nan=False)  # NaN (no held-out part) -> null
         sys.stdout.write("\n")
     else:
         sys.stdout.write(format_summary(summary))
     return 0
-
-
-def _null_nan(value):
-    raise TypeError(f"not JSON serialisable: {value!r}")
 
 
 def format_window(window_s) -> str:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 
@@ -153,7 +152,9 @@ def run(args: argparse.Namespace) -> int:
         written.append(str(atomic_write_texts({args.report: html})[0]))
     failed = sum(row["error"] is not None for row in result.rows)
     if args.json:
-        json.dump({"cells": [_nan_to_none(row) for row in result.rows]}, sys.stdout, allow_nan=False)
+        from beam.residuals.common import jsonable
+
+        json.dump({"cells": jsonable(list(result.rows))}, sys.stdout, allow_nan=False)
         sys.stdout.write("\n")
     else:
         lines = [describe(entry) for entry in result.entries]
@@ -163,11 +164,3 @@ def run(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
-def _nan_to_none(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _nan_to_none(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_nan_to_none(v) for v in value]
-    return value
