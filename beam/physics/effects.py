@@ -319,6 +319,14 @@ EFFECTS: dict[str, Effect] = {
             nonlinear=True,
         ),
         Effect(
+            "quadratic_drag",
+            "Quadratic air drag",
+            "air drag on the strip moving broadside, force per length -½ rho_air C_d b |w_t| w_t (b from [beam] width_m)",
+            (ParameterSpec("drag_coefficient", "1", "C_d", "drag coefficient of the strip in oscillating flow", 0.01, 50.0),),
+            (Term("quadratic_drag", "mass_beam", "drag_coefficient"),),
+            nonlinear=True,
+        ),
+        Effect(
             "sensor_mass",
             "Sensor mass",
             "point mass of the sensor at its position x_obs (from the sidecar; translation only)",
