@@ -76,6 +76,7 @@ NOMINAL_LOG_SD: dict[str, float] = {
     "patch_added_kelvin_voigt_Nm2s": 1.5,
     "tip_cubic_stiffness_N_m3": 1.5,
     "sensor_mass_kg": 1.0,
+    "drag_coefficient": 1.0,
 }
 #: sigma of log x for a damping ratio of the ``modal_damping`` family centred on a nominal value.
 MODAL_DAMPING_LOG_SD = 1.5
