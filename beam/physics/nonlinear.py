@@ -526,29 +526,44 @@ def _forcing(xi, u, row, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, c
 
 
 @numba.njit(cache=True, nogil=True)
-def _etdrk4_general(poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_tip, gamma_gauss, direct, cubic, drag,
-                    static, initial, voltage, steps, critical, resolution):  # pragma: no cover - jitted
-    """ETDRK4 (Cox & Matthews 2002) on xi' = Lambda xi + N(xi, u), one row at a time.
+def _step_coefficients(poles, widths):  # pragma: no cover - jitted
+    """ETDRK4 coefficients (6, U, P) of each distinct substep h in ``widths`` (U,): E, E_h, Q,
+    f1, 2 f2, f3 (see :func:`_etdrk4_general`)."""
+    n_poles = poles.shape[0]
+    table = np.empty((6, widths.shape[0], n_poles), np.complex128)
+    for u in range(widths.shape[0]):
+        h = widths[u]
+        for j in range(n_poles):
+            z = poles[j] * h
+            table[0, u, j] = np.exp(z)
+            table[1, u, j] = np.exp(0.5 * z)
+            p1h, _, _ = _phi123(0.5 * z)
+            table[2, u, j] = 0.5 * h * p1h
+            p1, p2, p3 = _phi123(z)
+            table[3, u, j] = h * (p1 - 3.0 * p2 + 4.0 * p3)
+            table[4, u, j] = 2.0 * h * (p2 - 2.0 * p3)
+            table[5, u, j] = h * (4.0 * p3 - p2)
+    return table
 
-    Stages a = E_h xi + Q (N(xi)), b = E_h xi + Q N(a), c = E_h a + Q (2 N(b) - N(xi)),
+
+@numba.njit(cache=True, nogil=True)
+def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_tip, gamma_gauss, direct, cubic, drag,
+                    static, initial, voltage, step_id, counts, table):  # pragma: no cover - jitted
+    """ETDRK4 (Cox & Matthews 2002) on xi' = Lambda xi + N(xi, u) for parameter set ``row``.
+
+    Stages a = E_h xi + Q N(xi), b = E_h xi + Q N(a), c = E_h a + Q (2 N(b) - N(xi)),
     xi+ = E xi + f1 N(xi) + 2 f2 (N(a) + N(b)) + f3 N(c) (E = exp(Lambda h), E_h its half step,
     Q = (E_h - 1) / Lambda, f1..f3 the phi-function weights of :func:`_etdrk4`). Sample k is held
-    over [t_k, t_k + steps[k]) and split into ceil(critical steps[k] / resolution) substeps; the
-    coefficients are recomputed when the substep changes (irregular stamps). Output at t_k:
-    Re(gamma_out . xi) + direct[0] u + direct[1] s + sum_g direct[2 + g] F_g + the quasi-static
-    terms of the displacement (static[0] u - static[2] k3 w³), as in :func:`_etdrk4`.
+    over its interval, split into ``counts[k]`` substeps whose coefficients are
+    ``table[:, step_id[k]]`` (:func:`_step_coefficients`; a record's stamps take few distinct
+    steps). Output at t_k: Re(gamma_out . xi) + direct[0] u + direct[1] s + sum_g direct[2 + g] F_g
+    + the quasi-static terms of the displacement (static[0] u - static[2] k3 w³), as in :func:`_etdrk4`.
     """
-    batch, n_poles = poles.shape
+    n_poles = poles.shape[1]
     n = voltage.shape[0]
     n_gauss = drag.shape[1]
-    out = np.zeros((batch, n))
-    e_full = np.empty(n_poles, np.complex128)
-    e_half = np.empty(n_poles, np.complex128)
-    q_half = np.empty(n_poles, np.complex128)
-    f1 = np.empty(n_poles, np.complex128)
-    f2 = np.empty(n_poles, np.complex128)
-    f3 = np.empty(n_poles, np.complex128)
-    xi = np.empty(n_poles, np.complex128)
+    out = np.zeros(n)
+    xi = initial[row].copy()
     sa = np.empty(n_poles, np.complex128)
     sb = np.empty(n_poles, np.complex128)
     sc = np.empty(n_poles, np.complex128)
@@ -557,56 +572,34 @@ def _etdrk4_general(poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_tip, g
     nb = np.empty(n_poles, np.complex128)
     nc = np.empty(n_poles, np.complex128)
     forces = np.empty(n_gauss)
-    for b in range(batch):
+    b = row
+    for k in range(n):
+        u = voltage[k]
+        spring = _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces)
+        value = (static[b, 0] + direct[b, 0]) * u + (direct[b, 1] + static[b, 2]) * spring
+        for g in range(n_gauss):
+            value += direct[b, 2 + g] * forces[g]
         for j in range(n_poles):
-            xi[j] = initial[b, j]
-        h_now = -1.0
-        for k in range(n):
-            u = voltage[k]
-            spring = _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static,
-                              n0, forces)
-            value = static[b, 0] * u + direct[b, 0] * u + direct[b, 1] * spring
-            if cubic[b] != 0.0 and static[b, 2] != 0.0:
-                value += static[b, 2] * spring
-            for g in range(n_gauss):
-                value += direct[b, 2 + g] * forces[g]
+            value += (gamma_out[b, j] * xi[j]).real
+        out[k] = value
+        if k == n - 1:
+            break
+        e_full, e_half, q_half = table[0, step_id[k]], table[1, step_id[k]], table[2, step_id[k]]
+        f1, f2, f3 = table[3, step_id[k]], table[4, step_id[k]], table[5, step_id[k]]
+        for sub in range(counts[k]):
+            if sub > 0:
+                _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces)
             for j in range(n_poles):
-                value += (gamma_out[b, j] * xi[j]).real
-            out[b, k] = value
-            if k == n - 1:
-                break
-            count = max(1, int(math.ceil(critical[b] * steps[k] / resolution)))
-            h = steps[k] / count
-            if h != h_now:
-                h_now = h
-                for j in range(n_poles):
-                    z = poles[b, j] * h
-                    e_full[j] = np.exp(z)
-                    e_half[j] = np.exp(0.5 * z)
-                    p1h, _, _ = _phi123(0.5 * z)
-                    q_half[j] = 0.5 * h * p1h
-                    p1, p2, p3 = _phi123(z)
-                    f1[j] = h * (p1 - 3.0 * p2 + 4.0 * p3)
-                    f2[j] = 2.0 * h * (p2 - 2.0 * p3)
-                    f3[j] = h * (4.0 * p3 - p2)
-            for sub in range(count):
-                if sub > 0:
-                    _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static,
-                             n0, forces)
-                for j in range(n_poles):
-                    sa[j] = e_half[j] * xi[j] + q_half[j] * n0[j]
-                _forcing(sa, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static,
-                         na, forces)
-                for j in range(n_poles):
-                    sb[j] = e_half[j] * xi[j] + q_half[j] * na[j]
-                _forcing(sb, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static,
-                         nb, forces)
-                for j in range(n_poles):
-                    sc[j] = e_half[j] * sa[j] + q_half[j] * (2.0 * nb[j] - n0[j])
-                _forcing(sc, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static,
-                         nc, forces)
-                for j in range(n_poles):
-                    xi[j] = e_full[j] * xi[j] + f1[j] * n0[j] + f2[j] * (na[j] + nb[j]) + f3[j] * nc[j]
+                sa[j] = e_half[j] * xi[j] + q_half[j] * n0[j]
+            _forcing(sa, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, na, forces)
+            for j in range(n_poles):
+                sb[j] = e_half[j] * xi[j] + q_half[j] * na[j]
+            _forcing(sb, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nb, forces)
+            for j in range(n_poles):
+                sc[j] = e_half[j] * sa[j] + q_half[j] * (2.0 * nb[j] - n0[j])
+            _forcing(sc, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nc, forces)
+            for j in range(n_poles):
+                xi[j] = e_full[j] * xi[j] + f1[j] * n0[j] + f2[j] * (na[j] + nb[j]) + f3[j] * nc[j]
     return out
 
 
@@ -700,7 +693,7 @@ def integrate_general(
         state = np.broadcast_to(np.asarray(initial, dtype=float), (batch, 2 * m))
         start = take(np.einsum("bjk,bk->bj", inverse, state)) * kept
     critical = np.abs(kept_poles).max(axis=1)
-    return _etdrk4_general(
+    args = (
         np.ascontiguousarray(kept_poles), inputs(np.asarray(force, dtype=float)[:, None, :])[:, 0],
         inputs(np.asarray(tip, dtype=float)[:, None, :])[:, 0], np.ascontiguousarray(inputs(gauss)),
         np.ascontiguousarray(outputs(np.asarray(sensor, dtype=float)[:, None, :], order)[:, 0]),
@@ -709,5 +702,12 @@ def integrate_general(
         np.ascontiguousarray(np.broadcast_to(np.asarray(cubic_N_m3, dtype=float), (batch,))),
         np.ascontiguousarray(np.broadcast_to(np.asarray(drag_kg_m, dtype=float), (batch, gauss.shape[1]))),
         static, np.ascontiguousarray(start), np.ascontiguousarray(voltage, dtype=float),
-        np.ascontiguousarray(steps_s, dtype=float), np.ascontiguousarray(critical), GENERAL_RESOLUTION,
     )
+    steps = np.asarray(steps_s, dtype=float)
+    out = np.empty((batch, steps.size + 1))
+    for row in range(batch):
+        counts = np.maximum(1, np.ceil(critical[row] * steps / GENERAL_RESOLUTION)).astype(np.int64)
+        widths, step_id = np.unique(steps / counts, return_inverse=True)
+        table = _step_coefficients(args[0][row], widths)
+        out[row] = _etdrk4_general(row, *args, step_id.reshape(-1).astype(np.int64), counts, table)
+    return out
