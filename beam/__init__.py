@@ -30,6 +30,8 @@ _LAZY = {
     "calibrate": "beam.calibration",
     "calibration_preview": "beam.calibration",
     "CalibrationResult": "beam.calibration",
+    "CalibrationSpec": "beam.calibration",
+    "Engine": "beam.calibration",
     "diagnose": "beam.discovery.report",
     "DiagnosisReport": "beam.discovery.report",
     "ToyScenario": "beam.toy",

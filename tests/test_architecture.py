@@ -25,7 +25,7 @@ BEAM_LAYERS: tuple[tuple[str, ...], ...] = (
     ("beam.inference",),
     ("beam.residuals",),
     ("beam.calibration", "beam.toy"),
-    ("beam.discovery",),
+    ("beam.discovery", "beam.study"),
     ("beam.cli", "beam", "beam.__main__"),
 )
 

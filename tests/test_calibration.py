@@ -38,7 +38,7 @@ def test_spectral_start_finds_the_truth_with_nominal_stiffness_off(stiffness_err
     record = simulated_measurement(
         TRUE_BASE, nominal=dict(TRUE_BASE, bending_stiffness_Nm2=0.491 * stiffness_error), seed=3
     )
-    result = calibration_preview(record, window=(0.0, 1.0))
+    result = calibration_preview(record, window=(0.0, 1.0), modes=4)
     stiffness = result.summary()["bending_stiffness_Nm2"]
     assert abs(stiffness["mean"] / 0.491 - 1) < 1e-4
     assert stiffness["q025"] <= 0.491 <= stiffness["q975"]
@@ -47,7 +47,7 @@ def test_spectral_start_finds_the_truth_with_nominal_stiffness_off(stiffness_err
 def test_preview_intervals_cover_the_truth_across_seeds():
     inside = 0
     for seed in range(4):
-        result = calibration_preview(simulated_measurement(TRUE_BASE, seed=10 + seed))
+        result = calibration_preview(simulated_measurement(TRUE_BASE, seed=10 + seed), modes=4)
         summary = result.summary()
         inside += sum(summary[n]["q025"] <= TRUE_BASE[n] <= summary[n]["q975"] for n in BASE_NAMES)
         assert abs(result.rmse_prediction / NOISE - 1) < 0.1
@@ -56,7 +56,7 @@ def test_preview_intervals_cover_the_truth_across_seeds():
 
 def test_mcmc_posterior_covers_the_truth_and_predicts_to_the_noise_floor():
     record = simulated_measurement(TRUE_BASE, seed=21)
-    result = calibrate(record, seed=1)
+    result = calibrate(record, seed=1, modes=4)
     summary = result.to_json()
     # one record: standardised errors (95 % interval coverage is tested across seeds above)
     for name in BASE_NAMES:
@@ -75,8 +75,8 @@ def test_mcmc_posterior_covers_the_truth_and_predicts_to_the_noise_floor():
 
 def test_a_missing_effect_inflates_the_prediction_error_and_the_stiffness_bias():
     record = simulated_measurement(dict(TRUE_BASE, tip_mass_kg=0.005), seed=4)
-    without = calibration_preview(record, window=(0.0, 1.0))
-    with_it = calibration_preview(record, window=(0.0, 1.0), effects="air_damping,kelvin_voigt,tip_mass")
+    without = calibration_preview(record, window=(0.0, 1.0), modes=4)
+    with_it = calibration_preview(record, window=(0.0, 1.0), effects="air_damping,kelvin_voigt,tip_mass", modes=4)
     assert without.rmse_prediction > 100 * NOISE
     assert without.coverage95_prediction < 0.9
     stiffness = without.summary()["bending_stiffness_Nm2"]
@@ -91,15 +91,15 @@ def test_two_calibration_windows_of_one_record_give_materially_different_predict
     window and the late, small-amplitude window give incompatible, over-confident stiffnesses."""
     pulse = Excitation("pulse", amplitude_V=40.0, width_s=0.08)
     record = simulated_measurement(dict(TRUE_BASE, tip_cubic_stiffness_N_m3=1e4), excitation=pulse, duration_s=4.0, seed=5)
-    early = calibration_preview(record, window=(0.0, 1.0))
-    late = calibration_preview(record, window=(3.0, 4.0))
+    early = calibration_preview(record, window=(0.0, 1.0), modes=4)
+    late = calibration_preview(record, window=(3.0, 4.0), modes=4)
     a, b = early.summary()["bending_stiffness_Nm2"], late.summary()["bending_stiffness_Nm2"]
     assert abs(a["mean"] - b["mean"]) > 20 * np.hypot(a["sd"], b["sd"])
     assert a["mean"] / b["mean"] > 1.2
     for s in (a, b):
         assert not s["q025"] <= 0.491 <= s["q975"]
     assert np.abs(early.bands.mean - late.bands.mean).max() > 0.2 * np.abs(record.displacement_m).max()
-    repaired = calibration_preview(record, window=(0.0, 1.0), effects="air_damping,kelvin_voigt,tip_cubic_spring")
+    repaired = calibration_preview(record, window=(0.0, 1.0), effects="air_damping,kelvin_voigt,tip_cubic_spring", modes=4)
     assert repaired.rmse_prediction < 2 * NOISE < early.rmse_prediction / 100
 
 
@@ -108,8 +108,8 @@ def test_ar1_likelihood_flags_correlated_residuals_but_does_not_repair_missing_p
     (the residuals are far from white), but the residual of a missing tip mass is an oscillation
     at the model's own frequencies, which AR(1) cannot describe: coverage is not restored."""
     record = simulated_measurement(dict(TRUE_BASE, tip_mass_kg=0.002), seed=6)
-    iid = calibration_preview(record, window=(0.0, 1.0))
-    ar1 = calibration_preview(record, window=(0.0, 1.0), likelihood="ar1")
+    iid = calibration_preview(record, window=(0.0, 1.0), modes=4)
+    ar1 = calibration_preview(record, window=(0.0, 1.0), likelihood="ar1", modes=4)
     sd_iid = iid.summary()["bending_stiffness_Nm2"]["sd"]
     sd_ar1 = ar1.summary()["bending_stiffness_Nm2"]["sd"]
     assert sd_ar1 > 1.3 * sd_iid
@@ -117,7 +117,7 @@ def test_ar1_likelihood_flags_correlated_residuals_but_does_not_repair_missing_p
     width = lambda r: np.mean(r.bands.prediction_upper - r.bands.prediction_lower)  # noqa: E731
     assert width(ar1) > 1.1 * width(iid)
     assert ar1.coverage95_prediction < 0.6 and iid.coverage95_prediction < 0.6
-    repaired = calibration_preview(record, window=(0.0, 1.0), effects="air_damping,kelvin_voigt,tip_mass")
+    repaired = calibration_preview(record, window=(0.0, 1.0), effects="air_damping,kelvin_voigt,tip_mass", modes=4)
     assert repaired.coverage95_prediction > 0.9
 
 

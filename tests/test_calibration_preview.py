@@ -148,11 +148,11 @@ def test_warm_start_reaches_the_cold_map_and_covers_the_truth(monkeypatch):
     """A slider move: the window end moves from 1.0 s to 1.1 s; the preview warm-started from
     the previous MAP lands on the cold preview's MAP with fewer model calls, and covers the truth."""
     record = simulated_measurement(TRUE_BASE, seed=35)
-    previous = calibration_preview(record, window=(0.0, 1.0))
+    previous = calibration_preview(record, window=(0.0, 1.0), modes=4)
     calls = _counting_model_calls(monkeypatch)
-    cold = calibration_preview(record, window=(0.0, 1.1))
+    cold = calibration_preview(record, window=(0.0, 1.1), modes=4)
     cold_calls = len(calls)
-    warm = calibration_preview(record, window=(0.0, 1.1), start=previous.laplace.map.values)
+    warm = calibration_preview(record, window=(0.0, 1.1), start=previous.laplace.map.values, modes=4)
     warm_calls = len(calls) - cold_calls
     assert warm_calls < 0.8 * cold_calls  # measured: 22 against 32
     assert warm.laplace.map.log_posterior == pytest.approx(cold.laplace.map.log_posterior, abs=2e-3)
@@ -170,25 +170,25 @@ def test_warm_start_reaches_the_cold_map_and_covers_the_truth(monkeypatch):
 
 def test_warm_start_from_another_model_and_bad_warm_starts():
     record = simulated_measurement(dict(TRUE_BASE, tip_mass_kg=0.004), seed=36)
-    base = calibration_preview(record, window=(0.0, 1.0))
+    base = calibration_preview(record, window=(0.0, 1.0), modes=4)
     # the base model's MAP starts the model with a tip mass (its tip mass at the prior centre)
-    cold = calibration_preview(record, window=(0.0, 1.0), effects="air_damping,kelvin_voigt,tip_mass")
+    cold = calibration_preview(record, window=(0.0, 1.0), effects="air_damping,kelvin_voigt,tip_mass", modes=4)
     warm = calibration_preview(record, window=(0.0, 1.0), effects="air_damping,kelvin_voigt,tip_mass",
-                               start=base.laplace.map.values)
+                               start=base.laplace.map.values, modes=4)
     assert warm.laplace.map.log_posterior >= cold.laplace.map.log_posterior - 2e-3
     tip = warm.summary()["tip_mass_kg"]
     assert tip["q025"] <= 0.004 <= tip["q975"]
     for bad in ({"bending_stiffness_Nm2": -1.0}, {"patch_coupling_NmV": float("nan")}, {"bending_stiffness_Nm2": "x"}):
         with pytest.raises(BeamInputError, match="warm start"):
-            calibration_preview(record, window=(0.0, 1.0), start=bad)
+            calibration_preview(record, window=(0.0, 1.0), start=bad, modes=4)
 
 
 @pytest.mark.parametrize("warm", [False, True])
 def test_stream_preview_is_the_preview(warm):
     record = simulated_measurement(TRUE_BASE, duration_s=2.0, seed=37)
-    start = calibration_preview(record, window=(0.0, 0.7)).laplace.map.values if warm else None
-    preview = calibration_preview(record, window=(0.0, 0.8), seed=4, start=start)
-    first = next(calibration_stream(record, window=(0.0, 0.8), seed=4, start=start))
+    start = calibration_preview(record, window=(0.0, 0.7), modes=4).laplace.map.values if warm else None
+    preview = calibration_preview(record, window=(0.0, 0.8), seed=4, start=start, modes=4)
+    first = next(calibration_stream(record, window=(0.0, 0.8), seed=4, start=start, modes=4))
     assert first.is_preview
     np.testing.assert_array_equal(first.laplace.mean, preview.laplace.mean)
     np.testing.assert_array_equal(first.laplace.cov, preview.laplace.cov)
@@ -199,7 +199,7 @@ def test_stream_preview_is_the_preview(warm):
 def test_final_bands_are_the_posterior_predictive_bands():
     """The MCMC result's bands (fast kernel) are those of PosteriorResult.predict, same draws."""
     record = simulated_measurement(TRUE_BASE, duration_s=2.0, seed=38)
-    result = calibrate(record, window=(0.0, 0.8), steps=200, seed=5)
+    result = calibrate(record, window=(0.0, 0.8), steps=200, seed=5, modes=4)
     reference = result.posterior.predict(record.time_s, n_draws=400, seed=5)
     scale = np.abs(record.displacement_m).max()
     for name in ("mean", "credible_lower", "credible_upper"):

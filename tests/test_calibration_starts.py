@@ -15,6 +15,7 @@ from beam.calibration import (
     prepare,  # noqa: E402
 )
 from beam.calibration.fit import fast_map  # noqa: E402
+from beam.calibration.engine import default_engine  # noqa: E402
 from beam.calibration.starts import design_points, starting_points  # noqa: E402
 from tests.benchmarks.bench_starts import reference_log_posterior  # noqa: E402
 from tests.simulated_data import HIDDEN_EFFECTS, TRUE_BASE, random_beam_case, simulated_measurement  # noqa: E402
@@ -37,7 +38,7 @@ def patch_record():
 ])
 def test_engine_map_is_within_one_nat_of_a_256_start_reference(patch_record, effects):
     window = (0.0, 1.0)
-    engine = float(calibration_preview(patch_record, window=window, effects=effects).laplace.map.log_posterior)
+    engine = float(calibration_preview(patch_record, window=window, effects=effects, modes=4).laplace.map.log_posterior)
     reference = reference_log_posterior(patch_record, window, effects, 4, starts=256)
     assert engine >= reference - 1.0
 
@@ -56,7 +57,7 @@ def test_design_covers_each_effect_barely_on_and_the_ranges(patch_record):
     sobol = ~(barely_mass | barely_clamp)
     tenths = np.floor(10 * np.log(mass[sobol] / lo_m) / np.log(hi_m / lo_m))
     assert set(tenths.astype(int)) == set(range(10))
-    starts = starting_points(problem, setup)
+    starts = starting_points(problem, setup, engine=default_engine())
     assert len(starts) >= 3 and all(set(s) == set(setup.physical_names) for s in starts)
 
 
@@ -106,7 +107,7 @@ def test_hard_cases_without_the_patch_reach_the_brute_force_optimum(effects):
     record = read_measurement(ASSETS / "lab_run_1.csv")
     t = record.time_s
     window = (float(t[0]), float(t[0] + 0.2 * (t[-1] - t[0])))
-    engine = float(calibration_preview(record, window=window, effects=effects).laplace.map.log_posterior)
+    engine = float(calibration_preview(record, window=window, effects=effects, modes=4).laplace.map.log_posterior)
     reference = sobol_reference_log_posterior(record, window, effects)
     assert engine >= reference - 1.0
 
@@ -199,13 +200,13 @@ def test_a_pure_damping_effect_on_a_mode_changing_model_needs_no_searched_design
     design (its quick stage starts from the sub-model's two-stage MAP): on lab_run_1 it still reaches
     an independent 256-start Sobol search (clamp + patch damping once ended 9 nats short of the
     clamp-only optimum)."""
-    from beam.calibration.starts import _adds_damping_to_a_searched_submodel
+    from beam.calibration.starts import adds_damping_to_a_searched_submodel
     from beam.io.measurement import read_measurement
 
     record = read_measurement(ASSETS / "lab_run_1.csv")
     window = _window(record, fraction)
     result = calibration_preview(record, window=window, effects=effects, modes=4)
-    assert _adds_damping_to_a_searched_submodel(result.setup)
+    assert adds_damping_to_a_searched_submodel(result.setup)
     reference = sobol_reference_log_posterior(record, window, effects)
     assert float(result.laplace.map.log_posterior) >= reference - 1.0
 

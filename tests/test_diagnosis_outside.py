@@ -16,6 +16,7 @@ from simulated_data import GEOMETRY, TRUE_BASE, simulated_measurement
 
 from beam.discovery.report import OUTSIDE_CATALOGUE_RATIO, diagnose
 from beam.physics.geometry import BeamGeometry
+from beam.residuals.noise import record_noise_floor
 
 NOISE = 1e-5
 
@@ -32,6 +33,8 @@ def test_a_sensor_lag_is_outside_the_catalogue():
     summary = report.to_json()
     assert summary["outside_catalogue"] is True and summary["remaining_error_ratio"] > 20
     assert summary["noise_floor"] == pytest.approx(NOISE, rel=0.2)
+    # the one floor of the record as calibrated, the beam view's (dashboard.outputs.beam.noise_floor_m)
+    assert summary["noise_floor"] == record_noise_floor(report.base.setup.measurement).sd
 
 
 def test_a_misplaced_sensor_is_outside_the_catalogue_even_when_an_effect_helps():

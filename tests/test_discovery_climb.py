@@ -13,6 +13,7 @@ import beam.residuals as dx
 from beam.calibration import calibration_preview, known_map, remember_maps
 from beam.calibration.run import FIRST_STAGE
 from beam.calibration import starts
+from beam.calibration.engine import default_engine, forget_maps
 from beam.discovery.ranking import thread_fitter
 from beam.discovery.report import climb_on, remaining_error
 from beam.io.measurement import read_measurement
@@ -24,35 +25,35 @@ WINDOW = (0.0, 1.05)
 
 def test_a_screening_fit_is_marked_and_not_remembered_unless_it_is_the_engines_map():
     record = read_measurement(RECORD)
-    starts.forget_maps()
+    forget_maps()
     two_stage = (*BASE, "patch_stiffening", "tip_mass")  # two mode-changing effects: a second stage
     screened = calibration_preview(record, window=WINDOW, effects=two_stage, modes=4, search=False)
     assert screened.screened
-    assert starts.recall_map(screened.setup) is None  # not the model's MAP
+    assert default_engine().recall(screened.setup) is None  # not the model's MAP
     assert known_map(screened)[0] == (FIRST_STAGE, *screened.setup.effects)
     full = calibration_preview(record, window=WINDOW, effects=two_stage, modes=4)
     assert not full.screened
     # the second stage keeps the first stage's MAP unless it gains (searched_map): never lower
     assert full.laplace.map.log_posterior >= screened.laplace.map.log_posterior - 1e-9
     # the second stage started from the remembered first stage ends where both stages from nothing end
-    starts.forget_maps()
+    forget_maps()
     cold = calibration_preview(record, window=WINDOW, effects=two_stage, modes=4)
-    assert starts.recall_first_stage(cold.setup) is None
+    assert default_engine().recall(cold.setup, FIRST_STAGE) is None
     assert cold.laplace.map.values == full.laplace.map.values
     # handed to another process with the other MAPs: a first-stage MAP is not taken for the model's
-    starts.forget_maps()
+    forget_maps()
     remember_maps(record, window=WINDOW, modes=4, maps=[known_map(screened)])
-    assert starts.recall_map(screened.setup) is None
-    assert starts.recall_first_stage(screened.setup).values == screened.laplace.map.values
+    assert default_engine().recall(screened.setup) is None
+    assert default_engine().recall(screened.setup, FIRST_STAGE).values == screened.laplace.map.values
 
     # damping added to a mode-changing sub-model has no second stage: its screening fit is the
     # engine's MAP, remembered, and the preview that follows recalls it
-    starts.forget_maps()
+    forget_maps()
     damped = (*BASE, "patch_stiffening", "patch_damping")
     first = calibration_preview(record, window=WINDOW, effects=damped, modes=4, search=False)
     assert not first.screened and not starts.has_second_stage(first.setup)
     again = calibration_preview(record, window=WINDOW, effects=damped, modes=4)
-    assert again.laplace.map is starts.recall_map(again.setup)
+    assert again.laplace.map is default_engine().recall(again.setup)
     assert again.laplace.map.values == first.laplace.map.values
 
 
@@ -61,7 +62,7 @@ def test_the_screened_climb_adds_what_the_full_climb_adds_with_the_same_rung():
     """lab_run_1 (patch stiffening and patch damping hidden), 7 modes: on top of patch stiffening
     the climb adds patch damping, screened or not, and its rung is the same MAP."""
     record = read_measurement(RECORD)
-    starts.forget_maps()
+    forget_maps()
     leader = calibration_preview(record, window=WINDOW, effects=(*BASE, "patch_stiffening"), modes=7)
     setup = leader.setup
     floor = dx.noise_floor(setup.measurement.time_s, setup.measurement.output)

@@ -10,19 +10,11 @@ model call.
 
 **Damped-away starts.** With a damping ratio per mode (``modal_damping``), a mode the model
 cannot place (its frequency off the record's peak: a missing mass, a clamp) may be fitted best by
-damping it away, its damping ratio at the top of its prior, and its columns spent on the first
-few periods. That optimum sits in another basin than the spectral starts' (small damping), and the
-data show the gain only once the other modes' frequencies fit: at the spectral start the residual
-RMS barely moves with that damping ratio, so no screening can pick it; a search started there
-reaches it. Strip record 114759, window 0-2 s, base model: the search from the four other starts
-ended at log posterior -3261 (zeta_3 = 0.0055); from the spectral start with zeta_3 near 0.3 at -3070
-(zeta_3 on its bound, the posterior piled against it), where the sampler, started at the former,
-had to climb 190 nats (14 s CPU; 1.5 s from the latter). So for each mode one more start, the
-spectral start with that mode's damping ratio :data:`DAMPED_AWAY` of its log range below the top
-(4 modes: ~9 ms more search). Its other parameters (EI, a point mass) are those of the best
-screened start (:func:`damped_away_base`): from the prior centre, where a point mass is barely on,
-those four searches climbed for most of the lock-step search of the strip's point-mass models
-(89-122 start-iterations, now 65-76; the same MAPs, log posterior within 2e-5 nats).
+damping it away, its damping ratio at the top of its prior. That optimum sits in another basin
+than the spectral starts' (small damping), which no screening by residual RMS can pick; so for
+each mode one more start: the best screened start (:func:`damped_away_base`) with that mode's
+damping ratio :data:`DAMPED_AWAY` of its log range below the top. The measurements behind this:
+the design decisions page.
 """
 
 from __future__ import annotations

@@ -1,47 +1,28 @@
-"""How many modes to retain: chosen from the record's excited band (the default of every front end).
+"""How many modes to retain: chosen from the record's excited band (the default of every front end,
+``modes="auto"`` of :class:`beam.calibration.spec.CalibrationSpec`).
 
 A modal model that keeps too few modes cannot follow what the record excites: the noise sd then
-absorbs the truncation error, the prediction band is too wide and the diagnosis blames "something
-outside the catalogue" for what is only a truncation. :func:`suggest_modes` reads the number from
-the record itself, in two measured steps:
+absorbs the truncation error and the diagnosis blames "something outside the catalogue" for a
+truncation. :func:`suggest_modes` reads the number from the record itself, in two steps:
 
 1. **The excited band.** The Welch spectrum of the output in the calibration window is compared
    with the record's model-free noise floor (:func:`beam.residuals.noise.noise_floor`, white
-   density sd² / f_Nyquist). The band edge is the highest frequency where the spectrum exceeds
-   :data:`EXCITED_RATIO` (4, 6 dB) times that density. Measured on the bundled records (window =
-   the dashboard's default): noise-only bins stay below 3 × (2.5 × at most in lab_run_1 above
-   140 Hz), while the weakest real content — lab_run_3's fifth mode at 379 Hz, excited by the 4 ms
-   pulse — stands 10 × above. Edges: lab_run_1 121 Hz, lab_run_2 77 Hz, lab_run_3 387 Hz,
-   lab_run_4 359 Hz (the spring's odd harmonics), lab_run_5 160 Hz; the real free decays
-   adxl_50cm_114655 / 114759 ~ 1–2 kHz (an accelerometer weights the high modes by ω²). The
-   nominal model (the record's geometry and nominal values, the linear effects asked for) then
-   gives every mode below the edge, plus the next one when the edge lies within
-   :data:`CLOSE_FRACTION` (15 %) of it (a nominal frequency is only known to ±15 %: lab_run_3's
-   true mode 5 is at 379 Hz, its nominal one at 416 Hz), plus :data:`MARGIN_MODES` (one) more.
-2. **The truncation error** (driven records with uniform stamps). Inside the band, a truncated
-   mode still responds (quasi-statically, corrected by the static correction, and dynamically,
-   which is not): the nominal model is driven by the record's own input with all its Galerkin
-   modes and with n modes, and the smallest n whose difference in the window stays below
-   :data:`TRUNCATION_FRACTION` (0.3) of the noise floor is taken (an error 0.3 × the noise adds
-   4 % to the fitted noise sd). Measured at the true parameters of the bundled records (RMS
-   truncation error / true noise in the window, 4 / 5 / 6 modes): lab_run_1 1.17 / 0.55 / 0.33,
-   lab_run_2 0.18 / 0.17 / 0.05, lab_run_3 1.59 / 0.94 / 0.09, lab_run_5 0.19 / 0.19 / 0.14: the
-   chirp of lab_run_1 needs 6 modes although its spectrum ends below the fourth.
+   density sd² / f_Nyquist); the band edge is the highest frequency where the spectrum exceeds
+   :data:`EXCITED_RATIO` times that density. The nominal model (the record's geometry and nominal
+   values, the linear effects asked for) then gives every mode below the edge, plus the next one
+   when the edge lies within :data:`CLOSE_FRACTION` of it (a nominal frequency is only known to
+   about that), plus :data:`MARGIN_MODES` more.
+2. **The truncation error** (driven records with uniform stamps). The nominal model is driven by
+   the record's own input with all its Galerkin modes and with n modes; the smallest n whose
+   difference in the window stays below :data:`TRUNCATION_FRACTION` of the noise floor is taken
+   (an error 0.3 × the noise adds 4 % to the fitted noise sd).
 
-The nonlinear tip spring is left out of the nominal model (its stiffness has no nominal value);
-its force at the tip excites every mode, but the discarded ones answer it quasi-statically and
-the model adds that share (:func:`beam.physics.nonlinear._corrected_tip`): on lab_run_4 at its
-true parameters the held-out truncation error with 6 modes is 0.006 × the noise (2.6 × without
-that correction).
-
-The larger of the two counts is retained, at most ``max_modes``. A free response (no input) keeps
-the library's :data:`~beam.calibration.setup.DEFAULT_MODES` (4): the band rule asks for 10-12 modes
-on the real free decays (an accelerometer sees the high modes), and the calibration of
-adxl_50cm_114655 (window 0-2 s, modal damping) with 12 modes fails (its Laplace Gaussian lies
-outside the prior: the damping of the short-lived high modes is not identified), so the rule is
-not applied there yet.
-Cost: one Welch spectrum, one eigenproblem and, for a driven record, at most ``max_modes + 1``
-modal responses (milliseconds each).
+The nonlinear tip spring and modal damping are left out of the nominal model (no nominal value
+sets their frequencies). The larger of the two counts is retained, at most ``max_modes``. A free
+response (no input) keeps :data:`~beam.calibration.spec.DEFAULT_MODES` (the damping of many modes
+of a free decay is not identified). Cost: one Welch spectrum, one eigenproblem and, for a driven
+record, at most ``max_modes + 1`` modal responses. The measurements behind the thresholds: the
+design decisions page.
 """
 
 from __future__ import annotations
@@ -51,7 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from beam.calibration.setup import DEFAULT_EFFECTS, DEFAULT_MODES, prior_centre, resolve_window
+from beam.calibration.setup import prior_centre, resolve_window
+from beam.calibration.defaults import DEFAULT_EFFECTS, DEFAULT_MODES
 from beam.io.measurement import Measurement
 from beam.physics.effects import parse_effects
 from beam.physics.model import BeamModel

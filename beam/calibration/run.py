@@ -1,5 +1,9 @@
 """Calibrate the beam on a measurement window and predict the rest of the record.
 
+What is calibrated is a :class:`~beam.calibration.spec.CalibrationSpec` (the keyword options of
+every function here build one); the MAP is searched, and remembered, by an
+:class:`~beam.calibration.engine.Engine` (default: the process's).
+
 :func:`calibrate` runs MAP + Laplace (the preview), then emcee to a target ESS (or a fixed
 number of steps), and returns a :class:`CalibrationResult` with posterior summaries, RMSE in the
 calibration and prediction windows, coverage of the 95 % prediction band on the held-out part
@@ -30,26 +34,15 @@ import numpy as np
 from beam.calibration.bands import fast_predictive_bands
 from beam.calibration.fit import fast_map
 from beam.calibration.free_starts import projected_starting_points
-from beam.calibration.modes import suggest_modes
 from beam.calibration.records import decimate_measurement
+from beam.calibration.spec import CalibrationSpec
 from beam.calibration.setup import (
-    AUTO_MODES,
-    DEFAULT_EFFECTS,
-    DEFAULT_MODES,
     BeamCalibrationSetup,
     build_problem,
     make_setup,
 )
-from beam.calibration.starts import (  # noqa: F401
-    SEARCH_GAIN_NATS,
-    has_second_stage,
-    recall_first_stage,
-    recall_map,
-    remember_first_stage,
-    remember_map,
-    searched_map,
-    starting_points,
-)
+from beam.calibration.engine import FIRST_STAGE, MAP, Engine, default_engine
+from beam.calibration.starts import SEARCH_GAIN_NATS, has_second_stage, kept_nested, null_starts  # noqa: F401
 from beam.errors import BeamInputError
 from beam.inference import (
     NOISE_SD,
@@ -114,6 +107,12 @@ class CalibrationResult:
     #: A screening fit (:func:`calibration_preview` with ``search=False``): the first of the engine's
     #: two stages only. Never remembered as the model's MAP (:func:`known_map` refuses it).
     screened: bool = False
+
+    @property
+    def spec(self) -> CalibrationSpec:
+        """The resolved :class:`~beam.calibration.spec.CalibrationSpec` of the model calibrated
+        (window, effects, modes, likelihood)."""
+        return CalibrationSpec.of_setup(self.setup)
 
     # -- draws ------------------------------------------------------------------------------
     @property
@@ -272,17 +271,19 @@ class CalibrationResult:
 
 def prepare(
     measurement: Measurement,
+    spec: CalibrationSpec | None = None,
     *,
-    window: tuple[float, float] | None = None,
-    effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int | str = DEFAULT_MODES,
-    likelihood: str = "iid",
     extra_guesses: Iterable[dict[str, float]] = (),
     start: Mapping[str, float] | None = None,
     search: bool = True,
+    engine: Engine | None = None,
+    **options,
 ) -> tuple[BeamCalibrationSetup, Problem]:
     """Validated setup and inference problem with its starting points (``search``: with the
-    searched stratified design, :func:`beam.calibration.starts.starting_points`).
+    searched stratified design, :meth:`Engine.starting_points` of ``engine``, default the process's).
+
+    ``spec`` (or the keywords ``options``, fields of :class:`CalibrationSpec`, which replace its
+    values) says what is calibrated; it is resolved on the record (:meth:`CalibrationSpec.resolve`).
 
     The problem's ``initial_guesses`` hook returns the starting points of the MAP search: those
     of :func:`beam.calibration.starts.starting_points` (the one start strategy of every
@@ -293,25 +294,21 @@ def prepare(
     A record longer than :data:`beam.io.limits.MAX_CALIBRATION_SAMPLES` is decimated first (anti-
     aliased; see :mod:`beam.io.limits`): ``setup.measurement`` is then the decimated record.
     """
+    engine = default_engine() if engine is None else engine
     measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
-    choice = None
-    if modes is None or modes == AUTO_MODES:  # chosen from the record's excited band
-        try:
-            choice = suggest_modes(measurement, window, effects)
-            modes = choice.modes
-        except BeamInputError:  # too short for a spectrum (or a bad window, which make_setup reports)
-            modes = DEFAULT_MODES
-    setup = make_setup(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood)
-    setup.mode_choice = choice
+    spec = CalibrationSpec.of(spec, **options).resolve(measurement)
+    setup = make_setup(measurement, window=spec.window, effects=spec.effects, modes=spec.modes,
+                       likelihood=spec.likelihood)
+    setup.mode_choice = spec.mode_choice
     extra = [dict(g) for g in extra_guesses]
     warm = None if start is None else checked_start(start, setup.physical_names)
 
     def starts(problem: Problem) -> list[dict[str, float]]:
         warm_start = None if warm is None else clip_to_prior(problem, warm)
         if "patch_coupling_NmV" in setup.physical_names:
-            chosen = starting_points(problem, setup, warm_start, search=search)
+            chosen = engine.starting_points(problem, setup, warm_start, search=search)
         else:  # free response (initial state profiled out) or point force: no coupling to solve for
-            chosen = projected_starting_points(problem, setup, warm_start)
+            chosen = projected_starting_points(problem, setup, warm_start) + null_starts(problem, setup, engine)
         return chosen + (best_guesses(problem, extra) if extra else [])
 
     return setup, build_problem(setup, initial_guesses=starts)
@@ -390,98 +387,95 @@ def preview_fit(problem: Problem) -> LaplaceResult:
     return result
 
 
-def _searched_laplace(problem: Problem, setup: BeamCalibrationSetup, quick: LaplaceResult) -> LaplaceResult:
+def _laplace_at(problem: Problem, found: MapResult, seconds: float = 0.0) -> LaplaceResult:
+    """The Laplace approximation at ``found``; ``seconds`` (plus its own time) as its wall time."""
+    t0 = time.perf_counter()
+    result = laplace(problem, found)
+    result.seconds = seconds + time.perf_counter() - t0
+    return result
+
+
+def _kept_nested(engine: Engine, problem: Problem, setup: BeamCalibrationSetup, result: LaplaceResult) -> LaplaceResult:
+    """``result``, or the Laplace approximation at a remembered sub-model's optimum embedded in
+    the model when the search ended lower (:func:`beam.calibration.starts.kept_nested`): nested
+    fits are monotone."""
+    t0 = time.perf_counter()
+    found = kept_nested(problem, setup, result.map, engine)
+    return result if found is result.map else _laplace_at(problem, found, result.seconds + time.perf_counter() - t0)
+
+
+def _searched_laplace(engine: Engine, problem: Problem, setup: BeamCalibrationSetup,
+                      quick: LaplaceResult) -> LaplaceResult:
     """``quick`` (the preview's MAP + Laplace), or the Laplace approximation at a better MAP found
-    from the searched stratified design and ``quick``'s MAP together (:func:`searched_map`)."""
+    by the engine's second stage (:meth:`Engine.searched_map`)."""
     if "patch_coupling_NmV" not in setup.physical_names:  # free response / point force: projected starts
         return quick
     t0 = time.perf_counter()
-    found = searched_map(problem, setup, quick.map)
+    found = engine.searched_map(problem, setup, quick.map)
     if found is None:
         return quick  # the same basin (or worse): the preview's MAP stands, to the last digit
-    result = laplace(problem, found)
-    result.seconds = quick.seconds + time.perf_counter() - t0
-    return result
+    return _kept_nested(engine, problem, setup, _laplace_at(problem, found, quick.seconds + time.perf_counter() - t0))
 
 
-def _recalled_laplace(problem: Problem, setup: BeamCalibrationSetup, cold: bool) -> LaplaceResult | None:
-    """For a cold start: the Laplace approximation at the remembered MAP of this very model (found
-    by the same two stages in this process, or told by another: :func:`remember_maps`), or None when none is
-    remembered: the same MAP, to the last digit. The diagnosis's candidates are what **Add**
-    calibrates next: measured on lab_run_1 (7 modes, + patch stiffening) the two stages took
-    1.6-1.9 s of the calibration."""
-    if not cold or "patch_coupling_NmV" not in setup.physical_names:
+def _recalled_laplace(engine: Engine, problem: Problem, setup: BeamCalibrationSetup,
+                      cold: bool) -> LaplaceResult | None:
+    """For a cold start: the Laplace approximation at the engine's remembered MAP of this very
+    model, or None when none is remembered (the same MAP, to the last digit)."""
+    if not cold:
         return None
-    found = recall_map(setup)
-    if found is None:
-        return None
-    t0 = time.perf_counter()
-    result = laplace(problem, found)
-    result.seconds = time.perf_counter() - t0
-    return result
+    found = engine.recall(setup)
+    return None if found is None else _laplace_at(problem, found)
 
 
-def _first_stage(problem: Problem, setup: BeamCalibrationSetup, cold: bool) -> LaplaceResult:
-    """The first stage of a preview (:func:`preview_fit`), or for a cold start its remembered MAP
-    (:func:`beam.calibration.starts.recall_first_stage`: a screening fit of this model found it
-    from the same starts) with its Laplace approximation. Measured on lab_run_1 (8 modes, patch
-    stiffening + one more mode-changing effect): the first stage is 0.8-1.2 s of the 2.2-2.9 s."""
-    found = recall_first_stage(setup) if cold and "patch_coupling_NmV" in setup.physical_names else None
-    if found is None:
-        return preview_fit(problem)
-    t0 = time.perf_counter()
-    result = laplace(problem, found)
-    result.seconds = time.perf_counter() - t0
-    return result
+def _first_stage(engine: Engine, problem: Problem, setup: BeamCalibrationSetup, cold: bool) -> LaplaceResult:
+    """The first stage of a preview (:func:`preview_fit`, kept no lower than a remembered
+    sub-model's optimum), or for a cold start the engine's remembered first-stage MAP of this model
+    (a screening fit's, from the same starts)."""
+    found = engine.recall(setup, FIRST_STAGE) if cold else None
+    return _kept_nested(engine, problem, setup, preview_fit(problem)) if found is None else _laplace_at(problem, found)
 
 
-def _remember(setup: BeamCalibrationSetup, found: MapResult, cold: bool) -> None:
-    """Share a cold-started driven calibration's MAP with the nested starts of larger models."""
-    if cold and "patch_coupling_NmV" in setup.physical_names:
-        remember_map(setup, found)
-
-
-#: First item of the key of a first-stage MAP among the MAPs handed to :func:`remember_maps`.
-FIRST_STAGE = "first stage"
+def _remember(engine: Engine, setup: BeamCalibrationSetup, found: MapResult, cold: bool, kind: str = MAP) -> None:
+    """Keep a cold-started calibration's MAP in the engine (for the nested and null starts of
+    larger models and later calibrations of this one)."""
+    if cold:
+        engine.remember(setup, found, kind)
 
 
 def known_map(result: CalibrationResult) -> tuple[tuple[str, ...], MapResult]:
-    """``(effects, MAP)`` of a cold-started preview or calibration, for :func:`remember_maps`
-    in another process; of a screening fit ``((FIRST_STAGE, *effects), MAP)``: its MAP is the
-    first stage's only, which the second stage of a later calibration of that model starts from
-    (:func:`beam.calibration.starts.remember_first_stage`), never the model's MAP."""
+    """``(effects, MAP)`` of a cold-started preview or calibration, for :func:`remember_maps`; of a
+    screening fit ``((FIRST_STAGE, *effects), MAP)`` (its first stage's MAP, never the model's).
+
+    A convenience for callers that send MAPs by model; :meth:`Engine.export` and
+    :meth:`Engine.merge` send a whole engine's memory (keyed by record and spec)."""
     effects = tuple(result.setup.effects)
     return ((FIRST_STAGE, *effects) if result.screened else effects), result.laplace.map
 
 
 def remember_maps(measurement: Measurement, *, window: tuple[float, float], modes: int,
-                  maps: Iterable[tuple[tuple[str, ...], MapResult]], likelihood: str = "iid") -> None:
-    """Share MAPs found in another process (:func:`known_map` of cold-started calibrations of this
-    record, window, modes and likelihood) with this process's nested starts
-    (:func:`beam.calibration.starts.submodel_map`): what the process would have found itself."""
+                  maps: Iterable[tuple[tuple[str, ...], MapResult]], likelihood: str = "iid",
+                  engine: Engine | None = None) -> None:
+    """Keep MAPs found in another process (:func:`known_map` of cold-started calibrations of this
+    record, window, modes and likelihood) in ``engine`` (default: the process's): what the
+    process would have found itself."""
+    engine = default_engine() if engine is None else engine
     measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
     for effects, found in maps:
         first = bool(effects) and effects[0] == FIRST_STAGE
         setup = make_setup(measurement, window=window, effects=effects[1:] if first else effects, modes=modes,
                            likelihood=likelihood)
-        if first:
-            if "patch_coupling_NmV" in setup.physical_names:
-                remember_first_stage(setup, found)
-        else:
-            _remember(setup, found, cold=True)
+        _remember(engine, setup, found, cold=True, kind=FIRST_STAGE if first else MAP)
 
 
 def calibration_preview(
     measurement: Measurement,
+    spec: CalibrationSpec | None = None,
     *,
-    window: tuple[float, float] | None = None,
-    effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int | str = DEFAULT_MODES,
-    likelihood: str = "iid",
     extra_guesses: Iterable[dict[str, float]] = (),
     start: Mapping[str, float] | None = None,
-    seed: int = 0,
     search: bool = True,
+    engine: Engine | None = None,
+    **options,
 ) -> CalibrationResult:
     """MAP + Laplace only: parameters, bands, RMSE and coverage in a fraction of a second.
 
@@ -489,14 +483,12 @@ def calibration_preview(
     ----------
     measurement : Measurement
         The record (displacement in m, voltage in V).
-    window : (start_s, end_s), optional
-        Calibration window (s); default the first 30 % of the record.
-    effects : str or iterable of str
-        Effects added to the base model (default air_damping, kelvin_voigt).
-    modes : int
-        Retained modes (default 4; "auto": chosen from the record's excited band, :func:`beam.calibration.modes.suggest_modes`).
-    likelihood : {"iid", "ar1"}
-        Noise model.
+    spec : CalibrationSpec, optional
+        Window, effects, modes, likelihood and seed (of the Laplace draws behind the bands);
+        default :class:`CalibrationSpec`'s defaults.
+    **options
+        Fields of :class:`CalibrationSpec` (``window``, ``effects``, ``modes``, ``likelihood``,
+        ``seed``, ...), which replace the spec's: a convenience that builds the spec.
     extra_guesses : iterable of mapping
         More starting points (natural units), screened with the spectral ones.
     start : mapping of str to float, optional
@@ -506,8 +498,6 @@ def calibration_preview(
         starting points (the spectral starts stay), so a window moved by a few percent
         converges in a few iterations. Far from the window it came from (a window several
         times longer, another record) it may lead to a worse optimum than the cold search.
-    seed : int
-        Seed of the Laplace draws behind the predictive bands.
     search : bool
         False for a **screening fit**: the engine's first stage only (the quick search from the
         short-window, spectral, nested and screened-design starts), without the searched stratified
@@ -516,25 +506,26 @@ def calibration_preview(
         :func:`beam.calibration.starts.has_second_stage`: then it is the engine's MAP). The diagnosis's climb screens its candidates so
         (:func:`beam.discovery.report.climb_on`). A remembered two-stage MAP of the model is used
         when there is one.
+    engine : Engine, optional
+        The engine that searches and remembers (default: the process's, :func:`default_engine`).
     """
     t0 = time.perf_counter()
     extra_guesses = tuple(extra_guesses)
-    setup, problem = prepare(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood,
-                             extra_guesses=extra_guesses, start=start, search=False)
+    spec = CalibrationSpec.of(spec, **options)
+    seed = spec.seed
+    engine = default_engine() if engine is None else engine
+    setup, problem = prepare(measurement, spec, extra_guesses=extra_guesses, start=start, search=False, engine=engine)
     cold = start is None and not extra_guesses
-    laplace_result = _recalled_laplace(problem, setup, cold)
+    laplace_result = _recalled_laplace(engine, problem, setup, cold)
     screened = False
     if laplace_result is None:
-        quick = _first_stage(problem, setup, cold)
+        quick = _first_stage(engine, problem, setup, cold)
         if not search:
             laplace_result, screened = quick, has_second_stage(setup)  # else it is the engine's MAP
-            if screened and cold:
-                remember_first_stage(setup, quick.map)
-            elif not screened:
-                _remember(setup, quick.map, cold)
+            _remember(engine, setup, quick.map, cold, FIRST_STAGE if screened else MAP)
         else:
-            laplace_result = _searched_laplace(problem, setup, quick)  # the two stages of calibration_stream
-            _remember(setup, laplace_result.map, cold)
+            laplace_result = _searched_laplace(engine, problem, setup, quick)  # the two stages of calibration_stream
+            _remember(engine, setup, laplace_result.map, cold)
     bands = preview_bands(laplace_result, setup, seed)
     return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0, screened=screened)
 
@@ -564,13 +555,13 @@ def record_bands(problem: Problem, setup: BeamCalibrationSetup, draws: Mapping[s
         "mean", "credible_lower", "credible_upper", "prediction_lower", "prediction_upper")})
 
 
-def calibrate(measurement: Measurement, **options) -> CalibrationResult:
-    """Full calibration: preview, then emcee to ``target_ess`` (or exactly ``steps`` steps).
+def calibrate(measurement: Measurement, spec: CalibrationSpec | None = None, **options) -> CalibrationResult:
+    """Full calibration: preview, then emcee to ``spec.target_ess`` (or exactly ``spec.steps`` steps).
 
-    Takes the keyword options of :func:`calibration_stream` and returns its final result.
+    Takes the arguments of :func:`calibration_stream` and returns its final result.
     """
     final = None
-    for event in calibration_stream(measurement, **options):
+    for event in calibration_stream(measurement, spec, **options):
         if isinstance(event, CalibrationResult) and not event.is_preview:
             final = event
     return final
@@ -578,18 +569,12 @@ def calibrate(measurement: Measurement, **options) -> CalibrationResult:
 
 def calibration_stream(
     measurement: Measurement,
+    spec: CalibrationSpec | None = None,
     *,
-    window: tuple[float, float] | None = None,
-    effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int | str = DEFAULT_MODES,
-    likelihood: str = "iid",
-    walkers: int | None = None,
-    steps: int | None = None,
-    seed: int = 0,
-    target_ess: float = 1000.0,
-    max_steps: int = 20000,
     every: int = 50,
     start: Mapping[str, float] | None = None,
+    engine: Engine | None = None,
+    **options,
 ) -> Iterator[CalibrationResult | Progress]:
     """The calibration as a generator: the preview result, then :class:`Progress` while sampling,
     then the final result. A caller (the dashboard) can stop at any point by leaving the loop.
@@ -598,28 +583,17 @@ def calibration_stream(
     ----------
     measurement : Measurement
         The record (displacement in m, voltage in V).
-    window : (start_s, end_s), optional
-        Calibration window (s); default the first 30 % of the record.
-    effects : str or iterable of str
-        Effects added to the base model (default air_damping, kelvin_voigt).
-    modes : int
-        Retained modes (default 4; "auto": chosen from the record's excited band, :func:`beam.calibration.modes.suggest_modes`).
-    likelihood : {"iid", "ar1"}
-        Noise model.
-    walkers : int, optional
-        Ensemble size (default :func:`default_walkers`).
-    steps : int, optional
-        Exactly this many ensemble steps instead of sampling to ``target_ess``.
-    seed : int
-        Seed of the sampler and of the band draws.
-    target_ess : float
-        Bulk ESS every parameter must reach (with R-hat <= 1.01).
-    max_steps : int
-        Cap on ensemble steps.
+    spec : CalibrationSpec, optional
+        Window, effects, modes, likelihood, seed, walkers, steps, target ESS and step cap
+        (:class:`CalibrationSpec`; default its defaults).
+    **options
+        Fields of :class:`CalibrationSpec`, which replace the spec's: a convenience that builds the spec.
     every : int
         Steps between :class:`Progress` events.
     start : mapping of str to float, optional
         Warm start of the MAP search (see :func:`calibration_preview`).
+    engine : Engine, optional
+        The engine that searches and remembers (default: the process's, :func:`default_engine`).
 
     Notes
     -----
@@ -631,31 +605,33 @@ def calibration_stream(
     unless the search beats it by :data:`SEARCH_GAIN_NATS`. Without a mode-changing effect both
     stages are the same.
     """
+    spec = CalibrationSpec.of(spec, **options)
+    walkers, steps, seed = spec.walkers, spec.steps, spec.seed
     if walkers is not None and (isinstance(walkers, bool) or walkers < 2):
         raise BeamInputError(f"walkers must be an integer >= 2, got {walkers}")
     if steps is not None and (isinstance(steps, bool) or steps < 10):
         raise BeamInputError(f"steps must be an integer >= 10, got {steps}")
     t0 = time.perf_counter()
     # the quick stage: every start but the searched stratified design, shown as the preview ...
-    setup, problem = prepare(measurement, window=window, effects=effects, modes=modes, likelihood=likelihood,
-                             start=start, search=False)
-    recalled = _recalled_laplace(problem, setup, cold=start is None)  # this model's MAP, found before
-    laplace_result = preview_fit(problem) if recalled is None else recalled
+    engine = default_engine() if engine is None else engine
+    setup, problem = prepare(measurement, spec, start=start, search=False, engine=engine)
+    recalled = _recalled_laplace(engine, problem, setup, cold=start is None)  # this model's MAP, found before
+    laplace_result = _first_stage(engine, problem, setup, cold=False) if recalled is None else recalled
     yield CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, setup, seed),
                             time.perf_counter() - t0)
     if recalled is None:
         # ... then the searched design (0.5-1.5 s with a mode-changing effect), from which the MAP
         # search continues together with the preview's MAP: the sampler starts in the best basin found
-        laplace_result = _searched_laplace(problem, setup, laplace_result)
-        _remember(setup, laplace_result.map, cold=start is None)
+        laplace_result = _searched_laplace(engine, problem, setup, laplace_result)
+        _remember(engine, setup, laplace_result.map, cold=start is None)
     if walkers is not None and walkers < 2 * problem.ndim:
         raise BeamInputError(f"walkers must be at least 2 x {problem.ndim} parameters = {2 * problem.ndim}, got {walkers}")
     run = EnsembleRun(problem, laplace_result, n_walkers=walkers or default_walkers(problem.ndim), seed=seed)
     if steps is not None:
         yield from run.sample(steps, every=every)
-        posterior = run.result(target_ess=target_ess)
+        posterior = run.result(target_ess=spec.target_ess)
     else:
-        yield from run.sample_to_ess(target_ess, every=every, max_steps=max_steps)
-        posterior = run.result(target_ess=target_ess)
+        yield from run.sample_to_ess(spec.target_ess, every=every, max_steps=spec.max_steps)
+        posterior = run.result(target_ess=spec.target_ess)
     bands = record_bands(problem, setup, posterior.thinned_draws(BAND_DRAWS, seed))  # = posterior.predict
     yield CalibrationResult(setup, problem, laplace_result, posterior, bands, time.perf_counter() - t0)

@@ -37,6 +37,13 @@ import numpy as np
 
 from beam.calibration.free import ProjectedFreeModel, free_start_indices
 from beam.calibration.records import check_calibration_record
+from beam.calibration import defaults
+from beam.calibration.defaults import (  # noqa: F401 - the defaults' one source, re-exported
+    AUTO_MODES,
+    DEFAULT_EFFECTS,
+    DEFAULT_MODES,
+    DEFAULT_WINDOW_FRACTION,
+)
 from beam.errors import BeamInputError
 from beam.inference import (
     AR1_COEFFICIENT,
@@ -53,13 +60,6 @@ from beam.physics.basis import DEFAULT_INTERVALS, DEFAULT_KNOTS
 from beam.physics.effects import PARAMETER_SPECS, parse_effects
 from beam.physics.model import BeamModel
 
-DEFAULT_EFFECTS: tuple[str, ...] = ("air_damping", "kelvin_voigt")
-DEFAULT_MODES = 4
-#: The number of modes chosen from the record (:func:`beam.calibration.modes.suggest_modes`): the
-#: default of ``beam calibrate``, ``beam diagnose`` and the dashboard.
-AUTO_MODES = "auto"
-#: The default calibration window: the first 30 % of the record.
-DEFAULT_WINDOW_FRACTION = 0.3
 #: Fewest samples a calibration window may hold.
 MIN_WINDOW_SAMPLES = 20
 
@@ -109,14 +109,15 @@ def prior_centre(name: str, nominal: Mapping[str, float]) -> float:
 
 
 def resolve_window(measurement: Measurement, window: tuple[float, float] | None) -> tuple[float, float]:
-    """The calibration window [start, end] (s), default the first 30 % of the record.
+    """The calibration window [start, end] (s), default the first
+    :data:`~beam.calibration.defaults.DEFAULT_WINDOW_FRACTION` of the record.
 
     Raises BeamInputError when it lies outside the record or holds too few samples.
     """
     t = measurement.time_s
-    if window is None:
+    if window is None:  # the default's value when asked (beam.calibration.defaults)
         start = float(t[0])
-        end = float(t[0] + DEFAULT_WINDOW_FRACTION * (t[-1] - t[0]))
+        end = float(t[0] + defaults.DEFAULT_WINDOW_FRACTION * (t[-1] - t[0]))
     else:
         start, end = (float(v) for v in window)
     if not (math.isfinite(start) and math.isfinite(end)) or not start < end:
@@ -268,7 +269,7 @@ def make_setup(
     window: tuple[float, float] | None = None,
     effects: Iterable[str] | str = DEFAULT_EFFECTS,
     modes: int = DEFAULT_MODES,
-    likelihood: str = "iid",
+    likelihood: str = defaults.DEFAULT_LIKELIHOOD,
     intervals: int = DEFAULT_INTERVALS,
     knots: str = DEFAULT_KNOTS,
 ) -> BeamCalibrationSetup:

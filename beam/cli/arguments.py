@@ -55,8 +55,10 @@ def non_negative_int(text: str) -> int:
 
 def modes_choice(text: str) -> int | str:
     """A positive integer, or ``auto`` (chosen from the record's excited band)."""
-    if text.strip().lower() == "auto":
-        return "auto"
+    from beam.calibration.defaults import AUTO_MODES
+
+    if text.strip().lower() == AUTO_MODES:
+        return AUTO_MODES
     return _integer(text, 1, "a positive integer or 'auto'")
 
 

@@ -16,18 +16,26 @@ from beam.cli.arguments import (
     positive_int,
     time_window,
 )
+from beam.calibration.defaults import AUTO_MODES
+from beam.calibration.spec import CalibrationSpec
 
 LIKELIHOOD_CHOICES = ("iid", "ar1")
 
 
 def add_model_arguments(parser: argparse.ArgumentParser) -> None:
-    """--window and --modes, shared with ``beam diagnose``."""
+    """--window and --modes, shared with ``beam diagnose`` (defaults: :class:`~beam.calibration.spec.CalibrationSpec`'s)."""
+    defaults = CalibrationSpec()
     parser.add_argument("data", metavar="DATA", type=measurement_path,
                         help="measurement: NAME.csv, NAME.toml or NAME; a bundled run (e.g. lab_run_1) by its name")
-    parser.add_argument("--window", type=time_window, default=None, metavar="START:END",
-                        help="calibration window in seconds, e.g. 0:1.5 (default: the first 30 %% of the record)")
-    parser.add_argument("--modes", type=modes_choice, default="auto", metavar="N",
-                        help="retained modes, or auto (default: chosen from the record's excited band)")
+    parser.add_argument("--window", type=time_window, default=defaults.window, metavar="START:END",
+                        help=f"calibration window in seconds, e.g. 0:1.5 (default: the first "
+                        f"{100 * defaults.window_fraction:g} %% of the record)")
+    parser.add_argument("--modes", type=modes_choice, default=defaults.modes, metavar="N",
+                        help=f"retained modes, or auto (default: {_modes_text(defaults.modes)})")
+
+
+def _modes_text(modes) -> str:
+    return "chosen from the record's excited band" if modes == AUTO_MODES else str(modes)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -42,14 +50,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=HelpFormatter,
     )
     add_model_arguments(parser)
-    parser.add_argument("--effects", default="air_damping,kelvin_voigt", metavar="A,B,...",
-                        help="effects added to the base model (default air_damping,kelvin_voigt; '' for none)")
-    parser.add_argument("--likelihood", choices=LIKELIHOOD_CHOICES, default="iid",
-                        help="iid Gaussian noise (default) or AR(1) correlated residuals")
-    parser.add_argument("--walkers", type=positive_int, default=None, metavar="W", help="emcee walkers (default max(16, 4 x parameters))")
-    parser.add_argument("--steps", type=positive_int, default=None, metavar="S",
-                        help="ensemble steps (default: sample until every parameter has ESS >= 1000)")
-    parser.add_argument("--seed", type=non_negative_int, default=0, metavar="S", help="random seed (default 0)")
+    defaults = CalibrationSpec()
+    effects = ",".join(defaults.effects)
+    parser.add_argument("--effects", default=effects, metavar="A,B,...",
+                        help=f"effects added to the base model (default {effects or 'none'}; '' for none)")
+    parser.add_argument("--likelihood", choices=LIKELIHOOD_CHOICES, default=defaults.likelihood,
+                        help=f"iid Gaussian noise or AR(1) correlated residuals (default {defaults.likelihood})")
+    parser.add_argument("--walkers", type=positive_int, default=defaults.walkers, metavar="W",
+                        help="emcee walkers (default 2 x 4 ensembles x parameters)")
+    parser.add_argument("--steps", type=positive_int, default=defaults.steps, metavar="S",
+                        help=f"ensemble steps (default: sample until every parameter has ESS >= {defaults.target_ess:g})")
+    parser.add_argument("--seed", type=non_negative_int, default=defaults.seed, metavar="S",
+                        help=f"random seed (default {defaults.seed})")
     parser.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     parser.add_argument("--save", default=None, metavar="PREFIX",
                         help="also write PREFIX.nc (ArviZ InferenceData) and PREFIX.band.csv (predictive band)")
@@ -57,6 +69,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="also write a one-page printable summary (self-contained HTML: key numbers, the "
                         "record with the model and its bands, the parameters)")
     parser.set_defaults(func=run)
+
+
+def spec_of(args: argparse.Namespace) -> CalibrationSpec:
+    """The :class:`~beam.calibration.spec.CalibrationSpec` of the parsed arguments."""
+    return CalibrationSpec(window=args.window, effects=args.effects, modes=args.modes, likelihood=args.likelihood,
+                           walkers=args.walkers, steps=args.steps, seed=args.seed)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -68,10 +86,7 @@ def run(args: argparse.Namespace) -> int:
         raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
     measurement = read_measurement(args.data)  # a bad file fails before the heavy imports
     from beam.calibration import calibrate
-    result = calibrate(
-        measurement, window=args.window, effects=args.effects, modes=args.modes, likelihood=args.likelihood,
-        walkers=args.walkers, steps=args.steps, seed=args.seed,
-    )
+    result = calibrate(measurement, spec_of(args))
     summary = result.to_json()
     if args.save:
         summary["saved"] = [str(p) for p in result.save(args.save)]

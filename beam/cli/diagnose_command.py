@@ -53,6 +53,8 @@ def _m(value) -> str:
 
 def format_report(summary: dict) -> str:
     """A readable report of a diagnosis."""
+    from beam.residuals.modal_id import DIFFERENCE_CONVENTION
+
     lines = [
         f"{summary['measurement']}: window {summary['window_s'][0]:g}-{summary['window_s'][1]:g} s, {summary['modes']} modes, "
         f"base model: {', '.join(summary['base']) or 'bare beam'}",
@@ -60,12 +62,13 @@ def format_report(summary: dict) -> str:
         f"held-out RMSE of the base model {_m(summary['rmse_prediction_base'])} {summary.get('output_unit', 'm')}, coverage of its 95% band "
         f"{_m(summary['coverage95_prediction_base'])}",
         "",
-        "modes (data vs model)",
-        f"  {'mode':>4s} {'f data (Hz)':>12s} {'f model (Hz)':>13s} {'error %':>8s} {'zeta data':>10s} {'zeta model':>11s}",
+        f"modes (data vs model; data vs model %: {DIFFERENCE_CONVENTION})",
+        f"  {'mode':>4s} {'f data (Hz)':>12s} {'f model (Hz)':>13s} {'data vs model %':>16s} {'zeta data':>10s} {'zeta model':>11s}",
     ]
     for row in summary["modes_table"]:
         lines.append(f"  {row['mode']:>4d} {_m(row['frequency_data_Hz']):>12s} {_m(row['frequency_model_Hz']):>13s} "
-                     f"{_m(row['frequency_error_pct']):>8s} {_m(row['damping_data']):>10s} {_m(row['damping_model']):>11s}")
+                     f"{_m(row['frequency_error_pct']):>16s} {_m(row['damping_data']):>10s} {_m(row['damping_model']):>11s}"
+                     + (f"  not seen: {row['note']}" if row.get("note") else ""))
     lines += ["", "candidate effects, best first",
               f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE':>18s}  why"]
     for c in summary["candidates"]:

@@ -20,6 +20,7 @@ COMMAND_MODULES = (
     "beam.cli.toy_command",
     "beam.cli.calibrate_command",
     "beam.cli.diagnose_command",
+    "beam.cli.study_command",
 )
 
 

@@ -35,15 +35,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from beam.calibration import (
+    AUTO_MODES,
     DEFAULT_EFFECTS,
-    DEFAULT_MODES,
     CalibrationResult,
     calibrate,
     calibration_preview,
 )
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
-from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, parse_effects
+from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, applicable, parse_effects
 
 #: Evidence gain (nats) a candidate needs to count as a material improvement.
 MATERIAL_LOG_EVIDENCE = 5.0
@@ -144,24 +144,38 @@ class Ranking:
 Explainer = Callable[[str, CalibrationResult, CalibrationResult], str]
 
 
+def record_features(measurement: Measurement) -> frozenset[str]:
+    """The features of a record that effects can need (:data:`beam.physics.effects.RECORD_FEATURES`)."""
+    features = set()
+    if measurement.geometry.has_patch:
+        features.add("patch")
+    if not measurement.is_free:
+        features.add("input")
+    if measurement.output_kind == "acceleration":
+        features.add("contact_sensor")
+    if measurement.uniform:
+        features.add("uniform")
+    if measurement.output_kind == "displacement":
+        features.add("displacement")
+    return frozenset(features)
+
+
 def candidate_effects(current: Iterable[str], measurement: Measurement | None = None) -> tuple[str, ...]:
     """Catalogue effects offered as candidates (:data:`beam.physics.effects.CANDIDATE_EFFECTS`) not in the
     current model, in catalogue order.
 
-    With a ``measurement`` the offer fits the record: ``sensor_mass`` joins for an acceleration
-    record (an accelerometer is a contact sensor whose mass loads the beam where it measures; a
-    laser's displacement or velocity has none); effects on the patch need a patch; the tip's
-    cubic spring (nonlinear) needs a driven record on uniform stamps with a displacement output.
+    With a ``measurement`` the offer fits the record: only effects whose needs
+    (:func:`beam.physics.effects.effect_needs`) the record has (:func:`record_features`); and
+    ``sensor_mass`` joins where it applies (an accelerometer is a contact sensor whose mass loads
+    the beam where it measures; a laser's displacement or velocity has none). So: no patch effect
+    without a patch, no input effect without an input, the tip's cubic spring (nonlinear) only on
+    a driven displacement record on uniform stamps.
     """
     present = set(parse_effects(current))
     offered = list(CANDIDATE_EFFECTS)
     if measurement is not None:
-        if measurement.output_kind == "acceleration":
-            offered.append("sensor_mass")
-        if not measurement.geometry.has_patch:
-            offered = [e for e in offered if not EFFECTS[e].needs_patch]
-        if measurement.is_free or not measurement.uniform or measurement.output_kind != "displacement":
-            offered = [e for e in offered if not EFFECTS[e].nonlinear]
+        features = record_features(measurement)
+        offered = [e for e in [*offered, "sensor_mass"] if applicable(e, features)]
     return tuple(effect for effect in EFFECTS if effect in offered and effect not in present)
 
 
@@ -204,7 +218,7 @@ def rank_candidates(
     *,
     base: Iterable[str] | str = DEFAULT_EFFECTS,
     window: tuple[float, float] | None = None,
-    modes: int | str = DEFAULT_MODES,
+    modes: int | str = AUTO_MODES,
     candidates: Iterable[str] | None = None,
     explain: Explainer | None = None,
     base_result: CalibrationResult | None = None,
@@ -246,13 +260,45 @@ def rank_fits(base_result: CalibrationResult, names: Iterable[str],
         sentence = explain(effect, base_result, result) if explain else EFFECTS[effect].physics
         ranked.append(Candidate(effect, delta, rmse, result.rmse_calibration,
                                 result.coverage95_prediction, material, sentence, own))
-    ranked.sort(key=rank_key)
+    ranked.sort(key=lambda c: rank_key(c, base_result))
     return Ranking(base_result, ranked, results)
 
 
-def rank_key(c: Candidate) -> tuple[bool, float]:
-    """Sort key of the ranking: materially improving first, then by evidence gain, failed fits last."""
-    return (not c.material, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
+def rank_key(c: Candidate, base: CalibrationResult | None = None) -> tuple[bool, bool, float]:
+    """Sort key of the ranking: materially improving first, then (given the ``base`` fit) those whose
+    evidence is not contradicted by their held-out error (:func:`window_only`), then by evidence
+    gain, failed fits last."""
+    contradicted = base is not None and window_only(c, base)
+    return (not c.material, contradicted, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
+
+
+def held_out_change(candidate: Candidate, base: CalibrationResult) -> float:
+    """Relative change of the candidate's held-out RMSE against the base model's (0.15: 15 % higher;
+    NaN when either is unknown)."""
+    before = base.rmse_prediction_map
+    if not (math.isfinite(candidate.rmse_prediction) and math.isfinite(before) and before > 0):
+        return math.nan
+    return float(candidate.rmse_prediction / before - 1.0)
+
+
+#: Relative rise of the held-out RMSE above which it "rises" (below it the optimiser's noise: the
+#: same model refitted moves it by less).
+HELD_OUT_RISE = 1e-3
+
+
+def contradicted(candidate: Candidate, base: CalibrationResult) -> bool:
+    """Whether the evidence favours ``candidate`` (a positive gain) while its held-out error rises
+    (by more than :data:`HELD_OUT_RISE`) against the base model's: the two disagree, and the evidence
+    is then no support for the effect (it sees only the calibration window)."""
+    return bool(candidate.delta_log_evidence > 0 and held_out_change(candidate, base) > HELD_OUT_RISE)
+
+
+def window_only(candidate: Candidate, base: CalibrationResult) -> bool:
+    """A large evidence gain (at least :data:`MATERIAL_LOG_EVIDENCE`) that the held-out error
+    contradicts (:func:`contradicted`): a base model far from the data lets any added flexibility
+    fit the calibration window better. Ranked below the uncontradicted candidates and named by the
+    verdict."""
+    return bool(candidate.delta_log_evidence >= MATERIAL_LOG_EVIDENCE and contradicted(candidate, base))
 
 
 def error_ladder(

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -30,7 +30,11 @@ from beam.discovery.ranking import (
     LadderStep,
     Ranking,
     error_ladder,
+    HELD_OUT_RISE,
+    held_out_change,
+    improves,
     rank_candidates,
+    window_only,
 )
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
@@ -55,6 +59,8 @@ class ResidualReport:
 
 #: Held-out error of the last rung, in units of the noise floor, above which it is "well above the noise".
 OUTSIDE_CATALOGUE_RATIO = 2.0
+#: ... at or below which the model "predicts to the noise" (whatever the whiteness of what remains).
+AT_NOISE_RATIO = 1.5
 
 
 @dataclass(frozen=True)
@@ -86,6 +92,11 @@ class Remaining:
     ljung_box_p: float
     more_modes: int | None = None
     excess_Hz: float = 0.0
+
+    @property
+    def at_noise(self) -> bool:
+        """What remains is at most :data:`AT_NOISE_RATIO` × the noise floor: the model predicts to the noise."""
+        return bool(self.remaining_error_ratio <= AT_NOISE_RATIO)
 
     @property
     def above_noise(self) -> bool:
@@ -287,7 +298,7 @@ def indistinguishable(ranking: Ranking, visible_modes: int = 0) -> list[str]:
 def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float, rmse_after_m: float,
                      remaining: Remaining | None, *, unit: str = "m", alternatives: Iterable[str] = (),
                      partly: Iterable[tuple[str, int]] = (), error_label: str = "held-out RMSE",
-                     then: Iterable[str] = ()) -> str:
+                     then: Iterable[str] = (), window_notes: Iterable[str] = ()) -> str:
     """The one-sentence verdict of a diagnosis (the command line's and the dashboard's).
 
     Parameters
@@ -313,11 +324,13 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
     then : iterable of str
         Effects the ladder added after ``missing`` (ranked on top of it); ``rmse_after_m`` is then
         the last rung's.
+    window_notes : iterable of str
+        Sentences on candidates whose evidence their held-out error contradicts
+        (:func:`window_only_words`), added at the end.
     """
     alternatives = list(alternatives)
     partly = list(partly)
-    floor = "" if remaining is None else (
-        f"{remaining.remaining_error_ratio:.1f}× the noise floor ({remaining.noise_floor.sd:.3g} {unit})")
+    notes = "".join(f"; {sentence}" for sentence in window_notes)
     if missing is not None:
         then = list(then)
         added = missing + "".join(f", then {effect}" for effect in then)
@@ -328,24 +341,80 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
         for effect, count in partly:
             head += (f"; {effect} places modes 1-{count} as well, only mode {count + 1} tells them apart")
         if remaining is None:
-            return head
-        if remaining.truncated:
-            return f"{head}: it explains part of the misfit, but {floor} remains: {_more_modes(remaining)}"
-        if remaining.outside_catalogue:
-            return (f"{head}: it explains part of the misfit, but {floor} remains and the residuals are not white: "
-                    "something outside the catalogue")
-        return f"{head}; what remains is {floor}"
-    if remaining is not None and remaining.truncated:
-        return f"nothing in the catalogue is missing, but the held-out error is {floor}: {_more_modes(remaining)}"
-    if remaining is not None and remaining.outside_catalogue:
-        return (f"nothing in the catalogue is missing, but the held-out error is {floor} and the residuals are not "
-                "white: the discrepancy is outside the catalogue")
+            return head + notes
+        if remaining.truncated or remaining.outside_catalogue:
+            return f"{head}: it explains part of the misfit, but {remaining_words(remaining, unit)}{notes}"
+        return f"{head}; {remaining_words(remaining, unit)}{notes}"
+    head = "nothing in the catalogue is missing"
     if remaining is None:
-        return "nothing in the catalogue is missing"
+        return head + notes
+    if remaining.truncated or remaining.outside_catalogue:
+        return f"{head}, but {remaining_words(remaining, unit)}{notes}"
+    return f"{head}: {remaining_words(remaining, unit)}{notes}"
+
+
+def p_words(p: float) -> str:
+    """A Ljung–Box p-value for a student: how often white noise alone would show as much pattern
+    (``"0.00026 (about 1 in 3,800)"``, ``"below one in a million"``)."""
+    if p is None or not np.isfinite(p):
+        return "unknown"
+    if p < 1e-6:
+        return "below one in a million"
+    if p >= 0.05:
+        return f"{p:.2g}"
+    return f"{p:.2g} (about 1 in {float(f'{1 / p:.2g}'):,.0f})"
+
+
+def remaining_words(remaining: Remaining, unit: str = "m", floor_text: str | None = None) -> str:
+    """What remains of the misfit against the noise floor, in words: the one wording of the command
+    line's verdict and the dashboard's.
+
+    At most :data:`AT_NOISE_RATIO` × the floor the model predicts to the noise; a residual that is
+    then not quite white is a note about the noise model (the AR(1) likelihood models correlated
+    noise), never missing physics. Well above the floor with residuals that are not white: the
+    modes the model keeps (:attr:`Remaining.truncated`) or something outside the catalogue.
+
+    Parameters
+    ----------
+    remaining : Remaining
+    unit : str
+        The output's unit (the floor is quoted in it).
+    floor_text : str, optional
+        The floor as the caller shows it (e.g. ``"15 µm"``); default ``"{sd:.3g} {unit}"``.
+    """
+    ratio = remaining.remaining_error_ratio
+    floor = floor_text or f"{remaining.noise_floor.sd:.3g} {unit}"
+    size = f"{ratio:.1f}× the sensor's noise ({floor}, read from the record alone)"
+    if remaining.at_noise:
+        text = f"what remains is {size}: the model predicts to the noise"
+        if not remaining.white:
+            text += (f". That small residual is not quite white noise (Ljung–Box test: the chance that white noise "
+                     f"shows this much pattern is {p_words(remaining.ljung_box_p)}); so close to the noise this is a note "
+                     "about the noise model, not missing physics: the AR(1) likelihood allows correlated noise")
+        return text
+    if remaining.truncated:
+        return f"the error is still {size}: {_more_modes(remaining)}"
+    if remaining.outside_catalogue:
+        return (f"the error is still {size} and the residuals are not white noise: something outside the "
+                "catalogue is at work")
     if remaining.white:
-        return f"nothing in the catalogue is missing; the residuals are white (Ljung-Box p = {remaining.ljung_box_p:.2g})"
-    return (f"nothing in the catalogue is missing; the residuals are not quite white (Ljung-Box p = "
-            f"{remaining.ljung_box_p:.2g}) but the held-out error is {floor}")
+        return f"what remains is {size} and looks like white noise: the model is close to the noise"
+    return (f"what remains is {size}, close to the noise but not white (Ljung–Box chance "
+            f"{p_words(remaining.ljung_box_p)}): look at the noise model (the AR(1) likelihood) before the physics")
+
+
+def window_only_words(effect: str, gain_nats: float, held_out_change: float, free: bool = False) -> str:
+    """Why a large evidence gain is no support for ``effect`` when its held-out error rises
+    (:func:`beam.discovery.ranking.window_only`); ``held_out_change`` relative (0.15: 15 % higher)."""
+    percent = 100 * held_out_change
+    rise = f"{percent:.1f} %" if percent < 10 else f"{percent:.0f} %"
+    if free:
+        return (f"{effect} fits the calibration window better (+{gain_nats:.0f} nats) but its error on the rest of "
+                f"the decay is {rise} higher: a decay's held-out part extrapolates each mode's damping, so it is "
+                "judged on its window")
+    return (f"{effect} gains +{gain_nats:.0f} nats of evidence inside the calibration window while its held-out "
+            f"error is {rise} higher: a base model this far from the data lets any added flexibility fit the "
+            "window better, so this evidence is no support for the effect")
 
 
 def _more_modes(remaining: Remaining) -> str:
@@ -386,6 +455,24 @@ class VerdictFacts:
         """Candidates the data cannot tell from the missing one (:func:`indistinguishable`)."""
         return indistinguishable(self.ranking, self.visible_modes)
 
+    @property
+    def window_notes(self) -> list[str]:
+        """Sentences on the (at most :data:`MAX_WINDOW_NOTES`) candidates with the largest evidence
+        gains that their held-out error contradicts (:func:`beam.discovery.ranking.window_only`)."""
+        return self.window_notes_named()
+
+    def window_notes_named(self, name=str) -> list[str]:
+        """:attr:`window_notes` with each effect called ``name(effect_id)`` (the dashboard: its title)."""
+        base = self.base
+        contradicted = sorted((c for c in self.ranking.candidates if window_only(c, base)),
+                              key=lambda c: -c.delta_log_evidence)
+        return [window_only_words(name(c.effect), c.delta_log_evidence, held_out_change(c, base), base.setup.is_free)
+                for c in contradicted[:MAX_WINDOW_NOTES]]
+
+
+#: Most candidates whose evidence their held-out error contradicts that a verdict names.
+MAX_WINDOW_NOTES = 2
+
 
 @dataclass
 class DiagnosisReport(VerdictFacts):
@@ -421,7 +508,7 @@ class DiagnosisReport(VerdictFacts):
             self.remaining, unit=self.measurement.output_unit, alternatives=self.indistinguishable,
             partly=self.partly_indistinguishable,
             error_label="calibration-window RMSE" if free else "held-out RMSE",
-            then=[step.added for step in self.ladder[2:] if step.added is not None])
+            then=[step.added for step in self.ladder[2:] if step.added is not None], window_notes=self.window_notes)
 
     @property
     def outside_catalogue(self) -> bool:
@@ -452,6 +539,7 @@ class DiagnosisReport(VerdictFacts):
             "try_modes": None if self.remaining is None else self.remaining.more_modes,
             "ladder": [step.to_json() for step in self.ladder],
             "modes_table": [dx.jsonable(asdict(row)) for row in self.residuals.comparison],
+            "modes_table_convention": dx.DIFFERENCE_CONVENTION,
             "exceedances": [dx.jsonable(asdict(interval)) for interval in self.residuals.band.intervals],
             "whiteness": {"ljung_box_p": dx.jsonable(self.residuals.whiteness.p_value),
                           "white": bool(self.residuals.whiteness.white)},
@@ -498,12 +586,18 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
         comparison = dx.compare_modes(identified, frequencies, ratios)
     except BeamInputError as exc:
         notes.append(f"no modal identification: {exc}")
-    if identified is not None and len(identified.frequency_Hz):
+    comparison = _name_unseen(result, map_values, comparison)
+    first = next((row for row in comparison if row.mode == 1 and row.matched), None)
+    if first is not None:  # the identified mode matched to the model's mode 1, not merely the lowest pole
         try:
-            mode1 = dx.analyse_mode(time_s, data, float(identified.frequency_Hz[0]), voltage,
+            mode1 = dx.analyse_mode(time_s, data, float(first.frequency_data_Hz), voltage,
                                     **({"start_s": float(time_s[0])} if measurement.is_free else {}))
         except BeamInputError as exc:
             notes.append(f"no envelope of mode 1: {exc}")
+        if mode1 is not None and not mode1.backbone.reliable:
+            notes.append(f"the amplitude-frequency relation of mode 1 is unknown: {mode1.backbone.unreliable}")
+    elif identified is not None and len(identified.frequency_Hz):
+        notes.append("no identified mode matches the model's mode 1: its amplitude-frequency relation is unknown")
     fingerprints = dx.fingerprints(
         comparison, backbone=mode1.backbone if mode1 else None, decay=mode1.decay if mode1 else None,
         spectrum=spectrum, whiteness=whiteness,
@@ -512,21 +606,54 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
                           fingerprints, dx.explain(fingerprints), notes)
 
 
+def _name_unseen(result: CalibrationResult, values: dict, comparison: list[dx.ModeMatch]) -> list[dx.ModeMatch]:
+    """``comparison`` with a note on each model mode no identified mode matched: why the record
+    may not show it, from the model's own shape of it at the MAP (:func:`beam.residuals.unseen_reason`)."""
+    if all(row.matched for row in comparison):
+        return comparison
+    setup = result.setup
+    model, geometry = setup.model, setup.measurement.geometry
+    try:
+        _, coefficients = model.mode_shapes(values, setup.modes)
+        x = np.linspace(0.0, geometry.length_m, 401)
+        shapes = model.parts.basis.evaluate(x) @ coefficients
+    except (BeamInputError, ValueError, KeyError):
+        return comparison
+    nyquist = 0.5 * setup.measurement.rate_Hz
+    return [row if row.matched or row.mode > shapes.shape[1] else replace(row, note=dx.unseen_reason(
+        x, shapes[:, row.mode - 1], geometry.sensor_position_m, row.frequency_model_Hz, nyquist)) for row in comparison]
+
+
 def explainer(residuals: ResidualReport) -> Explainer:
     """The sentence of each candidate: its fingerprint sentence, led by the evidence when the data
     favour the effect but its fingerprint is weak (a tip mass and a soft clamp lower the modes
-    almost alike)."""
+    almost alike), or by why the evidence is no support when the held-out error rises
+    (:func:`window_only_words`)."""
     scores = dx.effect_scores(residuals.fingerprints)
 
     def explain(effect: str, base_fit: CalibrationResult, fit: CalibrationResult) -> str:
         sentence = residuals.explanations.get(effect, "")
         gain = float(fit.laplace.log_evidence - base_fit.laplace.log_evidence)
-        ratio = base_fit.rmse_prediction_map / max(fit.rmse_prediction_map, 1e-300)
-        if gain >= MATERIAL_LOG_EVIDENCE and ratio > 1.25 and scores.get(effect, 0.0) < 1.0:
+        if gain < MATERIAL_LOG_EVIDENCE:
+            return sentence
+        held_out = fit.rmse_prediction_map / max(base_fit.rmse_prediction_map, 1e-300) - 1.0
+        if held_out > HELD_OUT_RISE:
+            words = window_only_words(effect, gain, held_out, base_fit.setup.is_free)
+            return f"{words}. What the residuals show: {sentence}"
+        if scores.get(effect, 0.0) >= 1.0:
+            return sentence
+        free = base_fit.setup.is_free
+        judged = "calibration-window error" if free else "held-out error"
+        before, after = ((base_fit.rmse_calibration_map, fit.rmse_calibration_map) if free
+                         else (base_fit.rmse_prediction_map, fit.rmse_prediction_map))
+        if improves(base_fit, fit):
             pattern = sentence.split(": no sign")[0]
-            return (f"the data favour it strongly (+{gain:.0f} nats, held-out error /{ratio:.1f}) although its "
-                    f"fingerprint is ambiguous: {pattern}")
-        return sentence
+            return (f"the data favour it strongly (+{gain:.0f} nats, {judged} /{before / max(after, 1e-300):.1f}) "
+                    f"although its fingerprint is ambiguous: {pattern}")
+        fall = 1 - after / before if before > 0 else 0.0
+        change = f"falls only {100 * fall:.0f} %" if fall > 0 else "does not fall"
+        return (f"the evidence rises (+{gain:.0f} nats) but the {judged} {change}: too little to call the effect "
+                f"missing, and its fingerprint agrees: {sentence}")
 
     return explain
 
@@ -554,10 +681,7 @@ def diagnose(
     ladder = error_ladder(measurement, ranking, mcmc=ladder_mcmc, seed=seed)
     remaining = None
     try:
-        record = base_result.setup.measurement  # as calibrated (decimated when over-long)
-        start = base_result.setup.free_start_s if base_result.setup.is_free else None
-        grid, (output,) = uniform_view(record, record.output, start_s=start)
-        floor = dx.noise_floor(grid, output)
+        floor = dx.record_noise_floor(base_result.setup.measurement)  # as calibrated: the one floor shown everywhere
         remaining = remaining_error(ladder[-1].result, floor)
         if len(ladder) > 1:  # something was added, and more may be missing on top of it
             from beam.discovery.ranking import _step

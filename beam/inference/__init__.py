@@ -17,6 +17,7 @@ Headless (numpy, scipy, emcee, ArviZ only). The pieces, in the order a calibrati
 * :mod:`~beam.inference.predictive` — credible / prediction bands, RMSE and coverage.
 """
 
+from beam.inference._arviz import import_arviz
 from beam.inference.convergence import Diagnostics
 from beam.inference.laplace import LaplaceResult, laplace, preview
 from beam.inference.likelihood import (
@@ -54,6 +55,7 @@ __all__ = [
     "Uniform",
     "default_initial_guesses",
     "find_map",
+    "import_arviz",
     "laplace",
     "load_inference_data",
     "log_likelihood",

@@ -30,37 +30,27 @@ Design
   at most half the chain.
 * Default moves (:func:`default_moves`): half emcee's differential-evolution ``DEMove``
   (affine invariant, no tuning), half an independence Metropolis-Hastings proposal from a
-  widened multivariate-t version of the Laplace Gaussian (:func:`LaplaceIndependenceMove`).
-  The latter is exact MH (the proposal density ratio enters the acceptance) and decorrelates
-  the walkers in a few steps when the preview is good; the DE half keeps the ensemble mixing
-  when it is not (skewed posteriors, curved ridges, MAP near a bound). Measured on
-  the toy: integrated autocorrelation time ~4 steps (iid, no discrepancy) against ~12 for
-  DE alone and ~30 for the stretch move. ``DESnookerMove`` is left out: its per-walker
-  Python loop cost more than it gained here, and it is biased as emcee implements it
-  (measured: alone on a 3-d Gaussian the variances come out ~15 % low, in the former 0.8 DE /
-  0.2 snooker fallback ~2 %; on the real record 114655 the posterior sd of log noise sd came out
-  0.0157 against 0.0167 with the mixture below and 0.0166 from the Laplace Hessian). The
-  independence half is used also when the preview is flagged (``laplace.ok`` False: MAP on a
-  bound, Hessian not positive definite): the proposal's covariance is positive definite by
-  construction and the move is exact MH whatever its quality, and the adaptation below fixes
-  its shape (114655, 0-2 s, seed 3: 715 steps against 1,560 for the former fallback).
+  widened multivariate-t version of the Laplace Gaussian (:func:`LaplaceIndependenceMove`),
+  exact MH (the proposal density ratio enters the acceptance). The independence half
+  decorrelates the walkers in a few steps when the preview is good, the DE half keeps the
+  ensemble mixing when it is not; measured on the toy, the integrated autocorrelation time is
+  ~4 steps against ~12 for DE alone and ~30 for the stretch move. The independence half is used
+  also when the preview is flagged (``laplace.ok`` False): its covariance is positive definite
+  by construction and the adaptation below fixes its shape. ``DESnookerMove`` is not used: as
+  emcee implements it, it under-estimates variances (~15 % on a 3-d Gaussian, measured).
 * Independent ensembles (:data:`ENSEMBLES` = 4 by default when the walkers allow): the
   walkers form that many ensembles that never exchange positions (:class:`GroupedMove` runs
-  the DE move inside each; the independence proposal is per walker), so R-hat
-  compares truly independent chains, each ensemble's pooled draws
-  (:func:`beam.inference.convergence.rhat`). Over walkers of one ensemble, R-hat - 1 falls
-  only as ``tau / n_steps`` whatever the ensemble size, so it, not the ESS, set the length of
-  a run (measured on lab_run_1: ESS 3,600 against 1,000 asked when R-hat reached 1.01); over
-  ensembles it falls as ``tau / (n_steps * walkers per ensemble)``, and the ESS sets it.
+  the DE move inside each; the independence proposal is per walker), so R-hat compares
+  independent chains, each ensemble's pooled draws (:func:`beam.inference.convergence.rhat`).
+  Invariant: no move uses a walker of another ensemble. Reason: over the walkers of one
+  ensemble R-hat - 1 falls only as ``tau / n_steps`` and set the run's length at 2-4x what the
+  ESS needs; over ensembles it falls as ``tau / (n_steps * walkers per ensemble)``.
 * Adaptation, once (:meth:`EnsembleRun.sample_to_ess`, when the first chunk does not
   suffice): each ensemble's independence proposal becomes the defensive mixture ½ Laplace t +
   ½ t fitted to that ensemble's own post-burn-in draws (finite adaptation: a fixed exact MH
   kernel from then on; per ensemble, so the ensembles stay independent), and the next chunk,
-  planned from the slower kernel, is halved. Measured steps to convergence (ESS >= 1000,
-  R-hat <= 1.01): lab_run_1 0-1.05 s seed 0: 1,970 x 24 walkers (one ensemble) -> 642 x 48
-  (four ensembles) -> 277 x 48 (adapted); 114655 0-2 s seeds 0 / 1: 4,813 x 56 (one
-  ensemble, DE + snooker) -> 505 / 758 x 56. The adapted proposal without its Laplace half
-  got stuck in the tail of the fourth damping ratio (seed 1: 2,791 steps).
+  planned from the slower kernel, is halved. The Laplace half stays in the mixture: without it
+  a walker can stick in a tail the fitted t does not cover.
 * Seeding: ``seed`` fixes the initial walker positions (``numpy.random.default_rng``) and
   emcee's internal ``RandomState`` (passed through :class:`emcee.State`); a run is
   reproducible for a given seed.

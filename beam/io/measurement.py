@@ -12,7 +12,7 @@
     * one output column, what the sensor at ``[sensor] position_m`` measures:
       ``displacement_m``, ``velocity_m_s`` or ``acceleration_m_s2``.
 
-    So today's ``time_s,voltage_V,displacement_m`` (:data:`CSV_COLUMNS`) is one of nine
+    So ``time_s,voltage_V,displacement_m`` (:data:`CSV_COLUMNS`) is one of nine
     headers, e.g. ``time_s,force_N,acceleration_m_s2`` or ``time_s,acceleration_m_s2``. A
     column in another unit (``acceleration_g``, ``force_kN``) is refused with the name to use.
     Then one row per sample. Numbers are anything Python's ``float`` reads (``1e-3``,
@@ -29,8 +29,7 @@
     median step and every stamp within 1 % of a step of the grid t_0 + k dt,
     dt = (t_last - t_0) / (n - 1), the record is uniform (:attr:`Measurement.uniform`): its
     :attr:`Measurement.sample_interval_s` is dt and the models step on that grid (this accepts
-    stamps printed with a few significant digits as the grid they stand for, exactly as before
-    this format grew). Otherwise the record is irregular and is evaluated at its own stamps
+    stamps printed with a few significant digits as the grid they stand for). Otherwise the record is irregular and is evaluated at its own stamps
     (:meth:`beam.physics.model.BeamModel.response_at`, :meth:`beam.physics.model.BeamModel.free_response`); it
     has no single sampling interval. (The rule is the same for every header: the tolerance
     decides which path a record takes, not whether it is read. Round trips need no tolerance:

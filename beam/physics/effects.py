@@ -360,6 +360,41 @@ EFFECTS: dict[str, Effect] = {
 #: Effects the missing-effect ranking offers, in catalogue order.
 CANDIDATE_EFFECTS: tuple[str, ...] = tuple(e.id for e in EFFECTS.values() if e.missing_effect_candidate)
 
+#: Record features an effect can need before a diagnosis offers it (:func:`effect_needs`).
+RECORD_FEATURES: dict[str, str] = {
+    "patch": "the sidecar places a piezo patch ([patch])",
+    "input": "the record has an input (the patch voltage or a point force): the beam is driven",
+    "contact_sensor": "the output comes from a contact sensor (an accelerometer), whose mass loads the beam",
+    "uniform": "the time stamps are a uniform grid",
+    "displacement": "the output is a displacement",
+}
+
+#: Features each effect needs beyond what :func:`effect_needs` derives from the effect itself
+#: (the patch for ``needs_patch``, an input for a term that multiplies the input). The tip's
+#: cubic spring is calibrated by a solver that needs a driven displacement record on uniform stamps.
+EFFECT_NEEDS: dict[str, frozenset[str]] = {
+    "patch_damping": frozenset({"patch"}),
+    "sensor_mass": frozenset({"contact_sensor"}),
+    "tip_cubic_spring": frozenset({"input", "uniform", "displacement"}),
+}
+
+
+def effect_needs(effect_id: str) -> frozenset[str]:
+    """The record features (:data:`RECORD_FEATURES`) ``effect_id`` needs to apply to a record."""
+    effect = EFFECTS[effect_id]
+    needs = set(EFFECT_NEEDS.get(effect_id, ()))
+    if effect.needs_patch:
+        needs.add("patch")
+    if any(term.target == "force" for term in effect.terms):
+        needs.add("input")
+    return frozenset(needs)
+
+
+def applicable(effect_id: str, features: Iterable[str]) -> bool:
+    """Whether ``effect_id`` applies to a record that has ``features`` (:data:`RECORD_FEATURES`)."""
+    return effect_needs(effect_id) <= set(features)
+
+
 #: Every public parameter name, base first.
 PARAMETER_SPECS: dict[str, ParameterSpec] = {
     spec.name: spec for spec in BASE_PARAMETERS + tuple(p for e in EFFECTS.values() for p in e.parameters)

@@ -16,13 +16,11 @@ hardened by the spring; :func:`choose_substeps`) and omega_nonlinear the frequen
 spring's tangent stiffness at the amplitude of the linear response. A weak spring needs less:
 the scheme's error lies in the nonlinear forcing alone and scales as eps (omega h)^4, with eps
 the spring's tangent stiffness relative to the first mode's, so the step is coarsened by
-eps^(-1/4), to at most 1.5 rad per substep. Against solve_ivp (DOP853, rtol 1e-12) on the
-retained modes, the peak-relative error of the automatic step is 2e-8 on ``lab_run_4``'s pulse
-(3 substeps) and 3e-5 for the strongly hardening chirp of ``tests/test_nonlinear.py`` (27
-substeps): 35x and more below the noise of the bundled records (7e-4 of the peak). A finer step,
-0.15 rad, gave 4e-9 and 6e-7 with 6 and 71 substeps; with it (and a substep choice that stored
-every pair's response) the spring's candidate fit in the dashboard's diagnosis of ``lab_run_1``
-took 5.6 s of CPU, against 1.9 s now.
+eps^(-1/4), to at most 1.5 rad per substep. Accuracy (``tests/test_nonlinear.py``, against
+solve_ivp, DOP853, rtol 1e-12, on the retained modes): peak-relative error 2e-8 on a 40 V pulse
+and 3e-5 on a strongly hardening chirp, 35x and more below the noise of the bundled records
+(7e-4 of the peak); 0.4 rad is the coarsest step that keeps that margin, and a finer one costs
+CPU in every spring fit for no visible gain (see the design decisions).
 """
 
 from __future__ import annotations

@@ -31,9 +31,11 @@ from beam.residuals.envelope import (
     ModeEnvelope,
     analyse_mode,
     backbone,
+    check_backbone,
     decay_law,
     extrapolate,
     mode_envelope,
+    spectral_drift,
 )
 from beam.residuals.fingerprints import (
     THRESHOLDS,
@@ -42,15 +44,18 @@ from beam.residuals.fingerprints import (
     fingerprints,
 )
 from beam.residuals.modal_id import (
+    DIFFERENCE_CONVENTION,
     IdentifiedModes,
     ModeMatch,
     ModeRow,
     compare_modes,
+    difference_words,
     free_decay_start,
     identify_modes,
     matrix_pencil_poles,
+    unseen_reason,
 )
-from beam.residuals.noise import NoiseFloor, noise_floor
+from beam.residuals.noise import NoiseFloor, noise_floor, record_noise_floor
 from beam.residuals.residuals import (
     BandResiduals,
     ExceedanceInterval,
@@ -75,8 +80,10 @@ from beam.residuals.whiteness import (
 )
 
 __all__ = [
+    "DIFFERENCE_CONVENTION",
     "NoiseFloor",
     "noise_floor",
+    "record_noise_floor",
     "THRESHOLDS",
     "Backbone",
     "BandResiduals",
@@ -97,8 +104,10 @@ __all__ = [
     "autocorrelation",
     "backbone",
     "band_residuals",
+    "check_backbone",
     "compare_modes",
     "decay_law",
+    "difference_words",
     "default_max_lag",
     "default_nperseg",
     "effect_scores",
@@ -113,5 +122,7 @@ __all__ = [
     "mode_envelope",
     "residual_spectrum",
     "residual_whiteness",
+    "spectral_drift",
+    "unseen_reason",
     "window_scores",
 ]

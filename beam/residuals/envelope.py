@@ -37,6 +37,8 @@ __all__ = [
     "ModeEnvelope",
     "analyse_mode",
     "backbone",
+    "check_backbone",
+    "spectral_drift",
     "decay_law",
     "extrapolate",
     "mode_envelope",
@@ -46,6 +48,14 @@ __all__ = [
 MIN_ENVELOPE_SAMPLES = 32
 #: |relative frequency change| over the amplitude range below which a backbone counts as flat.
 FLAT_BACKBONE = 2e-3
+#: Fewest cycles of the mode the envelope must span for its backbone to be read at all (four in each
+#: third of the spectral check, :func:`spectral_drift`).
+MIN_BACKBONE_CYCLES = 12
+#: Drifts (relative) below which neither the backbone nor the spectral check resolves one: the two
+#: then agree when both are below it.
+DRIFT_FLOOR = 1e-3
+#: Largest ratio between the backbone's shift and the spectral drift (either way) that still agrees.
+DRIFT_AGREEMENT = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,6 +125,13 @@ class Backbone:
     duffing_Hz_per_m2: float
     relative_shift: float
     verdict: str
+    #: (f_early − f_late) / f_late of the mode's spectral peak in the first and last stretches of
+    #: the envelope (:func:`spectral_drift`), NaN when not measured.
+    spectral_drift: float = float("nan")
+    #: Whether the backbone can be trusted (:func:`check_backbone`); when not, ``unreliable``
+    #: says why and the shift must be read as unknown.
+    reliable: bool = True
+    unreliable: str = ""
 
     def to_dict(self, arrays: bool = True) -> dict[str, Any]:
         return jsonable(self, arrays)
@@ -416,4 +433,98 @@ def analyse_mode(
     ``envelope_options`` go to :func:`mode_envelope`; ``bins`` to both fits.
     """
     envelope = mode_envelope(time_s, displacement_m, frequency_Hz, voltage_V, start_s=start_s, **envelope_options)
-    return ModeAnalysis(envelope, backbone(envelope, bins), decay_law(envelope, bins))
+    shape = check_backbone(backbone(envelope, bins), envelope, time_s, displacement_m)
+    return ModeAnalysis(envelope, shape, decay_law(envelope, bins))
+
+
+def spectral_drift(time_s: np.ndarray, signal: np.ndarray, frequency_Hz: float, start_s: float, stop_s: float,
+                   relative_band: float = 0.2) -> tuple[float, float, float]:
+    """A short-time spectral estimate of how one mode's frequency drifts over a stretch of a decay.
+
+    The stretch [``start_s``, ``stop_s``] is cut into thirds; in the first and the last third the
+    mode's peak is found in the Hann-windowed, 16× zero-padded spectrum within ``relative_band``
+    of ``frequency_Hz`` and refined by a parabola through the log magnitudes of the three bins
+    around it (Gaussian interpolation). Independent of the Hilbert backbone: no band-pass, no
+    instantaneous phase, nothing binned by amplitude.
+
+    Parameters
+    ----------
+    time_s, signal : ndarray, shape (n,)
+        Uniform stamps (s) and samples (any unit).
+    frequency_Hz : float
+        The mode's frequency (Hz).
+    start_s, stop_s : float
+        The stretch of the decay (s).
+    relative_band : float
+        Half-width of the search band, relative to ``frequency_Hz``.
+
+    Returns
+    -------
+    (float, float, float)
+        f_early, f_late (Hz) and the drift (f_early − f_late) / f_late; NaN when a third holds
+        fewer than 4 cycles.
+    """
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(signal, dtype=float)
+    dt = float(np.median(np.diff(t)))
+    third = (stop_s - start_s) / 3.0
+    if third * frequency_Hz < 4:
+        return float("nan"), float("nan"), float("nan")
+    peaks = []
+    for a in (start_s, stop_s - third):
+        piece = y[(t >= a) & (t < a + third)]
+        piece = scipy.signal.detrend(piece) * np.hanning(piece.size)
+        n = 16 * int(2 ** np.ceil(np.log2(piece.size)))
+        magnitude = np.abs(np.fft.rfft(piece, n))
+        freq = np.fft.rfftfreq(n, dt)
+        inside = np.flatnonzero(np.abs(freq - frequency_Hz) <= relative_band * frequency_Hz)
+        k = int(inside[np.argmax(magnitude[inside])])
+        if 0 < k < magnitude.size - 1:
+            la, lb, lc = np.log(magnitude[k - 1: k + 2] + 1e-300)
+            offset = 0.5 * (la - lc) / (la - 2 * lb + lc) if la - 2 * lb + lc != 0 else 0.0
+        else:
+            offset = 0.0
+        peaks.append(float(freq[k] + offset * (freq[1] - freq[0])))
+    early, late = peaks
+    return early, late, (early - late) / late
+
+
+def check_backbone(shape: Backbone, envelope: ModeEnvelope, time_s: np.ndarray, signal: np.ndarray) -> Backbone:
+    """``shape`` with its reliability judged against the record itself (see :class:`Backbone`).
+
+    Unreliable (its shift is then unknown) when the envelope spans fewer than
+    :data:`MIN_BACKBONE_CYCLES` cycles, when an amplitude bin's mean frequency leaves the pass band
+    (the envelope follows something else: a harmonic, noise), or when the shift the backbone
+    gives between the amplitudes of the first and last thirds of the envelope disagrees with the
+    spectral drift between those thirds (:func:`spectral_drift`) by more than a factor
+    :data:`DRIFT_AGREEMENT` (both below :data:`DRIFT_FLOOR` agree).
+    """
+    from dataclasses import replace
+
+    span = float(envelope.time_s[-1] - envelope.time_s[0])
+    cycles = span * envelope.centre_frequency_Hz
+    low, high = envelope.band_Hz
+    if cycles < MIN_BACKBONE_CYCLES:
+        return replace(shape, reliable=False, unreliable=f"the mode's envelope spans {cycles:.0f} cycles, fewer than "
+                                                         f"the {MIN_BACKBONE_CYCLES} a backbone needs")
+    if np.any(shape.frequency_Hz < low) or np.any(shape.frequency_Hz > high):
+        return replace(shape, reliable=False, unreliable=f"the tracked frequency leaves the mode's band "
+                                                         f"({low:.3g}-{high:.3g} Hz): it follows another peak or noise")
+    start, stop = float(envelope.time_s[0]), float(envelope.time_s[-1])
+    _, _, drift = spectral_drift(time_s, signal, envelope.centre_frequency_Hz, start, stop)
+    third = (stop - start) / 3.0
+    t = envelope.time_s
+    a_early = float(np.mean(envelope.envelope_m[t < start + third]))
+    a_late = float(np.mean(envelope.envelope_m[t >= stop - third]))
+    f_late = shape.intercept_Hz + shape.slope_Hz_per_m * a_late
+    predicted = shape.slope_Hz_per_m * (a_early - a_late) / f_late
+    shape = replace(shape, spectral_drift=float(drift))
+    if not np.isfinite(drift):
+        return shape
+    small = abs(predicted) < DRIFT_FLOOR and abs(drift) < DRIFT_FLOOR
+    ratio = predicted / drift if drift != 0 else np.inf
+    if small or 1.0 / DRIFT_AGREEMENT <= ratio <= DRIFT_AGREEMENT:
+        return shape
+    return replace(shape, reliable=False, unreliable=(
+        f"between the start and the end of the decay it gives a frequency change of {100 * predicted:+.2f} %, where the "
+        f"spectrum of the record gives {100 * drift:+.2f} %"))

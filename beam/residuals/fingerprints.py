@@ -42,7 +42,7 @@ import scipy.optimize
 
 from beam.physics.effects import CANDIDATE_EFFECTS
 from beam.residuals.envelope import Backbone, DecayLaw
-from beam.residuals.modal_id import ModeMatch
+from beam.residuals.modal_id import ModeMatch, difference_words
 from beam.residuals.spectra import ResidualSpectrum
 from beam.residuals.whiteness import Whiteness
 
@@ -183,11 +183,12 @@ def fingerprints(
     fp["damping_law_a_data_rad_s"], fp["damping_law_b_data_s"] = _damping_law(omega_data, zeta_data)
     fp["damping_law_a_model_rad_s"], fp["damping_law_b_model_s"] = _damping_law(omega_model, zeta_model)
 
-    fp["amplitude_frequency_shift"] = backbone.relative_shift if backbone is not None else NAN
-    fp["backbone_slope_Hz_per_m"] = backbone.slope_Hz_per_m if backbone is not None else NAN
+    trusted = backbone is not None and backbone.reliable  # an unreliable backbone's shift is unknown
+    fp["amplitude_frequency_shift"] = backbone.relative_shift if trusted else NAN
+    fp["backbone_slope_Hz_per_m"] = backbone.slope_Hz_per_m if trusted else NAN
     fp["backbone_slope_z"] = (
         backbone.slope_Hz_per_m / backbone.slope_stderr_Hz_per_m
-        if backbone is not None and backbone.slope_stderr_Hz_per_m > 0 else NAN
+        if trusted and backbone.slope_stderr_Hz_per_m > 0 else NAN
     )
     fp["decay_rate_change"] = decay.decay_rate_change if decay is not None else NAN
     fp["decay_r_squared"] = decay.r_squared if decay is not None else NAN
@@ -260,7 +261,8 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
     """
     scores = effect_scores(fp)
     errors = [(k, _get(fp, f"frequency_error_mode{k}")) for k in (1, 2, 3)]
-    errors_text = ", ".join(f"mode {k} {_pct(e)}" for k, e in errors if math.isfinite(e)) or "none matched"
+    measured = [f"mode {k} {difference_words(100 * e)}" for k, e in errors if math.isfinite(e)]
+    errors_text = f"measured against the model: {', '.join(measured)}" if measured else "no mode matched"
     out: dict[str, str] = {}
 
     growth_data, growth_model = _get(fp, "damping_growth_data"), _get(fp, "damping_growth_model")
@@ -289,34 +291,34 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
     deficit, mean_error = _get(fp, "mode1_deficit"), _get(fp, "frequency_error_mean")
     if math.isfinite(deficit):
         out["tip_mass"] = (
-            f"mode 1 is {_pct(deficit, False)} low relative to modes 2–3 (frequency errors {errors_text}): "
+            f"mode 1 is {_pct(deficit, False)} low relative to modes 2–3 ({errors_text}): "
             "a mass at the tip lowers the first mode most"
             if scores["tip_mass"] >= 1 else
-            f"mode 1 is not clearly low relative to modes 2–3 (it is {_low(deficit)}; frequency errors {errors_text}): "
+            f"mode 1 is not clearly low relative to modes 2–3 (it is {_low(deficit)}; {errors_text}): "
             "no sign of a missing tip mass"
         )
         out["clamp_compliance"] = (
-            f"all modes are low by a similar fraction (mean {_pct(mean_error)}, mode 1 only {_pct(deficit, False)} "
-            "more): a compliant clamp (or a lower bending stiffness) lowers every mode alike"
+            f"all modes are low by a similar fraction (measured against the model: {difference_words(100 * mean_error)} on "
+            f"average, mode 1 only {_pct(deficit, False)} more): a compliant clamp (or a lower bending stiffness) lowers every mode alike"
             if scores["clamp_compliance"] >= 1 else
             f"the modes are {_pct(-mean_error, False)} low on average but not alike (mode 1 a further "
             f"{_pct(deficit, False)} low relative to modes 2–3): the pattern fits a tip mass better than a compliant clamp"
             if -mean_error >= THRESHOLDS["clamp_compliance"] and deficit > 0 else
-            f"the modes are not lowered alike (mean frequency error {_pct(mean_error)}, mode 1 {_low(deficit)} "
-            "relative to modes 2–3): no sign of a compliant clamp"
+            f"the modes are not lowered alike (measured against the model: {difference_words(100 * mean_error)} on "
+            f"average, mode 1 {_low(deficit)} relative to modes 2–3): no sign of a compliant clamp"
         )
     else:
-        out["tip_mass"] = f"mode 1 and mode 2 or 3 must both be identified to judge a tip mass (frequency errors {errors_text})"
+        out["tip_mass"] = f"mode 1 and mode 2 or 3 must both be identified to judge a tip mass ({errors_text})"
         out["clamp_compliance"] = (
-            f"mode 1 and mode 2 or 3 must both be identified to judge the clamp (frequency errors {errors_text})"
+            f"mode 1 and mode 2 or 3 must both be identified to judge the clamp ({errors_text})"
         )
 
     out_of_line = _get(fp, "mode2_out_of_line")
     if math.isfinite(out_of_line):
         out["patch_stiffening"] = (
-            f"mode 2 is out of line with modes 1 and 3, {_pct(abs(out_of_line), False)} "
-            f"{'lower' if out_of_line < 0 else 'higher'} than their range ({errors_text}): "
-            "added mass and stiffness on the patch region shift the modes unevenly"
+            f"{errors_text[0].upper()}{errors_text[1:]}: mode 2 does not follow modes 1 and 3, it sits "
+            f"{100 * abs(out_of_line):.1f} percentage points {'below' if out_of_line < 0 else 'above'} the nearer of "
+            "them. Added mass and stiffness on the patch region shift the modes unevenly like this"
             if scores["patch_stiffening"] >= 1 else
             f"the frequency errors change smoothly with mode number ({errors_text}): "
             "no sign of a stiffer, heavier patch"
@@ -327,8 +329,9 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
     damping_out = _get(fp, "damping_mode2_out_of_line")
     if math.isfinite(damping_out):
         out["patch_damping"] = (
-            f"the damping of mode 2 is out of line with modes 1 and 3 by a factor {math.exp(damping_out):.2f}: "
-            "damping added on the patch region damps the modes unevenly"
+            f"the damping of mode 2 does not follow modes 1 and 3: measured against the model, it is "
+            f"{math.exp(damping_out):.2f} times the nearer of theirs. Damping added on the patch region damps "
+            "the modes unevenly like this"
             if scores["patch_damping"] >= 1 else
             "the damping errors change smoothly with mode number: no sign of damping added on the patch"
         )
@@ -345,5 +348,5 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
             "no sign of a hardening spring"
         )
     else:
-        out["tip_cubic_spring"] = "no backbone of the free decay was measured: a hardening spring cannot be judged"
+        out["tip_cubic_spring"] = "no backbone of the free decay was measured, or none the record's spectrum confirms: a hardening spring cannot be judged"
     return {effect_id: out[effect_id] for effect_id in CANDIDATE_EFFECTS}

@@ -41,10 +41,13 @@ from beam.residuals.common import (
 )
 
 __all__ = [
+    "DIFFERENCE_CONVENTION",
     "IdentifiedModes",
     "ModeMatch",
     "ModeRow",
     "compare_modes",
+    "difference_words",
+    "unseen_reason",
     "free_decay_start",
     "identify_modes",
     "matrix_pencil_poles",
@@ -370,11 +373,28 @@ def identify_modes(
     )
 
 
+#: The sign convention of the modes table, stated once for the command line, the JSON and the dashboard.
+DIFFERENCE_CONVENTION = ("measured relative to the model, 100 (measured / model - 1) %: positive when the "
+                         "measured value is higher than the model's")
+
+
+def difference_words(percent: float, digits: int = 1) -> str:
+    """A modes-table difference (:data:`DIFFERENCE_CONVENTION`) in words, read as "the measured
+    value is …": ``17.5`` -> ``"17.5 % higher"``, ``-3`` -> ``"3.0 % lower"``, ``"matches"`` when
+    it rounds to zero at ``digits`` decimals, ``"–"`` when not finite (nothing measured)."""
+    if percent is None or not np.isfinite(percent):
+        return "–"
+    if round(abs(float(percent)), digits) == 0:
+        return "matches"
+    return f"{abs(float(percent)):.{digits}f} % {'higher' if percent > 0 else 'lower'}"
+
+
 @dataclass(frozen=True)
 class ModeMatch:
     """An identified mode against a model mode (NaN data fields when none matched).
 
-    ``frequency_error_pct`` = 100 (f_data / f_model − 1); ``damping_error_pct`` likewise.
+    ``frequency_error_pct`` = 100 (f_data / f_model − 1) %; ``damping_error_pct`` likewise: positive
+    when the **measured** value is higher than the model's (:data:`DIFFERENCE_CONVENTION`).
     """
 
     mode: int
@@ -384,6 +404,8 @@ class ModeMatch:
     damping_model: float
     frequency_error_pct: float
     damping_error_pct: float
+    #: Why an unmatched mode was not seen (:func:`unseen_reason`), "" otherwise.
+    note: str = ""
 
     @property
     def matched(self) -> bool:
@@ -447,3 +469,49 @@ def compare_modes(
             frequency_error_pct=100 * (fd / fm - 1), damping_error_pct=100 * (zd / zm - 1) if zm > 0 else nan,
         ))
     return out
+
+
+#: A mode whose shape at the sensor is at most this share of its largest displacement along the
+#: beam is "near its node" there (the sensor sees it at a tenth of its size or less).
+NODE_SHARE = 0.1
+
+
+def unseen_reason(x_m: np.ndarray, shape: np.ndarray, sensor_m: float, frequency_Hz: float,
+                  nyquist_Hz: float) -> str:
+    """Why a model mode may be missing from the record, from the model's own shape of it.
+
+    Parameters
+    ----------
+    x_m : ndarray, shape (k,)
+        Increasing positions along the beam from the clamp (m), the last one the tip (x = L).
+    shape : ndarray, shape (k,)
+        The mode's displacement shape at ``x_m`` (any scale).
+    sensor_m : float
+        The sensor's position (m).
+    frequency_Hz, nyquist_Hz : float
+        The mode's frequency and the record's Nyquist frequency (Hz).
+
+    Returns
+    -------
+    str
+        ``"above the record's Nyquist frequency (… Hz)"``; ``"the sensor sits near its node at
+        0.78 L (it sees … % of the mode's largest displacement)"`` when the shape at the sensor is at
+        most :data:`NODE_SHARE` of its largest and a node (a sign change away from the clamp) lies
+        nearby; otherwise ``"not found in the record (at the sensor it has … % of its largest
+        displacement)"``.
+    """
+    x = np.asarray(x_m, dtype=float)
+    phi = np.asarray(shape, dtype=float)
+    length = float(x[-1])
+    if frequency_Hz >= nyquist_Hz:
+        return f"above the record's Nyquist frequency ({nyquist_Hz:.4g} Hz)"
+    largest = float(np.max(np.abs(phi)))
+    share = abs(float(np.interp(sensor_m, x, phi))) / largest if largest > 0 else 0.0
+    inside = x > 1e-6 * length  # the clamp is no node
+    crossing = np.flatnonzero(inside[:-1] & (np.sign(phi[:-1]) * np.sign(phi[1:]) < 0))
+    nodes = x[crossing] - phi[crossing] * (x[crossing + 1] - x[crossing]) / (phi[crossing + 1] - phi[crossing])
+    if share <= NODE_SHARE and nodes.size:
+        node = float(nodes[np.argmin(np.abs(nodes - sensor_m))])
+        return (f"the sensor (at {sensor_m / length:.2f} L) sits near its node at {node / length:.2f} L: it sees "
+                f"{100 * share:.0f} % of the mode's largest displacement")
+    return f"not found in the record (at the sensor it has {100 * share:.0f} % of its largest displacement)"

@@ -31,8 +31,10 @@ from pathlib import Path
 
 from beam.calibration import (
     CalibrationResult,
+    CalibrationSpec,
     calibration_preview,
     calibration_stream,
+    default_engine,
     remember_maps,
 )
 from beam.errors import BeamInputError
@@ -78,15 +80,28 @@ DIAGNOSES = LRU(8)
 
 @dataclass(frozen=True)
 class CalibrationKey:
-    """Everything a calibration depends on; ``dataset`` is a bundled name or an upload id."""
+    """Everything a calibration depends on; ``dataset`` is a bundled name or an upload id, the
+    rest the fields of its :attr:`spec` (None: :class:`beam.calibration.CalibrationSpec`'s default)."""
 
     dataset: str
     window: tuple[float, float]
     effects: tuple[str, ...]
     modes: int
-    likelihood: str
-    seed: int = 0
-    target_ess: float = 1000.0
+    likelihood: str | None = None
+    seed: int | None = None
+    target_ess: float | None = None
+
+    def __post_init__(self) -> None:
+        defaults = CalibrationSpec()
+        for name in ("likelihood", "seed", "target_ess"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, getattr(defaults, name))
+
+    @property
+    def spec(self) -> CalibrationSpec:
+        """The :class:`~beam.calibration.CalibrationSpec` of the calibration."""
+        return CalibrationSpec(window=self.window, effects=self.effects, modes=self.modes, likelihood=self.likelihood,
+                               seed=self.seed, target_ess=self.target_ess)
 
 
 # -- datasets ---------------------------------------------------------------------------------
@@ -227,10 +242,11 @@ def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int
 def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: int = 25,
                        known: tuple = ()) -> Iterator[sch.Stage[CalibrationResult]]:
     """The computation of :func:`calibration_run` (in a worker process; no cache)."""
+    engine = default_engine()  # this worker process's
     if known:
-        remember_maps(measurement, window=key.window, modes=key.modes, maps=known, likelihood=key.likelihood)
-    stream = calibration_stream(measurement, window=key.window, effects=key.effects, modes=key.modes,
-                                likelihood=key.likelihood, seed=key.seed, target_ess=key.target_ess, every=every)
+        remember_maps(measurement, window=key.window, modes=key.modes, maps=known, likelihood=key.likelihood,
+                      engine=engine)
+    stream = calibration_stream(measurement, key.spec, every=every, engine=engine)
     done = 0.0
     try:
         for event in stream:
@@ -249,7 +265,9 @@ def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: 
 def effect_label(effect: str) -> str:
     """``"Tip mass (tip_mass_kg: kg)"``-style label of a catalogue effect, units included."""
     e = EFFECTS[effect]
-    units = ", ".join(f"{p.symbol} in {p.unit}" for p in e.parameters if p.required)
+    if e.per_mode:  # "Modal damping (ζ per mode, no unit)", not "ζ_1 in 1"
+        return f"{e.title} ({e.parameters[0].symbol.split('_')[0]} per mode{', no unit' if e.parameters[0].unit == '1' else ''})"
+    units = ", ".join(f"{p.symbol} in {p.unit}" if p.unit != "1" else f"{p.symbol}, no unit" for p in e.parameters if p.required)
     return f"{e.title} ({units})"
 
 

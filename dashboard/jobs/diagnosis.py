@@ -47,7 +47,7 @@ from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS
 from beam.residuals import effect_scores
-from beam.residuals.noise import noise_floor
+from beam.residuals.noise import record_noise_floor
 from dashboard.jobs.beam import DIAGNOSES, CalibrationKey, bundled_datasets
 from dashboard.jobs.warm import warm_up
 from dashboard.runtime import scheduler as sch
@@ -118,7 +118,8 @@ class Diagnosis(VerdictFacts):
                                 self.errors(self.base), after, self.remaining, unit=self.base.setup.measurement.output_unit,
                                 alternatives=self.indistinguishable if self.missing else (),
                                 partly=self.partly_indistinguishable if self.missing else (),
-                                error_label="calibration-window RMSE" if free else "held-out RMSE", then=self.climbed)
+                                error_label="calibration-window RMSE" if free else "held-out RMSE", then=self.climbed,
+                                window_notes=self.window_notes)
 
 
 def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: bool = True,
@@ -262,7 +263,7 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement, known: tuple
     yield sch.partial(diagnosis, 0.25, f"ranking {len(names)} candidate effects")
     effects_of = {e: with_effect(base.setup.effects, e) for e in names}
     fits_plan = DiagnosisFits(measurement, base, [*known, known_map(base)])
-    floor = noise_floor(measurement.time_s, measurement.output)
+    floor = record_noise_floor(base.setup.measurement)  # the record as calibrated: the beam view's floor
     scores = effect_scores(residuals.fingerprints)
     for e in sorted(names, key=lambda e: (not EFFECTS[e].nonlinear, -scores.get(e, 0.0))):
         fits_plan.fit(effects_of[e])  # the slowest fit first, then the likeliest leader (its fingerprint)

@@ -37,9 +37,7 @@ def warm_up() -> None:
         if not _warmed:
             import emcee  # noqa: F401
 
-            from beam.inference._arviz import (
-                import_arviz,  # as beam imports it (without a UI toolkit)
-            )
+            from beam.inference import import_arviz  # as beam imports it (without a UI toolkit)
 
             import_arviz()
             _warmed = True

@@ -22,7 +22,9 @@ import pandas as pd
 from beam.calibration.handout import calibration_handout
 from beam.errors import BeamInputError
 from beam.physics.effects import EFFECTS, parameter_spec
-from beam.residuals.noise import noise_floor
+from beam.discovery.ranking import contradicted
+from beam.discovery.report import remaining_words
+from beam.residuals.noise import record_noise_floor
 from dashboard.outputs.exports import _jsonable
 
 __all__ = [
@@ -360,7 +362,7 @@ GLOSSES = {
     "ESS": "effective sample size: how many independent draws the MCMC chain is worth",
     "R-hat": "agreement between chains; 1.00 means they agree, above 1.01 they have not converged",
     "Ljung-Box": "a test of whether the residuals are white noise; p < 0.05 means left-over structure",
-    "noise floor": "the sensor noise read from the record itself (fourth differences), model-free",
+    "noise floor": "the sensor noise read from the record itself (its quietest spectral band or its fourth differences), model-free",
     "MAP": "the single most probable parameter set (maximum a posteriori)",
 }
 
@@ -370,8 +372,8 @@ def noise_floor_m(measurement) -> float:
     """Model-free estimate of the sensor noise sd of a record (in the output's SI unit: m, m/s or
     m/s²), NaN when it cannot be made.
 
-    :func:`beam.residuals.noise.noise_floor` (the quietest sub-band of the record's spectrum),
-    the same estimate as the diagnosis's verdict; memoised per record. A noise sd far above it
+    :func:`beam.residuals.noise.record_noise_floor` of the record as calibrated, the same estimate
+    as the diagnosis's verdict and the command line's; memoised per record. A noise sd far above it
     is a misfit, not noise.
     """
     if measurement is None:
@@ -379,7 +381,7 @@ def noise_floor_m(measurement) -> float:
 
     def compute():
         try:
-            return noise_floor(measurement.time_s, measurement.output).sd
+            return record_noise_floor(measurement).sd
         except BeamInputError:
             return math.nan
 
@@ -467,18 +469,12 @@ def verdict_text(diagnosis) -> str:
     missing = diagnosis.missing
     remaining = getattr(diagnosis, "remaining", None)
     tail = ""
-    if remaining is not None:
-        ratio, floor = remaining.remaining_error_ratio, u.scale * remaining.noise_floor.sd
-        if getattr(remaining, "truncated", False):
-            tail = (f" Still, the held-out error is **{ratio:.1f}× the sensor's noise** ({fmt_value(floor)} {u.unit}), "
-                    "and the record excites more modes than the model keeps: **try "
-                    f"{remaining.more_modes} modes** before looking outside the catalogue.")
-        elif remaining.outside_catalogue:
-            tail = (f" Still, the held-out error is **{ratio:.1f}× the sensor's noise** ({fmt_value(floor)} {u.unit}, "
-                    "estimated from the record alone) and the residuals are not white: **something outside the "
-                    "catalogue** is at work.")
-        else:
-            tail = f" What remains is {ratio:.1f}× the sensor's noise ({fmt_value(floor)} {u.unit}): the model predicts to the noise."
+    if remaining is not None:  # the library's words (one wording with the command line's verdict)
+        words = remaining_words(remaining, floor_text=f"{fmt_value(u.scale * remaining.noise_floor.sd)} {u.unit}")
+        tail = f" {words[0].upper()}{words[1:]}."
+    notes = "".join(f" {w[0].upper()}{w[1:]}." for w in diagnosis.window_notes_named(effect_title)) \
+        if hasattr(diagnosis, "window_notes_named") else ""
+    tail += notes
     if missing is not None:
         best = diagnosis.candidates[0]
         climbed = list(getattr(diagnosis, "climbed", []))
@@ -489,7 +485,7 @@ def verdict_text(diagnosis) -> str:
         names = ", then ".join(effect_title(e) for e in [missing, *climbed])
         text = (f"**Missing: {names}.** With {'them' if climbed else 'it'} {what} is {fmt_value(after)} {u.unit} instead "
                 f"of {fmt_value(before)} {u.unit} ({change_words(after, before)}); evidence "
-                f"{evidence_words(best.delta_log_evidence)}.")
+                f"{evidence_words(best.delta_log_evidence) if not contradicted(best, diagnosis.base) else f'{best.delta_log_evidence:+.1f} nats in the calibration window'}.")
         if climbed:
             text += (f" ({effect_title(climbed[0])} shows only once {effect_title(missing)} is in the model: "
                      "the diagnosis ranked the candidates again on top of it.)")
@@ -500,8 +496,10 @@ def verdict_text(diagnosis) -> str:
         for effect, count in diagnosis.partly_indistinguishable:
             text += f" {effect_title(effect)} places modes 1–{count} as well; only mode {count + 1} tells them apart."
         return text + tail
-    if remaining is not None and remaining.outside_catalogue:
+    if remaining is not None and (remaining.outside_catalogue or remaining.truncated):
         return "**Nothing in the catalogue helps.**" + tail
+    if remaining is not None:
+        return "**Nothing in the catalogue is missing.**" + tail
     if white.white:
         return ("**Nothing in the catalogue is missing**, and the residuals look like white noise "
                 f"(Ljung–Box p = {white.p_value:.2g} ≥ 0.05)." + tail)

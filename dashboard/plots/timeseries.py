@@ -1,29 +1,10 @@
 """Main plot of the toy view: data, truth, posterior predictive mean and bands over the horizon.
 
 Plain bokeh with in-place ``ColumnDataSource`` updates, because this plot receives every
-streamed result (preview, intermediate MCMC results, final) and a browser measurement shows
-HoloViews missing the preview target. ``python tests/benchmarks/bench_dashboard.py`` (chromium,
-on the 2-core machine shared with other work), HoloViews version = four DynamicMaps fed by one
-``Pipe`` each for the scenario, the result and the pinned result (commit ab50123, reverted),
-against this module; two back-to-back pairs of runs, median / max in seconds:
-
-================================  ==========================  ==========================  ======
-slider move ->                    pair 1, load average 8–10   pair 2, load average 4–7    target
-                                  HoloViews    plain bokeh    HoloViews    plain bokeh
-================================  ==========================  ==========================  ======
-toy preview drawn (8 moves)       0.55 / 0.80  0.32 / 1.63    0.58 / 0.73  0.47 / 0.59    0.5
-toy final posterior drawn         1.57 / 3.15  0.91 / 2.81    1.24 / 1.62  1.02 / 1.30    2
-beam preview drawn (5 moves)      0.82 / 1.34  0.49 / 0.68    0.92 / 1.39  0.55 / 0.66    0.5
-beam final posterior drawn        1.84 / 3.00  1.44 / 2.68    2.81 / 4.52  2.00 / 3.66    5
-================================  ==========================  ==========================  ======
-
-The load scatters single runs (plain bokeh drew the beam preview in 0.87 s median in a third
-run at load 7–11), but in both pairs HoloViews added 0.1–0.8 s to every median.
-
-On the Python side a ``Pipe.send`` of the result (bands and mean, ~2,000 points) took
-25–120 ms against a few milliseconds for :meth:`TimeSeriesPlot.update`, and HoloViews removes
-and re-adds an outside legend at every update (two layout changes of the figure). The plots
-that change rarely (window sweep, diagnosis) are HoloViews.
+streamed result (preview, intermediate MCMC results, final): measured in the browser
+(``python tests/benchmarks/bench_dashboard.py``), a HoloViews version added 0.1-0.8 s to every
+median and missed the 0.5 s preview target (the figures are on the design-decisions page). The
+plots that change rarely (window sweep, diagnosis) are HoloViews.
 
 The data source of the prediction band is named ``prediction-band`` (columns ``time_s``,
 ``lower``, ``upper``) and that of the posterior mean ``posterior-mean``, so that browser tests

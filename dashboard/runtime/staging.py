@@ -4,7 +4,7 @@ Why: Panel creates the bokeh models of a page on the server's event loop, and th
 answers every other browser. Measured with :mod:`dashboard.runtime.monitor` while eight browsers opened
 the app, building a whole page in the app script held the loop for 0.6–1.6 s per session (the
 toy view's ~180 models: Panel's widgets and panes, the main bokeh figure, the document's
-serialisation), so other sessions' requests waited that long. Now the app script builds a
+serialisation), so other sessions' requests waited that long. So the app script builds a
 skeleton (the template, the tabs, empty columns) and each view hands the rest over as a list of
 *steps* — callables that build one piece (the status line, the main plot, the controls, ...)
 and put it in place, each a few tens of milliseconds.

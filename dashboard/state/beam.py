@@ -26,10 +26,10 @@ from functools import partial as bind
 import param
 
 from beam.calibration import (
-    DEFAULT_EFFECTS,
+    DEFAULT_MODES,
     CalibrationResult,
+    CalibrationSpec,
     known_map,
-    suggest_modes,
 )
 from beam.calibration.modes import MAX_MODES
 from beam.errors import BeamInputError
@@ -70,15 +70,18 @@ DATASET_DEFAULTS: dict[str, dict] = {
 #: What Reveal says for a record without a known answer (a real one or an upload).
 NO_ANSWER = ("No known answer: this is a real record (or an upload), not a simulation — nobody knows its "
              "true parameters. Judge the model by the residuals, the held-out error and the evidence.")
-#: Default calibration window: this fraction of the record from its start (as the library).
-WINDOW_FRACTION = 0.3
+#: The library's defaults (:class:`beam.calibration.CalibrationSpec`): the inputs' defaults.
+DEFAULTS = CalibrationSpec()
+#: Default calibration window: this fraction of the record from its start (the library's).
+WINDOW_FRACTION = DEFAULTS.window_fraction
 #: Record/window/modes/likelihood contexts whose diagnosis MAPs a session keeps (:meth:`BeamState.remember`).
 KNOWN_CONTEXTS = 4
 
 
 def _default_window(measurement) -> tuple[float, float]:
-    t = measurement.time_s
-    return float(t[0]), round(float(t[0] + WINDOW_FRACTION * (t[-1] - t[0])), 2)
+    """The library's default window (:meth:`CalibrationSpec.default_window`), its end rounded to 10 ms."""
+    start, end = DEFAULTS.default_window(measurement)
+    return start, round(end, 2)
 
 
 def ladder_rung(result, added: str | None, index: int) -> dict:
@@ -144,13 +147,15 @@ class BeamState(_Runs):
                              doc="Bundled lab run or an uploaded measurement.")
     window_s = param.Range(default=(0.0, 1.0), bounds=(0.0, 10.0), label="Calibration window (s)",
                            doc="The model is calibrated on this part of the record; the rest is held out.")
-    modes = param.Integer(4, bounds=(1, MAX_MODES), label="Number of modes (1)",
-                          doc="Modes kept in the modal model (a dataset starts with the number chosen from its record).")
-    effects = param.ListSelector(default=list(DEFAULT_EFFECTS), objects=list(EFFECTS), label="Effects in the model",
+    modes = param.Integer(DEFAULT_MODES, bounds=(1, MAX_MODES), label="Number of modes (1)",
+                          doc="Modes kept in the modal model (a dataset starts with the number the library's default, "
+                          "CalibrationSpec.modes, resolves to on its record).")
+    effects = param.ListSelector(default=list(DEFAULTS.effects), objects=list(EFFECTS), label="Effects in the model",
                                  doc="Physical effects added to the bare beam (EI, k_p).")
-    likelihood = param.Selector(default="iid", objects=LIKELIHOODS, label="Likelihood (noise model)")
-    seed = param.Integer(0, bounds=(0, None), precedence=-1, label="Seed (sampler)")
-    target_ess = param.Number(1000.0, bounds=(50.0, 10000.0), precedence=-1, label="Target ESS (per parameter)")
+    likelihood = param.Selector(default=DEFAULTS.likelihood, objects=LIKELIHOODS, label="Likelihood (noise model)")
+    seed = param.Integer(DEFAULTS.seed, bounds=(0, None), precedence=-1, label="Seed (sampler)")
+    target_ess = param.Number(DEFAULTS.target_ess, bounds=(50.0, 10000.0), precedence=-1,
+                              label="Target ESS (per parameter)")
 
     measurement = param.ClassSelector(class_=Measurement, default=None, allow_None=True, constant=True,
                                       doc="The Measurement of ``dataset``.")
@@ -193,11 +198,11 @@ class BeamState(_Runs):
         values = dict(DATASET_DEFAULTS.get(name, {}))
         if not values and previous in DATASET_DEFAULTS:
             values = {k: self.param[k].default for k in DATASET_DEFAULTS[previous] if k != "window_s"}
-        if "modes" not in keep:  # chosen from the record on its default window, as the library's "auto"
-            effects = values.get("effects", self.effects)
-            window = values.get("window_s", self.window_s)
+        if "modes" not in keep:  # the library's default resolved on the record and its default window
+            spec = CalibrationSpec.of(DEFAULTS, window=tuple(values.get("window_s", self.window_s)),
+                                      effects=values.get("effects", self.effects))
             try:
-                values["modes"] = suggest_modes(self.measurement, tuple(window), effects).modes
+                values["modes"] = spec.resolve(self.measurement).modes
             except BeamInputError:
                 values["modes"] = self.param.modes.default
         values = {k: v for k, v in values.items() if k not in keep}
@@ -308,7 +313,8 @@ class BeamState(_Runs):
         else:
             self.effects = [e for e in EFFECTS if e in set(self.effects) | {effect}]
 
-    def _on_run_update(self, update: sch.Update) -> None:
+    def on_run_update(self, update: sch.Update) -> None:
+        """The run slot's callback: show an update of this state's latest request."""
         self._timed(update)
         if update.kind == "error":
             self._fail(user_message(update.message), self.result is not None)
@@ -409,7 +415,8 @@ class DiagnosisState(_Runs):
         return d is not None and (d.key.dataset, d.key.window, d.key.effects, d.key.modes) == (
             k.dataset, k.window, k.effects, k.modes)
 
-    def _on_run_update(self, update: sch.Update) -> None:
+    def on_run_update(self, update: sch.Update) -> None:
+        """The run slot's callback: show an update of this state's latest request."""
         self._timed(update)
         if update.kind == "error":
             self._fail(user_message(update.message), self.diagnosis is not None)

@@ -5,7 +5,7 @@
 from the caller's thread while a run's update is delivered on a pool thread, as when the states
 are driven without a server: tests and scripts) made one of them fail with "Constant parameter
 'stage' cannot be modified", and the slot then dropped every later update of that run (a
-diagnosis left "queued"; seen in about one of ten loaded test runs). Under a server every change
+diagnosis left "queued"). Under a server every change
 happens on the document's thread and the lock is uncontended.
 """
 

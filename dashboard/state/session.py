@@ -135,7 +135,8 @@ class ToyState(param.Parameterized):
         return dict(self._timings.get(request, {}))
 
     # -- updates from the scheduler ------------------------------------------------------------
-    def _on_run_update(self, update: sch.Update) -> None:
+    def on_run_update(self, update: sch.Update) -> None:
+        """The run slot's callback: show an update of this state's latest request."""
         times = self._timings.setdefault(update.request, {})
         times.setdefault(update.kind, update.elapsed_s)
         if len(self._timings) > 50:
@@ -166,7 +167,8 @@ class ToyState(param.Parameterized):
         with editing(self):  # the old sweep belongs to another scenario: do not show it
             self.param.update(sweep=None, sweep_status="computing the window sweep")
 
-    def _on_sweep_update(self, update: sch.Update) -> None:
+    def on_sweep_update(self, update: sch.Update) -> None:
+        """The sweep slot's callback: show an update of the sweep."""
         with editing(self):
             if update.kind == "error":
                 self.param.update(sweep_status=f"window sweep failed: {user_message(update.message)}")
@@ -221,11 +223,11 @@ class SessionState(param.Parameterized):
         self._pool, self._dispatch, self._debounce = pool, dispatch, debounce_s
         self._slots: dict[str, sch.RunSlot] = {}
         toy = ToyState(**(toy_inputs or {}))
-        toy.attach(self.slot("toy", toy._on_run_update), self.slot("toy-sweep", toy._on_sweep_update, debounce_s=0.0))
+        toy.attach(self.slot("toy", toy.on_run_update), self.slot("toy-sweep", toy.on_sweep_update, debounce_s=0.0))
         beam = BeamState(**(beam_inputs or {}))
-        beam.attach(self.slot("beam", beam._on_run_update))
+        beam.attach(self.slot("beam", beam.on_run_update))
         diagnosis = DiagnosisState(beam=beam)
-        diagnosis.attach(self.slot("diagnosis", diagnosis._on_run_update, debounce_s=0.0))
+        diagnosis.attach(self.slot("diagnosis", diagnosis.on_run_update, debounce_s=0.0))
         with editing(self):
             self.param.update(toy=toy, beam=beam, diagnosis=diagnosis)
 

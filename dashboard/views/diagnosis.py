@@ -15,6 +15,9 @@ import pandas as pd
 import panel as pn
 import param
 
+from beam.discovery.ranking import contradicted
+from beam.discovery.report import p_words
+from beam.residuals import difference_words
 from dashboard.outputs import beam as bs
 from dashboard.outputs.beam import (
     effect_title,
@@ -51,24 +54,21 @@ _STAGE_TEXT = {
 
 
 def modes_table(diagnosis) -> pd.DataFrame:
-    """Identified (data) against model modes: frequencies (Hz), damping ratios (%), errors (%)."""
+    """Identified (data) against model modes: frequencies (Hz), damping ratios (%), and how the
+    measured value differs from the model's in words, by the one sign convention of the command
+    line and the JSON (:data:`beam.residuals.DIFFERENCE_CONVENTION`: "17.5 % higher" is
+    ``frequency_error_pct`` = +17.5, the measured frequency above the model's)."""
     if diagnosis is None or not diagnosis.residuals.comparison:
         return pd.DataFrame({"note": ["no modal identification on this record (no free decay)"]})
 
     def f(v, scale=1.0, fmt="{:.4g}"):
         return fmt.format(v * scale) if math.isfinite(v) else "–"
 
-    def off(v, digits):
-        if not math.isfinite(v):
-            return "–"
-        if round(abs(v), digits) == 0:
-            return "matches"
-        return f"{abs(v):.{digits}f} % {'high' if v > 0 else 'low'}"
-
     return pd.DataFrame([{
         "mode": m.mode, "measured f (Hz)": f(m.frequency_data_Hz), "model f (Hz)": f(m.frequency_model_Hz),
-        "model f is": off(m.frequency_error_pct, 1), "measured damping ζ (%)": f(m.damping_data, 100, "{:.2g}"),
-        "model ζ (%)": f(m.damping_model, 100, "{:.2g}"), "model ζ is": off(m.damping_error_pct, 0),
+        "measured f vs model": difference_words(m.frequency_error_pct, 1) if m.matched or not m.note else f"not seen: {m.note}",
+        "measured damping ζ (%)": f(m.damping_data, 100, "{:.2g}"),
+        "model ζ (%)": f(m.damping_model, 100, "{:.2g}"), "measured ζ vs model": difference_words(m.damping_error_pct, 0),
     } for m in diagnosis.residuals.comparison]).set_index("mode")
 
 
@@ -231,7 +231,8 @@ class DiagnosisView(pn.viewable.Viewer):
                              css_classes=["diag-whiteness"])
         spectra = self._pair(self._plot(p.spectrum), pn.Column(self._plot(p.acf), whiteness, sizing_mode="stretch_width"))
         modes = self._pair(
-            pn.Column(Markdown("**Modes: measured in the free decay vs the model**"),
+            pn.Column(Markdown("**Modes: measured in the free decay vs the model** (“higher”, “lower”: the measured "
+                               "value against the model's)"),
                       DataFrame(pn.bind(modes_table, d.param.diagnosis), escape=True,
                                 sizing_mode="stretch_width", css_classes=["diag-modes-table"]),
                       sizing_mode="stretch_width"),
@@ -340,12 +341,17 @@ class DiagnosisView(pn.viewable.Viewer):
 
     @staticmethod
     def _candidate_text(c, diagnosis, u) -> str:
+        """A candidate's row: its errors, its evidence (worded as odds for the effect only when the
+        held-out error does not contradict it, :func:`beam.discovery.ranking.contradicted`), its
+        explanation and parameters."""
         title = effect_title(c.effect)
-        params = "; ".join(f"{parameter_label(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
+        params = "; ".join(f"{_parameter_words(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
+        evidence = (f"{c.delta_log_evidence:+.1f} nats inside the calibration window only, not borne out on held-out data"
+                    if contradicted(c, diagnosis.base) else evidence_words(c.delta_log_evidence))
         return (f"**{title}**{' — materially better' if c.material else ''}<br>"
                 f"{_errors_words(c, diagnosis, u)}, "
                 f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
-                f"<span title='{bs.GLOSSES['log evidence']}'>{evidence_words(c.delta_log_evidence)}</span>"
+                f"<span title='{bs.GLOSSES['log evidence']}'>{evidence}</span>"
                 f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
 
     def _reveal(self) -> pn.Card:
@@ -372,15 +378,25 @@ class DiagnosisView(pn.viewable.Viewer):
 
 
 def _whiteness_text(diagnosis) -> str:
-    """The Ljung–Box result in words (under the autocorrelation plot)."""
+    """The Ljung–Box result in words (under the autocorrelation plot), coherent with the verdict: a
+    pattern in a residual at the noise is a note on the noise model (:func:`beam.discovery.report.remaining_words`)."""
     if diagnosis is None:
         return ""
     w = diagnosis.residuals.whiteness
-    p = bs._p(w.p_value)
+    chance = f"Ljung–Box test: the chance that white noise shows this much pattern is {p_words(w.p_value)}"
     if w.white:
-        return f"Ljung–Box p = {p} (≥ 0.05): the residual looks like **white noise**, as for a right model."
-    return (f"Ljung–Box p = {p} (< 0.05): the residual is **not white noise** — the misfit has structure the "
-            "model does not explain.")
+        return f"{chance} (≥ 0.05): the residual looks like **white noise**, as for a right model."
+    remaining = getattr(diagnosis, "remaining", None)
+    if remaining is not None and remaining.at_noise and not diagnosis.missing:
+        return (f"{chance} (< 0.05): a small pattern in a residual already at the sensor's noise — a note about the "
+                "noise model (the AR(1) likelihood allows correlated noise), not missing physics.")
+    return f"{chance} (< 0.05): the residual is **not white noise** — the misfit has structure the model does not explain."
+
+
+def _parameter_words(name: str, si_unit: str) -> str:
+    """A parameter's label for a student: no "(1)" for a ratio without a unit."""
+    label = parameter_label(name, si_unit)
+    return label[:-4] + " (no unit)" if label.endswith(" (1)") else label
 
 
 def _backbone_text(diagnosis) -> str:
@@ -390,7 +406,9 @@ def _backbone_text(diagnosis) -> str:
     m1 = diagnosis.residuals.mode1
     bb = m1.backbone if m1 is not None else None
     if bb is None:
-        return "No backbone on this record (no free decay to measure it on)."
+        return "No backbone on this record (no free decay to measure it on, or no measured mode matches the model's mode 1)."
+    if not bb.reliable:
+        return f"How the mode-1 frequency changes with amplitude is **unknown** here: {bb.unreliable}."
     shift = 100 * bb.relative_shift
     change = "does not change" if abs(shift) < 0.05 else f"changes by {abs(shift):.2f} % ({'up' if shift > 0 else 'down'})"
     return f"The mode-1 frequency {change} over the amplitudes seen: {bb.verdict}."

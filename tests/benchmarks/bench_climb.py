@@ -24,7 +24,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from beam.calibration.starts import forget_maps  # noqa: E402
+from beam.calibration.engine import forget_maps  # noqa: E402
 from beam.discovery import report  # noqa: E402
 from beam.discovery.ranking import thread_fitter  # noqa: E402
 from beam.io.config import load_config  # noqa: E402

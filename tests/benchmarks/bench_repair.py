@@ -37,7 +37,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from beam.calibration import calibrate  # noqa: E402
-from beam.calibration.starts import forget_maps  # noqa: E402
+from beam.calibration.engine import forget_maps  # noqa: E402
 from beam.io.measurement import read_measurement  # noqa: E402
 from beam.io.simulation import read_truth  # noqa: E402
 from beam.physics.effects import EFFECTS  # noqa: E402

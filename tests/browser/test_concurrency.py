@@ -166,12 +166,12 @@ def test_a_slider_storm_shows_only_the_last_result_and_leaves_nothing_running(pa
     assert len(workers_idle) == 2, f"expected the two inference worker processes, found {workers_idle}"
     handle = window_handle(page)
     handle.focus()
-    start = time.monotonic()
     for i in range(20):  # 20 changes in about 2 s: right 12 times, then left 8 times -> window 7 s
         page.keyboard.press("ArrowRight" if i < 12 else "ArrowLeft")
         page.wait_for_timeout(40)  # plus the press's own round trip to the browser
-    sent = time.monotonic() - start
-    assert sent < 3.0, f"the storm took {sent:.1f} s to send"
+    during = read_state(page)
+    # a storm: its changes came faster than the runs, the last one is not shown yet
+    assert during["requested"] > before["requested"] and during["shown"] != during["requested"], during
     after = settle(page, after_request=before["requested"], timeout_ms=120000)
     assert after["window"] == pytest.approx(7.0)
     assert after["stage"] == "final" and after["shown"] == after["requested"]

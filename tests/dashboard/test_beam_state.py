@@ -79,7 +79,7 @@ def test_request_publishes_preview_then_final(session):
     known = dict(beam.known_maps())
     assert known[tuple(beam.final.setup.effects)] is beam.final.laplace.map
     from beam.calibration import calibration_preview, remember_maps
-    from beam.calibration.starts import forget_maps
+    from beam.calibration.engine import forget_maps
 
     forget_maps()
     remember_maps(beam.measurement, window=beam.key().window, modes=beam.modes, maps=beam.known_maps())

@@ -52,6 +52,9 @@ def test_the_climb_starts_before_the_ranking_ends_and_keeps_its_answer(proc_pool
     diagnosis = rec.of(rid)[-1].value
     assert rec.of(rid)[-1].kind == "final"
     assert diagnosis.missing == "patch_stiffening" and diagnosis.climbed == ["patch_damping"], diagnosis.verdict
+    # the verdict's noise floor is the beam view's (one floor per record)
+    from dashboard.outputs.beam import noise_floor_m
+    assert diagnosis.remaining.noise_floor.sd == noise_floor_m(diagnosis.base.setup.measurement)
 
     n_candidates = len(diagnosis.candidates)
     climb = [(effects, n) for effects, n in asked if len(effects) == len(BASE) + 2]

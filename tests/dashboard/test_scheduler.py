@@ -160,13 +160,15 @@ def test_storm_of_20_requests_in_2_s_shows_only_the_latest(pool):
     log: dict = {}
     rng = random.Random(7)
     peak = 0
-    t0 = time.monotonic()
     for i in range(20):
         slot.request(sleepy_job(log, i, chunks=4, chunk_s=0.03))
         time.sleep(rng.uniform(0.0, 0.2))  # some requests outlive the debounce and start running
         peak = max(peak, threading.active_count())
-    assert time.monotonic() - t0 < 3.0
     assert slot.wait(5)
+    # a request never waits for the running job: some job started during the storm was stopped
+    # before its last chunk by the next request (the storm overlapped running jobs)
+    done = {tag for tag, chunk in log.get("chunks", []) if chunk == 3}
+    assert any(tag not in done for tag in log["started"][:-1]), log
     assert rec.stale == [], "an update of a superseded request was shown"
     assert rec.updates[-1].kind == "final" and rec.updates[-1].value == ("final", 19)
     finals = [u.value for u in rec.updates if u.kind == "final"]
@@ -228,12 +230,17 @@ def test_at_most_max_workers_jobs_run_at_once(pool):
     assert peak[0] == 2
 
 
-def test_progress_updates_are_throttled(pool):
+def test_progress_updates_are_throttled(pool, monkeypatch):
+    """200 progress stages 1 ms apart on a clock the job moves (the slot reads ``time.perf_counter``):
+    a 0.1 s throttle publishes a few, whatever the machine's load."""
+    clock = {"now": 1000.0}
+    monkeypatch.setattr(sch, "time", types.SimpleNamespace(perf_counter=lambda: clock["now"], monotonic=time.monotonic,
+                                                           sleep=time.sleep))
     slot, rec = make_slot(pool, debounce_s=0.0, progress_interval_s=0.1)
 
     def job():
         for i in range(200):
-            time.sleep(0.001)
+            clock["now"] += 0.001
             yield sch.progress(i / 200)
         yield sch.final("done")
 

@@ -16,17 +16,21 @@ from dashboard.runtime import scheduler as sch
 def counting(n: int, tag, *, pause_s: float = 0.0, marker: str | None = None):
     """``preview`` with this process's id, ``progress`` per count, ``final`` with ``tag`` itself.
 
-    With ``marker``, the file ``marker + '.closed'`` is written when the generator is closed
-    (how a test sees that a cancelled run stopped in the worker).
+    With ``marker``, the files ``marker + '.count'`` (the counts done) and ``marker + '.closed'``
+    (this process's id) are written when the generator is closed (how a test sees that a cancelled
+    run stopped in the worker, and where).
     """
+    counted = 0
     try:
         yield sch.preview({"pid": os.getpid(), "tag": tag})
         for i in range(n):
             time.sleep(pause_s)
+            counted = i + 1
             yield sch.progress((i + 1) / n, f"{i + 1} of {n}")
         yield sch.final({"pid": os.getpid(), "tag": tag})
     finally:
         if marker is not None:
+            Path(marker + ".count").write_text(str(counted))
             Path(marker + ".closed").write_text(str(os.getpid()))
 
 

@@ -1,0 +1,140 @@
+"""Dask distributed as the study's engine: a local cluster or an existing one, cells as tasks.
+
+:func:`open_client` connects to the scheduler at an address (``--scheduler`` or
+``DASK_SCHEDULER_ADDRESS``) or starts a :class:`distributed.LocalCluster` of worker processes
+with one thread each and single-threaded numba/BLAS (:data:`SINGLE_THREAD_ENV`, set by the
+nanny before the worker starts). :func:`stream_cells` scatters each record once, submits one
+task per cell and yields the results as they finish (:func:`distributed.as_completed`); a task
+that fails outside the calibration (a worker lost) is turned into an error row, never raised.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+import uuid
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
+
+from beam.errors import BeamInputError
+from beam.io.measurement import Measurement
+from beam.study.cells import StudyCell, code_version, error_row, run_cell
+
+__all__ = ["SCHEDULER_ENV", "SINGLE_THREAD_ENV", "open_client", "scheduler_address", "stream_cells"]
+
+#: Environment variable naming an existing scheduler (Dask's own convention).
+SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
+#: Environment of the local workers: one thread for numba and every BLAS (one cell per core).
+SINGLE_THREAD_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+                     "MKL_NUM_THREADS": "1"}
+
+
+def scheduler_address(given: str | None) -> str | None:
+    """The scheduler to use: ``given``, else :data:`SCHEDULER_ENV`, else None (a local cluster)."""
+    address = given if given else os.environ.get(SCHEDULER_ENV, "").strip()
+    return address or None
+
+
+def _import_engine() -> str:
+    """Import the calibration engine and ArviZ in a worker (before its first cell, not during it);
+    returns the worker's :func:`~beam.study.cells.code_version`."""
+    from beam.calibration import calibrate  # noqa: F401
+    from beam.inference._arviz import import_arviz
+
+    import_arviz()
+    return code_version()
+
+
+@contextmanager
+def open_client(address: str | None = None, workers: int | None = None,
+                warm: Callable[[], None] | None = None, timeout_s: float = 60.0):
+    """A :class:`distributed.Client` on the scheduler at ``address``, or on a new local cluster.
+
+    Parameters
+    ----------
+    address : str, optional
+        ``tcp://HOST:PORT`` of a running scheduler; None for a local cluster.
+    workers : int, optional
+        Local worker processes (default the machine's cores); not allowed with ``address``.
+    warm : callable, optional
+        Called once in this process before a local cluster's workers start (so that they find
+        the compiled kernels on disk instead of compiling them each, at the same time).
+    timeout_s : float
+        How long to wait for the scheduler, and for its first worker (s).
+
+    Yields
+    ------
+    distributed.Client
+        With the engine imported on every worker present.
+
+    Raises
+    ------
+    BeamInputError
+        ``workers`` with an address; a scheduler that cannot be reached or has no worker within
+        ``timeout_s``; a worker whose ``beam`` sources differ from this process's (its cells would
+        be stored under this code's version).
+    """
+    from distributed import Client, LocalCluster
+
+    cluster = None
+    if address is not None:
+        if workers is not None:
+            raise BeamInputError("--workers sizes a local cluster; with a scheduler the cluster has its own workers")
+        try:
+            client = Client(address, timeout=timeout_s)
+        except (OSError, TimeoutError) as exc:
+            raise BeamInputError(f"cannot reach the Dask scheduler at {address}: {' '.join(str(exc).split())}") from None
+    else:
+        if warm is not None:
+            warm()
+        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                               env=SINGLE_THREAD_ENV, dashboard_address=None, silence_logs=logging.ERROR)
+        client = Client(cluster)
+    try:
+        try:
+            client.wait_for_workers(1, timeout=timeout_s)
+        except TimeoutError:
+            raise BeamInputError(f"no Dask worker joined the scheduler at {address} within {timeout_s:g} s") from None
+        other = {w: v for w, v in client.run(_import_engine).items() if v != code_version()}
+        if other:
+            raise BeamInputError(f"the Dask worker {next(iter(other))} runs another version of beam than this "
+                                 "command (install the same code on the cluster)")
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[StudyCell]) -> Iterator[tuple[StudyCell, dict]]:
+    """Run ``cells`` on ``client``'s workers; yield ``(cell, outcome)`` as each finishes.
+
+    ``records`` maps a cell's ``record_hash`` to its record; each record is sent to the cluster
+    once. Longer windows (the longer calibrations) are given a higher priority, so that the
+    short ones fill the workers at the end. ``outcome`` is :func:`beam.study.cells.run_cell`'s dict, with ``task["submitted"]``
+    and ``task["received"]`` (epoch s, this process's clock) added.
+    """
+    from distributed import as_completed
+
+    cells = list(cells)
+    if not cells:
+        return
+    needed = {cell.record_hash for cell in cells}
+    scattered = {key: client.scatter(records[key], hash=False) for key in needed}
+    run = uuid.uuid4().hex[:8]
+    futures = {}
+    for index, cell in enumerate(cells):
+        future = client.submit(run_cell, scattered[cell.record_hash], cell, key=f"beam-study-{run}-{index}",
+                               pure=False, priority=cell.window[1] - cell.window[0])
+        futures[future.key] = (cell, future, time.time())
+    for future in as_completed([f for _, f, _ in futures.values()]):
+        cell, _, submitted = futures.pop(future.key)
+        try:
+            outcome = future.result()
+        except Exception as exc:  # noqa: BLE001 - a lost worker: that cell fails, the others go on
+            outcome = {"row": error_row(cell, f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"),
+                       "extra": {}, "draws": {}, "task": {}}
+        future.release()
+        outcome["task"].update(submitted=submitted, received=time.time())
+        yield cell, outcome
