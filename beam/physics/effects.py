@@ -376,6 +376,8 @@ EFFECT_NEEDS: dict[str, frozenset[str]] = {
     "patch_damping": frozenset({"patch"}),
     "sensor_mass": frozenset({"contact_sensor"}),
     "tip_cubic_spring": frozenset({"input", "uniform", "displacement"}),
+    # the same solver gate today (a free decay's nonlinear fit is not in the calibration yet)
+    "quadratic_drag": frozenset({"input", "uniform", "displacement"}),
 }
 
 
