@@ -162,3 +162,18 @@ def test_a_batch_of_sets_gives_what_each_set_gives_alone():
     for i in range(2):
         alone = model.free_response({k: float(v[i]) for k, v in batch.items()}, time, eta, modes=2, output="acceleration")
         np.testing.assert_allclose(together[i], alone, rtol=0, atol=1e-12 * np.abs(alone).max())
+
+
+def test_the_general_kernel_with_the_spring_reproduces_the_spring_s_own_kernel():
+    """lab_run_4's beam, spring (k3 = 1.5e4 N/m³) and 40 V pulse: the drag's kernel (every channel,
+    its own step rule) with a vanishing C_d against the spring's kernel, which tests/test_nonlinear.py
+    checks against solve_ivp (2e-8 of the peak): the same response to 1e-5 of the peak."""
+    geometry = BeamGeometry(0.4573, 0.093, 0.15, 0.25, 0.40, width_m=0.02)
+    parameters = {"bending_stiffness_Nm2": 0.491, "patch_coupling_NmV": 1.746e-2, "air_damping_Ns_m2": 0.02,
+                  "kelvin_voigt_Nm2s": 0.649e-5, "tip_cubic_stiffness_N_m3": 1.5e4}
+    voltage = np.where(np.arange(1500) < 80, 40.0, 0.0)
+    spring = BeamModel(geometry, ["air_damping", "kelvin_voigt", "tip_cubic_spring"])
+    both = BeamModel(geometry, ["air_damping", "kelvin_voigt", "tip_cubic_spring", "quadratic_drag"])
+    expected = spring.response(parameters, voltage, 1e-3, modes=4)
+    got = both.response(dict(parameters, drag_coefficient=1e-9), voltage, 1e-3, modes=4)
+    assert np.abs(got - expected).max() <= 1e-5 * np.abs(expected).max()
