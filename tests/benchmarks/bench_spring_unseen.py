@@ -41,14 +41,17 @@ DRAWS = (("bending_stiffness_Nm2", 0.35, 0.7), ("patch_coupling_NmV", 0.01, 0.02
 
 
 def fresh_config(text: str, rng: np.random.Generator) -> tuple[str, dict[str, float]]:
+    """The config with new true values and seed (the [nominal] prior centres kept)."""
     drawn = {}
+    cut = text.index("[parameters]")
+    head, tail = text[:cut], text[cut:]
     for key, low, high in DRAWS:
         value = float(np.exp(rng.uniform(np.log(low), np.log(high))))
-        text, count = re.subn(rf"(?m)^{key} = .*$", f"{key} = {value:.6g}", text)
+        tail, count = re.subn(rf"(?m)^{key} = .*$", f"{key} = {value:.6g}", tail)
         assert count == 1, key
         drawn[key] = float(f"{value:.6g}")
-    text = re.sub(r"(?m)^seed = .*$", f"seed = {int(rng.integers(1, 10**6))}", text)
-    return text, drawn
+    tail = re.sub(r"(?m)^seed = .*$", f"seed = {int(rng.integers(1, 10**6))}", tail)
+    return head + tail, drawn
 
 
 def run(path: Path, preview: bool) -> tuple[float, float, object]:
