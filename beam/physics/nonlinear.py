@@ -515,11 +515,14 @@ def _forcing(xi, u, row, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, c
             continue
         v = 0.0
         for j in range(n_poles):
-            v += (gamma_gauss[row, g, j] * xi[j]).real
+            gain = gamma_gauss[row, g, j]
+            state = xi[j]
+            v += gain.real * state.real - gain.imag * state.imag
         force = -c * abs(v) * v
         gauss_force[g] = force
         for j in range(n_poles):
-            out[j] += beta_gauss[row, g, j] * force
+            gain = beta_gauss[row, g, j]
+            out[j] += complex(gain.real * force, gain.imag * force)
     return spring
 
 
