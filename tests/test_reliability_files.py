@@ -590,7 +590,7 @@ def t_sensor_outside(draw, text):
 
 def t_unknown_key(draw, text):
     table = draw(st.sampled_from(["beam", "patch", "sensor"]))
-    key = draw(st.sampled_from(["width_m", "lenght_m", "position", "x"]))
+    key = draw(st.sampled_from(["widht_m", "lenght_m", "position", "x"]))
     return text.replace(f"[{table}]\n", f"[{table}]\n{key} = 1.0\n").encode(), error(f"[{table}] {key}: unknown key")
 
 

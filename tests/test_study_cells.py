@@ -101,3 +101,24 @@ def test_warming_up_never_stops_a_study(monkeypatch):
     warm_kernels(record, cells)
     assert [(c["effects"], c["modes"], c["steps"]) for c in calls] == [((), 2, 10), (("air_damping",), 2, 10)]
     assert calls[0]["window"] == (0.0, pytest.approx(0.3499))
+
+
+def test_every_line_of_a_records_figure_shares_its_abscissa():
+    """A set computed on fewer windows is drawn at those windows' places on the record's axis."""
+    import re
+
+    import pandas as pd
+
+    from beam.study.report import _record_figures
+
+    rows = [dict(record="r", window_start_s=a, window_end_s=b, effects=e, likelihood="iid", output_unit="m",
+                 rmse_prediction=rmse, coverage95_prediction=0.9, error="")
+            for e, windows, rmse in [("a", [(0, 0.5), (0, 2), (1, 2.5)], 1e-3), ("b", [(0, 1), (0, 1.5)], 2e-3)]
+            for a, b in windows]
+    figures, _ = _record_figures(pd.DataFrame(rows))
+    lines = [[float(p.split(",")[0]) for p in pts.split()] for pts in re.findall(r'<polyline[^>]*points="([^"]*)"',
+                                                                               figures[0])]
+    (a0, a1, a2), (b0, b1) = lines[0], lines[1]  # centres 0.25, 1, 1.75 and 0.5, 0.75 (s)
+    assert a1 - a0 == pytest.approx((a2 - a0) * 0.75 / 1.5, abs=0.15)
+    assert (b0, b1) == (pytest.approx(a0 + (a2 - a0) * 0.25 / 1.5, abs=0.15),
+                        pytest.approx(a0 + (a2 - a0) * 0.5 / 1.5, abs=0.15))

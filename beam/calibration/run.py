@@ -57,6 +57,7 @@ from beam.inference import (
 )
 from beam.inference.sampling import ENSEMBLES
 from beam.inference.summaries import summarize_draws
+from beam.io.anchor import mode_order_warnings
 from beam.io.limits import MAX_CALIBRATION_SAMPLES
 from beam.io.measurement import Measurement
 from beam.io.text import atomic_write_texts
@@ -235,7 +236,8 @@ class CalibrationResult:
             "ess_min": diagnostics.ess_min if diagnostics is not None else None,
             "rhat_max": diagnostics.rhat_max if diagnostics is not None else None,
             "converged": bool(diagnostics.converged) if diagnostics is not None else False,
-            "warnings": list(diagnostics.warnings) if diagnostics is not None else list(self.laplace.warnings),
+            "warnings": [*(diagnostics.warnings if diagnostics is not None else self.laplace.warnings),
+                         *mode_order_warnings(m, self.setup.model, self.laplace.map.values)],
             "log_evidence_laplace": float(self.laplace.log_evidence),
             "map": {name: float(v) for name, v in self.laplace.map.values.items()},
             "log_posterior_map": float(self.laplace.map.log_posterior),

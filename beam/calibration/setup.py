@@ -90,11 +90,13 @@ def nominal_log_sd(name: str) -> float:
     return NOMINAL_LOG_SD[name]
 
 
-def parameter_prior(name: str, nominal: Mapping[str, float]):
-    """The prior of a physical parameter (see the module notes)."""
+def parameter_prior(name: str, nominal: Mapping[str, float], spreads: Mapping[str, float] | None = None):
+    """The prior of a physical parameter (see the module notes); ``spreads`` (the record's
+    :attr:`~beam.io.measurement.Measurement.nominal_spread`) overrides sigma of log x where the
+    beam's description says how well a value is known."""
     spec = PARAMETER_SPECS[name]
     if name in nominal:
-        centre, sd = float(nominal[name]), nominal_log_sd(name)
+        centre, sd = float(nominal[name]), float((spreads or {}).get(name, nominal_log_sd(name)))
         spread = math.exp(_TRUNCATION_SIGMAS * sd)
         return LogNormal(centre, sd, lower=centre / spread, upper=centre * spread)
     return LogUniform(spec.prior_low, spec.prior_high)
@@ -343,7 +345,8 @@ def build_problem(setup: BeamCalibrationSetup, initial_guesses=None) -> Problem:
                                          data, setup.likelihood)
     nominal = measurement.nominal
     parameters = [
-        Parameter(name, parameter_prior(name, nominal), PARAMETER_SPECS[name].unit, PARAMETER_SPECS[name].description)
+        Parameter(name, parameter_prior(name, nominal, measurement.nominal_spread), PARAMETER_SPECS[name].unit,
+                  PARAMETER_SPECS[name].description)
         for name in setup.physical_names
     ]
     scale = float(np.sqrt(np.mean(data**2))) or 1e-9

@@ -83,24 +83,19 @@ class HelpFormatter(argparse.HelpFormatter):
 
 
 def measurement_path(text: str) -> str:
-    """A measurement as given (``NAME.csv``, ``NAME.toml`` or ``NAME``), or a bundled lab run.
+    """A record as given (``NAME.csv``, ``NAME.toml``, ``NAME`` or a file in another format), or a
+    bundled record by name (:func:`beam.io.bundled.resolve_data_path`: ``lab_run_1``,
+    ``adxl_50cm_114655``)."""
+    from beam.io.bundled import resolve_data_path
 
-    A bare name (no directory part) whose files are not in the current directory is looked up
-    in :data:`BUNDLED_MEASUREMENTS`: ``beam calibrate lab_run_1`` finds
-    ``assets/measurements/lab_run_1.csv`` from anywhere. Anything else is returned unchanged
-    (and a missing file is reported by the reader).
-    """
-    path = Path(text)
-    stem = path.with_suffix("") if path.suffix.lower() in (".csv", ".toml") else path
-    if path.parent != Path(".") or not path.name or stem.with_name(stem.name + ".csv").exists():
-        return text
-    bundled = BUNDLED_MEASUREMENTS / f"{stem.name}.csv"
-    return str(bundled) if bundled.exists() else text
+    return resolve_data_path(text)
 
 
 def bundled_names() -> list[str]:
-    """Names of the bundled lab runs (empty when the package is installed without its assets)."""
-    return sorted(p.stem for p in BUNDLED_MEASUREMENTS.glob("*.csv")) if BUNDLED_MEASUREMENTS.is_dir() else []
+    """Names of the bundled records (empty when the package is installed without its assets)."""
+    from beam.io.bundled import bundled_record_names
+
+    return bundled_record_names()
 
 
 def effects_epilog() -> str:

@@ -18,6 +18,7 @@ from beam.cli.arguments import (
 )
 from beam.calibration.defaults import AUTO_MODES
 from beam.calibration.spec import CalibrationSpec
+from beam.cli.record_arguments import add_record_arguments, measurement_from_args
 
 LIKELIHOOD_CHOICES = ("iid", "ar1")
 
@@ -26,12 +27,14 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     """--window and --modes, shared with ``beam diagnose`` (defaults: :class:`~beam.calibration.spec.CalibrationSpec`'s)."""
     defaults = CalibrationSpec()
     parser.add_argument("data", metavar="DATA", type=measurement_path,
-                        help="measurement: NAME.csv, NAME.toml or NAME; a bundled run (e.g. lab_run_1) by its name")
+                        help="measurement: NAME.csv, NAME.toml or NAME; a bundled run (e.g. lab_run_1) by its name; or a "
+                        "record in another format (phyphox, .lvm, .mat, .npy, ...; see beam import)")
     parser.add_argument("--window", type=time_window, default=defaults.window, metavar="START:END",
                         help=f"calibration window in seconds, e.g. 0:1.5 (default: the first "
                         f"{100 * defaults.window_fraction:g} %% of the record)")
     parser.add_argument("--modes", type=modes_choice, default=defaults.modes, metavar="N",
                         help=f"retained modes, or auto (default: {_modes_text(defaults.modes)})")
+    add_record_arguments(parser)
 
 
 def _modes_text(modes) -> str:
@@ -78,13 +81,11 @@ def spec_of(args: argparse.Namespace) -> CalibrationSpec:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.io.measurement import read_measurement
-
     if args.report is not None and not str(args.report).lower().endswith((".html", ".htm")):
         from beam.errors import BeamInputError
 
         raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
-    measurement = read_measurement(args.data)  # a bad file fails before the heavy imports
+    measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
     from beam.calibration import calibrate
     result = calibrate(measurement, spec_of(args))
     summary = result.to_json()

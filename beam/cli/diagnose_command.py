@@ -31,9 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.io.measurement import read_measurement
+    from beam.cli.record_arguments import measurement_from_args
 
-    measurement = read_measurement(args.data)  # a bad file fails before the heavy imports
+    measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
     from beam.discovery.report import diagnose
 
     report = diagnose(measurement, window=args.window, modes=args.modes, base=args.base, ladder_mcmc=args.mcmc,

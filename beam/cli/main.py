@@ -21,6 +21,7 @@ COMMAND_MODULES = (
     "beam.cli.calibrate_command",
     "beam.cli.diagnose_command",
     "beam.cli.study_command",
+    "beam.cli.import_command",
 )
 
 

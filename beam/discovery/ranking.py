@@ -265,11 +265,11 @@ def rank_fits(base_result: CalibrationResult, names: Iterable[str],
 
 
 def rank_key(c: Candidate, base: CalibrationResult | None = None) -> tuple[bool, bool, float]:
-    """Sort key of the ranking: materially improving first, then (given the ``base`` fit) those whose
-    evidence is not contradicted by their held-out error (:func:`window_only`), then by evidence
-    gain, failed fits last."""
-    contradicted = base is not None and window_only(c, base)
-    return (not c.material, contradicted, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
+    """Sort key of the ranking: materially improving first (by evidence gain: which one is missing
+    does not change), then (given the ``base`` fit) the others whose evidence is not contradicted
+    by their held-out error (:func:`window_only`), then by evidence gain, failed fits last."""
+    demoted = base is not None and not c.material and window_only(c, base)
+    return (not c.material, demoted, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
 
 
 def held_out_change(candidate: Candidate, base: CalibrationResult) -> float:

@@ -617,7 +617,7 @@ def _name_unseen(result: CalibrationResult, values: dict, comparison: list[dx.Mo
         _, coefficients = model.mode_shapes(values, setup.modes)
         x = np.linspace(0.0, geometry.length_m, 401)
         shapes = model.parts.basis.evaluate(x) @ coefficients
-    except (BeamInputError, ValueError, KeyError):
+    except (BeamInputError, ValueError, KeyError, np.linalg.LinAlgError):  # no shapes: the rows stay unexplained
         return comparison
     nyquist = 0.5 * setup.measurement.rate_Hz
     return [row if row.matched or row.mode > shapes.shape[1] else replace(row, note=dx.unseen_reason(
@@ -647,9 +647,10 @@ def explainer(residuals: ResidualReport) -> Explainer:
         before, after = ((base_fit.rmse_calibration_map, fit.rmse_calibration_map) if free
                          else (base_fit.rmse_prediction_map, fit.rmse_prediction_map))
         if improves(base_fit, fit):
-            pattern = sentence.split(": no sign")[0]
-            return (f"the data favour it strongly (+{gain:.0f} nats, {judged} /{before / max(after, 1e-300):.1f}) "
-                    f"although its fingerprint is ambiguous: {pattern}")
+            head = f"the data favour it strongly (+{gain:.0f} nats, {judged} /{before / max(after, 1e-300):.1f})"
+            if not sentence:  # no fingerprint of its own (the sensor's mass)
+                return f"{head}; the residuals have no fingerprint of their own for it"
+            return f"{head} although its fingerprint is ambiguous: {sentence.split(': no sign')[0]}"
         fall = 1 - after / before if before > 0 else 0.0
         change = f"falls only {100 * fall:.0f} %" if fall > 0 else "does not fall"
         return (f"the evidence rises (+{gain:.0f} nats) but the {judged} {change}: too little to call the effect "

@@ -47,7 +47,13 @@
     :data:`beam.io.limits.LENGTH_RANGE_M` (0.01-100 m) and
     :data:`beam.io.limits.LINEAR_DENSITY_RANGE_KG_M` (1e-3 to 1e4 kg/m), where the model is finite;
     optional ``[nominal]`` prior centres keyed by parameter names of
-    :data:`beam.physics.effects.PARAMETER_SPECS` (positive finite). Unknown tables or keys are errors.
+    :data:`beam.physics.effects.PARAMETER_SPECS` (positive finite). The beam may instead be
+    described in a student's words (:func:`read_description`): ``[beam]`` ``width_m``,
+    ``thickness_m`` and ``material`` (or ``youngs_modulus_Pa`` and ``density_kg_m3``) give the
+    linear density and a nominal bending stiffness; ``[sensor]`` ``mass_kg`` (with
+    ``mass_approximate = true`` when not weighed) the sensor's mass. Without a nominal
+    bending stiffness the record's lowest strong spectral peak sets it (:mod:`beam.io.anchor`).
+    Unknown tables or keys are errors.
     At most :data:`beam.io.limits.MAX_TOML_BYTES` (1 MiB).
 
 Clipping
@@ -68,6 +74,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -81,6 +88,7 @@ from beam.io.limits import (
     LINEAR_DENSITY_RANGE_KG_M,
     MAX_MEASUREMENT_BYTES,
 )
+from beam.io.readers.signal import record_arrays
 from beam.io.text import (
     TomlReader,
     as_finite_float,
@@ -137,11 +145,22 @@ GEOMETRY_TABLES: dict[str, tuple[str, ...]] = {
 }
 #: Tables of a measurement sidecar: the geometry plus the force's position and the sensor's range.
 SIDECAR_TABLES: dict[str, tuple[str, ...]] = {
-    "beam": ("length_m", "linear_density_kg_m"),
+    "beam": ("length_m", "linear_density_kg_m", "width_m", "thickness_m", "material", "youngs_modulus_Pa",
+             "density_kg_m3"),
     "patch": ("start_m", "end_m"),
     "force": ("position_m",),
-    "sensor": ("position_m", "range"),
+    "sensor": ("position_m", "range", "mass_kg", "mass_approximate"),
 }
+#: Sidecar keys that describe the beam or the sensor but are not geometry (read by :func:`read_description`).
+DESCRIPTION_KEYS: frozenset[tuple[str, str]] = frozenset({
+    ("beam", "width_m"), ("beam", "thickness_m"), ("beam", "material"), ("beam", "youngs_modulus_Pa"),
+    ("beam", "density_kg_m3"), ("sensor", "range"), ("sensor", "mass_kg"), ("sensor", "mass_approximate"),
+})
+#: Log standard deviation of the prior of a sensor mass that was weighed (``[sensor] mass_kg``).
+KNOWN_MASS_LOG_SD = 0.02
+#: Log standard deviation of the prior of an approximate sensor mass (``mass_approximate = true``):
+#: a factor 1.4 at one sigma (a phone of 150-250 g given as 200 g).
+APPROXIMATE_MASS_LOG_SD = 0.35
 
 #: Data columns of a :class:`Measurement` (every input and output column).
 _DATA_COLUMNS: tuple[str, ...] = ALL_COLUMNS[1:]
@@ -182,6 +201,15 @@ class Measurement:
         Velocity (m/s) or acceleration (m/s²) at the sensor.
     sensor_range : float or None
         The sensor's full scale in the output's unit (``[sensor] range``), for clipping.
+    nominal_spread : dict
+        Log standard deviation of the prior around a nominal value, by parameter name, where the
+        beam's description says how well it is known (a material's spread, a weighed sensor);
+        parameters not in it take the calibration's defaults.
+    nominal_origin : dict
+        Where a nominal value not written in ``[nominal]`` came from, by parameter name (the
+        beam's description, or the record's lowest strong spectral peak).
+    source : tuple of str
+        For a record read from another format: what was read and done, one line each.
 
     Raises
     ------
@@ -205,6 +233,9 @@ class Measurement:
     velocity_m_s: np.ndarray | None = field(default=None, repr=False)
     acceleration_m_s2: np.ndarray | None = field(default=None, repr=False)
     sensor_range: float | None = None
+    nominal_spread: dict[str, float] = field(default_factory=dict)
+    nominal_origin: dict[str, str] = field(default_factory=dict)
+    source: tuple[str, ...] = ()
     uniform: bool = field(init=False, repr=False)
     clipped: np.ndarray = field(init=False, repr=False)
 
@@ -258,6 +289,13 @@ class Measurement:
         object.__setattr__(self, "clipped", clipped)
         object.__setattr__(self, "uniform", uniform_time_problem(columns["time_s"]) is None)
         object.__setattr__(self, "nominal", check_nominal(self.nominal, f"{where}: nominal"))
+        spread = check_nominal(self.nominal_spread, f"{where}: nominal_spread")
+        unknown = [name for name in spread if name not in self.nominal]
+        if unknown:
+            raise BeamInputError(f"{where}: nominal_spread {unknown[0]}: has no nominal value")
+        object.__setattr__(self, "nominal_spread", spread)
+        object.__setattr__(self, "nominal_origin", dict(self.nominal_origin))
+        object.__setattr__(self, "source", tuple(str(line) for line in self.source))
 
     # ------------------------------------------------------------------ columns
     @property
@@ -579,21 +617,24 @@ class MeasurementTable:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """Column name to array (time, input if any, output)."""
-        out = {"time_s": self.time_s}
-        if self.input_column is not None:
-            out[self.input_column] = self.input
-        out[self.output_column] = self.output
-        return out
+        return record_arrays(self)
 
 
 @dataclass(frozen=True)
 class Sidecar:
-    """What a measurement sidecar holds (:func:`load_sidecar`)."""
+    """What a measurement sidecar holds (:func:`load_sidecar`).
+
+    ``nominal`` holds ``[nominal]`` plus what the beam's description gives (the bending
+    stiffness from E, width and thickness; the sensor's mass), ``nominal_spread`` the log
+    standard deviations the description sets, ``nominal_origin`` where a derived value came from.
+    """
 
     title: str | None
     geometry: BeamGeometry
     nominal: dict[str, float]
     sensor_range: float | None = None
+    nominal_spread: dict[str, float] = field(default_factory=dict)
+    nominal_origin: dict[str, str] = field(default_factory=dict)
 
 
 def measurement_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
@@ -613,13 +654,26 @@ def measurement_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     return stem.with_name(stem.name + ".csv"), stem.with_name(stem.name + ".toml")
 
 
-def read_measurement(path: str | os.PathLike[str]) -> Measurement:
-    """Read ``NAME.csv`` and its sidecar ``NAME.toml``.
+def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record_options: Any) -> Measurement:
+    """Read ``NAME.csv`` and its sidecar ``NAME.toml``, or a record in another format.
 
     Parameters
     ----------
     path : str or path-like
-        Either file of the pair (the other is found next to it), or ``NAME`` alone.
+        Either file of the pair (the other is found next to it), or ``NAME`` alone; or a file in
+        any format :func:`beam.io.readers.read_record` reads (a phyphox export, an ``.lvm``, a
+        ``.mat``...). A ``.csv`` is the project's own when its header follows the rule above or
+        tries to (it names one of the project's columns, or holds numbers and no reading option
+        is given): then its errors are the project's. Anything else is read by
+        :mod:`beam.io.readers`, with the beam described by ``beam`` or by a sidecar ``STEM.toml``
+        next to the file (:func:`measurement_from_record`); when such a ``.csv``
+        is not readable either, the message gives the project's header rule and the reason.
+    beam : path-like or mapping, optional
+        For a record in another format: the sidecar (a TOML path, or the document as a mapping)
+        describing the beam, instead of ``STEM.toml``.
+    **record_options
+        ``format``, ``column``, ``axis``, ``rate``, ``time_unit``, ``unit``, ``segment`` of
+        :func:`beam.io.readers.read_record`, for a record in another format.
 
     Returns
     -------
@@ -630,6 +684,23 @@ def read_measurement(path: str | os.PathLike[str]) -> Measurement:
     BeamInputError
         A missing or malformed file; one line naming the file and the line or key.
     """
+    options = {key: value for key, value in record_options.items() if value is not None}
+    if beam is not None or options or not is_project_file(path):
+        from beam.io.readers import read_record
+
+        try:
+            record = read_record(path, **options)
+        except BeamInputError as exc:
+            header = _first_line(Path(path)) if Path(path).suffix.lower() == ".csv" and not options else None
+            if header is None:
+                raise
+            try:
+                _check_header(Path(path), header)
+            except BeamInputError as project:  # say both: the project's rule and the other formats' reason
+                reason = str(exc).removeprefix(f"{path}: ")
+                raise BeamInputError(f"{project}; read as another format: {reason}") from None
+            raise
+        return measurement_from_record(record, beam)
     csv_path, toml_path = measurement_paths(path)
     csv_exists, toml_exists = _exists(csv_path), _exists(toml_path)
     if not csv_exists and not toml_exists:
@@ -644,12 +715,61 @@ def read_measurement(path: str | os.PathLike[str]) -> Measurement:
     input_column = next((c for c in _check_header(csv_path, lines[0]) if c in INPUT_COLUMNS), None) if lines else None
     sidecar = load_sidecar(toml_path, input_kind=INPUT_COLUMNS.get(input_column))
     table = _table_from_lines(csv_path, lines, sidecar.sensor_range)
+    nominal, origin = anchored(sidecar, table.time_s, table.output, OUTPUT_COLUMNS[table.output_column],
+                               INPUT_COLUMNS.get(input_column), table.input)
     return Measurement(
         name=csv_path.stem, title=sidecar.title if sidecar.title is not None else csv_path.stem,
-        geometry=sidecar.geometry, time_s=table.time_s, nominal=sidecar.nominal, csv_path=csv_path,
-        toml_path=toml_path, sensor_range=sidecar.sensor_range,
-        **{name: values for name, values in table.arrays().items() if name != "time_s"},
+        geometry=sidecar.geometry, time_s=table.time_s, nominal=nominal, csv_path=csv_path,
+        toml_path=toml_path, sensor_range=sidecar.sensor_range, nominal_spread=sidecar.nominal_spread,
+        nominal_origin=origin, **{name: values for name, values in table.arrays().items() if name != "time_s"},
     )
+
+
+def anchored(sidecar: Sidecar, time_s: np.ndarray, output: np.ndarray, output_kind: str,
+             input_kind: str | None, input: np.ndarray | None = None) -> tuple[dict[str, float], dict[str, str]]:
+    """The sidecar's nominal values plus, without a bending stiffness, the one anchored on the
+    record's lowest strong spectral peak (:func:`beam.io.anchor.anchor_nominal`); and their origins."""
+    from beam.io.anchor import anchor_nominal
+
+    nominal, origin = anchor_nominal(sidecar.geometry, sidecar.nominal, time_s, output, output_kind, input_kind, input)
+    return nominal, {**sidecar.nominal_origin, **origin}
+
+
+def is_project_file(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is read as the project's own ``NAME.csv`` + ``NAME.toml`` (see :func:`read_measurement`).
+
+    True for ``NAME``, ``NAME.toml``, a missing ``NAME.csv`` and a CSV whose first line is the
+    project's header, tries to be (names one of :data:`ALL_COLUMNS` or ``quantity_unit`` of a
+    project quantity) or holds only numbers; False for any other file.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".toml" or (not suffix and not _exists(path)):
+        return True
+    if suffix == ".csv" and not _exists(path):
+        return True
+    if suffix != ".csv" or path.is_dir():
+        return False
+    first = _first_line(path)
+    if first is None:
+        return True  # let the project's reader report it
+    names = [name.strip().strip('"') for name in re.split(r"[,;\t]", first.strip())]
+    if not any(names):
+        return True
+    if any(name in ALL_COLUMNS for name in names):
+        return True
+    if any("_" in name and name.split("_", 1)[0].lower() in _QUANTITIES and " " not in name for name in names):
+        return True
+    return all(_looks_numeric(name) for name in names if name)
+
+
+def _first_line(path: Path) -> str | None:
+    """The first line of a file (at most 4 KiB, undecodable bytes replaced), None if unreadable."""
+    try:
+        with open(path, "rb") as handle:
+            return handle.readline(4096).decode("utf-8-sig", errors="replace").rstrip("\r\n")
+    except OSError:
+        return None
 
 
 def _lines(text: str) -> list[str]:
@@ -694,15 +814,118 @@ def read_sidecar(
     return sidecar.title, sidecar.geometry, sidecar.nominal
 
 
-def load_sidecar(path: str | os.PathLike[str], input_kind: str | None = "voltage") -> Sidecar:
-    """Everything a measurement sidecar holds, including ``[sensor] range`` (see :func:`read_sidecar`)."""
-    reader = TomlReader(load_toml(path, "sidecar"), path)
+def load_sidecar(path: str | os.PathLike[str], input_kind: str | None = "voltage", record: Any = None) -> Sidecar:
+    """Everything a measurement sidecar holds, including ``[sensor] range`` and the beam's
+    description (see :func:`read_sidecar`, :func:`read_description`). ``record`` is unused
+    (kept for a reader of another format to pass what it read)."""
+    return _sidecar(TomlReader(load_toml(path, "sidecar"), path), input_kind)
+
+
+def sidecar_from_document(document: Mapping[str, Any], where: str, input_kind: str | None = None,
+                          record: Any = None) -> Sidecar:
+    """A sidecar given as a parsed document (command-line flags) instead of a file; ``where``
+    names it in messages."""
+    return _sidecar(TomlReader(dict(document), where), input_kind)
+
+
+def _sidecar(reader: TomlReader, input_kind: str | None) -> Sidecar:
     reader.check_top_level(tables=(*SIDECAR_TABLES, "nominal"), keys=("title",))
     title = read_title(reader)
-    geometry = read_geometry(reader, tables=SIDECAR_TABLES, input_kind=input_kind)
+    description = read_description(reader)
+    geometry = read_geometry(reader, tables=SIDECAR_TABLES, input_kind=input_kind, description=description)
     sensor = reader.table("sensor")
     sensor_range = reader.number("sensor", sensor, "range", required=False)
-    return Sidecar(title, geometry, read_nominal(reader), sensor_range)
+    nominal = read_nominal(reader)
+    spread: dict[str, float] = {}
+    origin: dict[str, str] = {}
+    stiffness = description.get("bending_stiffness_Nm2")
+    if stiffness is not None and "bending_stiffness_Nm2" not in nominal:
+        nominal["bending_stiffness_Nm2"] = stiffness
+        spread["bending_stiffness_Nm2"] = description["bending_stiffness_spread"]
+        origin["bending_stiffness_Nm2"] = description["bending_stiffness_origin"]
+    mass = description.get("sensor_mass_kg")
+    if mass is not None and "sensor_mass_kg" not in nominal:
+        nominal["sensor_mass_kg"] = mass
+        approximate = description["sensor_mass_approximate"]
+        spread["sensor_mass_kg"] = APPROXIMATE_MASS_LOG_SD if approximate else KNOWN_MASS_LOG_SD
+        origin["sensor_mass_kg"] = "[sensor] mass_kg" + (" (approximate)" if approximate else " (weighed)")
+    return Sidecar(title, geometry, nominal, sensor_range, spread, origin)
+
+
+def read_description(reader: TomlReader) -> dict[str, Any]:
+    """The beam in a student's words: ``[beam]`` width, thickness, material or E and density;
+    ``[sensor]`` mass (:mod:`beam.io.materials`).
+
+    Returns
+    -------
+    dict
+        ``linear_density_kg_m`` (rho b h, when width, thickness and a density are given),
+        ``bending_stiffness_Nm2`` (E b h³ / 12, when width, thickness and E are given) with
+        ``bending_stiffness_spread`` (log sd of its prior) and ``bending_stiffness_origin``;
+        ``sensor_mass_kg`` and ``sensor_mass_approximate`` when ``[sensor] mass_kg`` is given.
+        Absent keys: not derivable.
+
+    Raises
+    ------
+    BeamInputError
+        An unknown material, a material together with E or density, a width or thickness
+        without the other, a thickness larger than the width or the length.
+    """
+    from beam.io.materials import (
+        bending_stiffness,
+        bending_stiffness_spread,
+        find_material,
+        linear_density,
+    )
+
+    beam = reader.table("beam", required=False) or {}
+    sensor = reader.table("sensor", required=False) or {}
+    reader.check_keys("beam", beam, SIDECAR_TABLES["beam"])
+    reader.check_keys("sensor", sensor, SIDECAR_TABLES["sensor"])
+    out: dict[str, Any] = {}
+    width = reader.number("beam", beam, "width_m", required=False)
+    thickness = reader.number("beam", beam, "thickness_m", required=False)
+    modulus = reader.number("beam", beam, "youngs_modulus_Pa", required=False)
+    density = reader.number("beam", beam, "density_kg_m3", required=False)
+    modulus_spread = None
+    material_name = reader.string("beam", beam, "material", required=False)
+    if material_name is not None:
+        try:
+            material = find_material(material_name)
+        except BeamInputError as exc:
+            raise reader.fail("[beam] material", str(exc)) from None
+        modulus_spread = material.youngs_modulus_spread if modulus is None else None
+        modulus = material.youngs_modulus_Pa if modulus is None else modulus
+        density = material.density_kg_m3 if density is None else density
+        material_name = material.name
+    if (width is None) != (thickness is None):
+        missing = "thickness_m" if thickness is None else "width_m"
+        raise reader.fail(f"[beam] {missing}", "missing key; width_m and thickness_m describe the strip together")
+    if width is not None:
+        length = reader.number("beam", beam, "length_m", required=False)
+        if thickness > width:
+            raise reader.fail("[beam] thickness_m", f"{thickness!r} m is more than width_m = {width!r} m; the strip "
+                                                    "bends about its width (swap them?)")
+        if length is not None and width > length:
+            raise reader.fail("[beam] width_m", f"{width!r} m is more than length_m = {length!r} m")
+        if density is not None:
+            out["linear_density_kg_m"] = linear_density(density, width, thickness)
+        if modulus is not None and length is not None:
+            out["bending_stiffness_Nm2"] = bending_stiffness(modulus, width, thickness)
+            out["bending_stiffness_spread"] = bending_stiffness_spread(
+                modulus_spread if modulus_spread is not None else 0.0, length, width, thickness)
+            source = f"{material_name}'s E" if modulus_spread is not None else "youngs_modulus_Pa"
+            out["bending_stiffness_origin"] = f"E b h³ / 12 from {source}, width_m and thickness_m"
+    mass = reader.number("sensor", sensor, "mass_kg", required=False)
+    if mass is not None:
+        approximate = sensor.get("mass_approximate", False)
+        if not isinstance(approximate, bool):
+            raise reader.fail("[sensor] mass_approximate", f"must be true or false, got {short_repr(approximate)}")
+        out["sensor_mass_kg"] = mass
+        out["sensor_mass_approximate"] = approximate
+    elif "mass_approximate" in sensor:
+        raise reader.fail("[sensor] mass_approximate", "given without mass_kg")
+    return out
 
 
 def read_title(reader: TomlReader) -> str | None:
@@ -714,7 +937,8 @@ _INPUT_NEEDS = {"voltage": ("patch", "voltage_V"), "force": ("force", "force_N")
 
 
 def read_geometry(
-    reader: TomlReader, tables: Mapping[str, tuple[str, ...]] = GEOMETRY_TABLES, input_kind: str | None = "voltage"
+    reader: TomlReader, tables: Mapping[str, tuple[str, ...]] = GEOMETRY_TABLES, input_kind: str | None = "voltage",
+    description: Mapping[str, Any] | None = None,
 ) -> BeamGeometry:
     """``[beam]``, ``[patch]``, ``[force]``, ``[sensor]`` of a sidecar or config as a :class:`BeamGeometry`.
 
@@ -730,6 +954,9 @@ def read_geometry(
     input_kind : {"voltage", "force", None}
         Which tables are required besides ``[beam]`` and ``[sensor]``: ``[patch]`` for a
         voltage, ``[force]`` for a force.
+    description : mapping, optional
+        :func:`read_description` of the file: its ``linear_density_kg_m`` (rho b h) stands in
+        for a missing ``[beam] linear_density_kg_m``.
     """
     required = {"beam", "sensor"}
     if input_kind in _INPUT_NEEDS:
@@ -745,7 +972,14 @@ def read_geometry(
             continue
         reader.check_keys(table_name, table, keys)
         for key in keys:
-            if key == "range":
+            if (table_name, key) in DESCRIPTION_KEYS:
+                continue
+            if (table_name, key) == ("beam", "linear_density_kg_m") and key not in table:
+                derived = (description or {}).get("linear_density_kg_m")
+                if derived is None:
+                    raise reader.fail("[beam] linear_density_kg_m", "missing key; give it, or width_m, thickness_m and "
+                                      "material (or density_kg_m3)" if tables is SIDECAR_TABLES else "missing key")
+                values[(table_name, key)] = derived
                 continue
             values[(table_name, key)] = reader.number(table_name, table, key, positive=table_name == "beam")
     for (table_name, key), value in values.items():
@@ -939,6 +1173,76 @@ def _parse_rows(path: Path, rows: list[str], columns: tuple[str, ...]) -> np.nda
                 raise BeamInputError(f"{path}: line {line}: {column} = {text!r} is not finite")
             table[offset, index] = value
     return table
+
+
+# ---------------------------------------------------------------------------------------------
+# a record in another format
+# ---------------------------------------------------------------------------------------------
+# The samples come from :func:`beam.io.readers.read_record` (any supported format, SI units,
+# clean stamps, one pluck); the beam from a sidecar: the ``beam=`` argument of
+# :func:`read_measurement` (a TOML path, or the document as a mapping, e.g. built from
+# command-line flags by :func:`beam.cli.record_arguments.beam_document`), else ``STEM.toml``
+# next to the file (``Raw Data.csv`` -> ``Raw Data.toml``, ``run.npy`` -> ``run.toml``).
+
+#: The project's input column -> the input kind the sidecar is checked for.
+_INPUT_KIND = {column: kind for kind, column in INPUT_COLUMNS.items()}
+
+
+def sidecar_path_for(path: str | os.PathLike[str]) -> Path:
+    """``STEM.toml`` next to a record file."""
+    path = Path(path)
+    return path.with_name(path.stem + ".toml") if path.suffix else path.with_name(path.name + ".toml")
+
+
+def measurement_from_record(record: Any, beam: Any = None) -> Measurement:
+    """A :class:`Measurement` from a record read by :func:`beam.io.readers.read_record` and the
+    description of its beam (module notes).
+
+    Raises
+    ------
+    BeamInputError
+        No description of the beam, or a bad one; one line.
+    """
+    path = Path(record.path)
+    input_kind = _INPUT_KIND.get(record.input_column) if record.input_column else None
+    if beam is None:
+        candidate = sidecar_path_for(path)
+        if not candidate.exists():
+            raise BeamInputError(
+                f"{path}: read as {record.format}, but the beam is not described: give --length, --width, --thickness "
+                f"and --material (or --density and --youngs-modulus) and --sensor-at, or a sidecar {candidate.name} "
+                "next to it, or --beam BEAM.toml")
+        beam = candidate
+    if isinstance(beam, Mapping):
+        where = getattr(beam, "where", "beam description")
+        sidecar = sidecar_from_document(beam, where, input_kind=input_kind, record=record)
+        toml_path = None
+    else:
+        sidecar = load_sidecar(beam, input_kind=input_kind, record=record)
+        toml_path = Path(beam)
+    name = path.stem if path.suffix else path.name
+    output_kind = record.output_column.split("_", 1)[0]
+    nominal, origin = anchored(sidecar, record.time_s, record.output, output_kind, input_kind, record.input)
+    return Measurement(
+        name=name, title=sidecar.title if sidecar.title is not None else name, geometry=sidecar.geometry,
+        time_s=record.time_s, nominal=nominal, csv_path=None, toml_path=toml_path,
+        sensor_range=sidecar.sensor_range, nominal_spread=sidecar.nominal_spread, nominal_origin=origin,
+        source=tuple(describe_record(record)),
+        **{column: values for column, values in record.arrays().items() if column != "time_s"},
+    )
+
+
+def describe_record(record: Any) -> list[str]:
+    """What was read, one line each (format, signal, time, everything done to the data)."""
+    lines = [f"read as {record.format}", f"signal: {record.signal}"]
+    if record.input_column:
+        lines.append(f"input: {record.input_column}")
+    lines += record.notes
+    if record.segments:
+        for k, segment in enumerate(record.segments, start=1):
+            mark = " (used)" if record.segment_index == k - 1 else ""
+            lines.append(f"segment {k}: {segment.start_s:.3f}-{segment.end_s:.3f} s, peak {segment.peak:.3g}{mark}")
+    return lines
 
 
 # ---------------------------------------------------------------------------------------------

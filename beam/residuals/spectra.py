@@ -19,6 +19,7 @@ import numpy as np
 import scipy.signal
 
 from beam.errors import BeamInputError
+from beam.io.anchor import refine_peak as _refine
 from beam.residuals.common import check_signals, integer, jsonable, positive
 
 __all__ = ["ModePower", "ResidualSpectrum", "SpectralPeak", "default_nperseg", "residual_spectrum"]
@@ -119,16 +120,6 @@ class ResidualSpectrum:
 
     def to_dict(self, arrays: bool = False) -> dict[str, Any]:
         return jsonable(self, arrays)
-
-
-def _refine(frequency: np.ndarray, log_psd: np.ndarray, i: int) -> float:
-    """Vertex of the parabola through the log-PSD at bins i − 1, i, i + 1."""
-    if i <= 0 or i >= log_psd.size - 1:
-        return float(frequency[i])
-    left, centre, right = log_psd[i - 1 : i + 2]
-    curvature = left - 2 * centre + right
-    shift = 0.5 * (left - right) / curvature if curvature < 0 else 0.0
-    return float(frequency[i] + np.clip(shift, -0.5, 0.5) * (frequency[1] - frequency[0]))
 
 
 def residual_spectrum(

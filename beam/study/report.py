@@ -50,13 +50,14 @@ def _record_figures(table) -> tuple[list[str], list[str]]:
     if ok.empty:
         return [], [f"{table['record'].iloc[0]}: every cell failed."]
     record = ok["record"].iloc[0]
-    x_label, _ = window_axis(list(zip(ok["window_start_s"], ok["window_end_s"])))
+    x_label, x_all = window_axis(list(zip(ok["window_start_s"], ok["window_end_s"])))
+    ok = ok.assign(x=x_all)  # one abscissa for every line of the record's figures
     factor, unit = _scale(ok["output_unit"].iloc[0])
     sets = list(dict.fromkeys(ok["effects"]))
     error, coverage, notes = [], [], []
     for (effects, likelihood), group in ok.groupby(["effects", "likelihood"], sort=False):
         group = group.sort_values(["window_start_s", "window_end_s"])
-        _, x = window_axis(list(zip(group["window_start_s"], group["window_end_s"])))
+        x = group["x"].to_numpy(float)
         order = np.argsort(x, kind="stable")
         x = x[order]
         colour = COLOURS[sets.index(effects) % len(COLOURS)]
@@ -73,7 +74,6 @@ def _record_figures(table) -> tuple[list[str], list[str]]:
             notes.append(f"{record}, {label}: held-out error {_fmt(np.nanmin(rmse))}–{_fmt(np.nanmax(rmse))} {unit} "
                          f"(smallest with the {windows[best][0]:g}–{windows[best][1]:g} s window), "
                          f"95 % band coverage {_fmt(np.nanmin(cover))}–{_fmt(np.nanmax(cover))} %.")
-    x_all = window_axis(list(zip(ok["window_start_s"], ok["window_end_s"])))[1]
     reference = Series("95 % (nominal)", np.array([x_all.min(), x_all.max()]), np.array([95.0, 95.0]),
                        colour="#777777", style="dashed")
     figures = [
@@ -89,7 +89,7 @@ def _record_figures(table) -> tuple[list[str], list[str]]:
             group = group[group[f"{name}_mean"].notna()]
             if group.empty:
                 continue
-            _, x = window_axis(list(zip(group["window_start_s"], group["window_end_s"])))
+            x = group["x"].to_numpy(float)
             order = np.argsort(x, kind="stable")
             colour = COLOURS[sets.index(effects) % len(COLOURS)]
             layers.append(Series(_label(effects, likelihood), x[order], group[f"{name}_q025"].to_numpy(float)[order],

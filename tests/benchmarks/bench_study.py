@@ -8,6 +8,9 @@ folder each), and prints:
 
 - wall time of the whole study (cluster start and the parent's kernel warm-up included) and of its
   streaming phase (first task submitted to last result received), and the speed-up of 2 workers over 1;
+- the effective parallelism, the sum of the cells' compute times over the streaming phase: how many
+  workers were busy on average (on a shared machine the load changes between the two runs and moves
+  the speed-up; this ratio compares each run with itself);
 - each cell's compute time (in the worker: the calibration and its scoring);
 - the Dask overhead per cell with 1 worker: the streaming phase minus the sum of the cells' compute
   times, per cell, and as a share of the mean cell time (scheduling, transfer of the record and the
@@ -70,6 +73,9 @@ def main() -> None:
     one, two = runs
     print(f"speed-up 2 vs 1 worker: {one['stream'] / two['stream']:.2f}x streaming phase, "
           f"{one['wall'] / two['wall']:.2f}x whole study (cluster start and warm-up included)")
+    print("effective parallelism (sum of the cells' compute times / streaming phase; load changes between the "
+          f"runs cancel out): {sum(one['compute']) / one['stream']:.2f} with 1 worker, "
+          f"{sum(two['compute']) / two['stream']:.2f} with 2")
     overhead = (one["stream"] - sum(one["compute"])) / len(cells)
     print(f"Dask overhead per cell (1 worker): {1000 * overhead:.0f} ms = "
           f"{100 * overhead / statistics.mean(one['compute']):.2f} % of the mean cell time "

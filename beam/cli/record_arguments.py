@@ -1,0 +1,145 @@
+"""Flags that read any record file and describe its beam, shared by ``beam import``, ``beam
+calibrate`` and ``beam diagnose``.
+
+Reading (:func:`beam.io.readers.read_record`): ``--format``, ``--column NAME|INDEX``,
+``--axis x|y|z``, ``--rate HZ``, ``--time-unit s|ms|us``, ``--unit UNIT``, ``--segment K``.
+The beam (a sidecar's keys, :mod:`beam.io.measurement`): ``--beam BEAM.toml`` and/or
+``--length``, ``--width``, ``--thickness`` (m), ``--material NAME`` or ``--youngs-modulus``
+(Pa) and ``--density`` (kg/m³), ``--linear-density`` (kg/m), ``--sensor-at`` (m from the
+clamp), ``--sensor-mass KG`` (``~KG`` for an approximate mass), ``--sensor-range``. Flags
+override the same keys of ``--beam``; any of them makes the record be read by
+:mod:`beam.io.readers` with that description instead of a sidecar next to it.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from beam.cli.arguments import finite_float, positive_int
+
+#: Geometry flags: (flag, dest, table, key, metavar, help).
+BEAM_FLAGS: tuple[tuple[str, str, str, str, str, str], ...] = (
+    ("--length", "beam_length", "beam", "length_m", "M", "free length of the beam, clamp to tip (m)"),
+    ("--width", "beam_width", "beam", "width_m", "M", "width of the strip (m)"),
+    ("--thickness", "beam_thickness", "beam", "thickness_m", "M", "thickness of the strip (m)"),
+    ("--youngs-modulus", "beam_youngs_modulus", "beam", "youngs_modulus_Pa", "PA",
+     "Young's modulus (Pa), instead of --material"),
+    ("--density", "beam_density", "beam", "density_kg_m3", "KG_M3", "density (kg/m³), instead of --material"),
+    ("--linear-density", "beam_linear_density", "beam", "linear_density_kg_m", "KG_M", "mass per length (kg/m), if known"),
+    ("--sensor-at", "sensor_at", "sensor", "position_m", "M",
+     "sensor position, from the clamp (m; default for beam import: the tip)"),
+    ("--sensor-range", "sensor_range", "sensor", "range", "SI",
+     "sensor's full scale in SI units (e.g. 156.9 for ±16 g), for clipping"),
+)
+
+#: Reading options: dest -> keyword of read_record.
+RECORD_OPTIONS = {"record_format": "format", "column": "column", "axis": "axis", "rate": "rate",
+                  "time_unit": "time_unit", "unit": "unit", "segment": "segment"}
+
+
+def sensor_mass(text: str) -> tuple[float, bool]:
+    """``KG`` (weighed) or ``~KG`` (approximate): (mass in kg > 0, approximate)."""
+    approximate = text.strip().startswith("~")
+    value = finite_float(text.strip().lstrip("~"))
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a mass > 0 in kg (~KG if approximate), got {text!r}")
+    return value, approximate
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0."""
+    value = finite_float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
+def add_record_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the reading and beam flags (module notes) to ``parser``."""
+    from beam.io.materials import MATERIALS
+    from beam.io.readers import FORMATS
+
+    reading = parser.add_argument_group("reading a record in another format (phyphox, LabVIEW, MATLAB, NumPy, TDMS, any CSV)")
+    reading.add_argument("--format", dest="record_format", choices=tuple(FORMATS), default=None,
+                         help="force the reader (default: recognised from the file)")
+    which = reading.add_mutually_exclusive_group()
+    which.add_argument("--column", default=None, metavar="NAME|INDEX",
+                       help="the signal's column, by name or position (1 = the first column)")
+    which.add_argument("--axis", choices=("x", "y", "z"), default=None, help="the signal's axis")
+    when = reading.add_mutually_exclusive_group()
+    when.add_argument("--rate", type=positive_float, default=None, metavar="HZ",
+                      help="sampling rate, for a file without time stamps (Hz)")
+    when.add_argument("--time-unit", choices=("s", "ms", "us"), default=None,
+                      help="unit of the time column (an Arduino's micros() is us)")
+    reading.add_argument("--unit", default=None, metavar="UNIT",
+                         help="unit of the signal column when its name has none (g, m/s^2, mm/s, m/s, µm, mm, m)")
+    reading.add_argument("--segment", type=positive_int, default=None, metavar="K",
+                         help="use pluck/tap (or file segment) K (default: the strongest)")
+    beam = parser.add_argument_group("the beam, in a student's words (or --beam BEAM.toml)")
+    beam.add_argument("--beam", dest="beam_file", default=None, metavar="BEAM.toml",
+                      help="a sidecar describing the beam (the flags below override its keys)")
+    for flag, dest, _table, _key, metavar, text in BEAM_FLAGS:
+        beam.add_argument(flag, dest=dest, type=positive_float, default=None, metavar=metavar, help=text)
+    beam.add_argument("--material", default=None, metavar="NAME",
+                      help="material preset: " + ", ".join(MATERIALS) + " (gives E, density and their spread)")
+    beam.add_argument("--sensor-mass", type=sensor_mass, default=None, metavar="KG",
+                      help="sensor's mass in kg (a known point mass; ~KG when approximate, e.g. ~0.2 for a phone)")
+
+
+def beam_flags_given(args: argparse.Namespace) -> bool:
+    """Whether any beam flag (not --beam) was given."""
+    return any(getattr(args, dest, None) is not None for _f, dest, *_ in BEAM_FLAGS) or any(
+        getattr(args, name, None) is not None for name in ("material", "sensor_mass"))
+
+
+def beam_document(args: argparse.Namespace, default_sensor_at_tip: bool = False) -> dict[str, Any] | None:
+    """The sidecar document from ``--beam`` and the flags (flags win), None when neither is given."""
+    from beam.io.text import load_toml
+
+    document: dict[str, Any] = {}
+    if getattr(args, "beam_file", None):
+        document = load_toml(args.beam_file, "beam description")
+    if not document and not beam_flags_given(args):
+        return None
+    document = {key: (dict(value) if isinstance(value, dict) else value) for key, value in document.items()}
+    for _flag, dest, table, key, _metavar, _text in BEAM_FLAGS:
+        value = getattr(args, dest, None)
+        if value is not None:
+            document.setdefault(table, {})[key] = value
+    if getattr(args, "material", None) is not None:
+        document.setdefault("beam", {})["material"] = args.material
+    if getattr(args, "sensor_mass", None) is not None:
+        mass, approximate = args.sensor_mass
+        document.setdefault("sensor", {})["mass_kg"] = mass
+        if approximate:
+            document["sensor"]["mass_approximate"] = True
+    length = document.get("beam", {}).get("length_m")
+    if default_sensor_at_tip and "position_m" not in document.get("sensor", {}) and isinstance(length, (int, float)):
+        document.setdefault("sensor", {})["position_m"] = float(length)
+    return document
+
+
+def record_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The reading flags as keywords of :func:`beam.io.readers.read_record` (only those given)."""
+    return {keyword: getattr(args, dest) for dest, keyword in RECORD_OPTIONS.items() if getattr(args, dest, None) is not None}
+
+
+def measurement_from_args(args: argparse.Namespace, default_sensor_at_tip: bool = False):
+    """The measurement ``args.data`` names, read with the reading flags and the beam flags."""
+    from beam.io.measurement import read_measurement
+
+    document = beam_document(args, default_sensor_at_tip)
+    where = getattr(args, "beam_file", None) or "the beam flags"
+    beam = None
+    if document is not None:
+        beam = _Described(document, where)
+    return read_measurement(args.data, beam=beam, **record_options(args))
+
+
+class _Described(dict):
+    """A sidecar document with the name to use in messages (``BEAM.toml`` or ``the beam flags``)."""
+
+    def __init__(self, document: dict[str, Any], where: str):
+        super().__init__(document)
+        self.where = where

@@ -1,0 +1,479 @@
+"""From a file's columns to one record: SI units, time, the signal, clean stamps, the pluck.
+
+The steps, the same for every format:
+
+1. *Block.* A file with several blocks (LVM segments, TDMS groups) uses ``--segment K`` or
+   the block whose signal has the most vibration power; the others are listed.
+2. *Time.* The time column (its unit from its name, or ``--time-unit``), else the file's rate,
+   else ``--rate``; a file with neither is refused with the flag to give. Time is shifted to
+   start at 0 (phones and loggers stamp with clocks); a column of whole numbers stepping by
+   >= 1 with no unit is refused unless ``--time-unit`` says ms or us (Arduino's ``micros()``).
+3. *Signal.* ``--column NAME|INDEX`` (INDEX counts the file's columns from 1), else ``--axis``,
+   else, among the columns measuring motion (acceleration, velocity, displacement; a magnitude
+   such as phyphox's "Absolute acceleration" only when asked for), the one with the most
+   *vibration power*: the Welch power spectral density integrated above
+   :data:`VIBRATION_LOW_HZ` or 4/duration, whichever is higher (gravity, a tilt and a slow
+   drift are not vibration). Columns of different quantities are not compared: the choice
+   must then be given. A voltage or force column beside the signal is the record's input.
+   Units become SI; gravity and the sensor's bias stay in the signal (the calibration's offset
+   parameter takes them).
+4. *Stamps.* Samples whose stamp repeats or goes back (phone apps do both) are dropped, keeping
+   the first of each stamp and a strictly increasing time; what was dropped is reported.
+   Rows with a missing value in the time or the signal are dropped too.
+5. *Plucks.* The signal's envelope (half its range over blocks of two periods of its dominant
+   frequency, at least :data:`ENVELOPE_BLOCK_S`: shorter blocks follow the oscillation itself)
+   is searched for onsets: a block at least :data:`ONSET_RATIO` times the quietest of the blocks before
+   it (over :data:`ONSET_LOOKBACK_S`), staying so in the next block, above
+   :data:`ONSET_NOISE_RATIO` times the record's quiet level and
+   :data:`ONSET_PEAK_FRACTION` of the loudest block. With two or more onsets the record is
+   split at them; the segment with the loudest block (or ``--segment K``) is kept from
+   one block before its onset, and every segment is listed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.signal import welch
+
+from beam.errors import BeamInputError
+from beam.io.readers.table import Block, Column, RawRecord
+from beam.io.readers.units import INPUT_COLUMN_OF, OUTPUT_COLUMN_OF, UNITS, column_meaning, normalise_unit
+
+#: Lowest frequency counted as vibration (Hz).
+VIBRATION_LOW_HZ = 1.0
+#: Shortest envelope block (s).
+ENVELOPE_BLOCK_S = 0.02
+#: An onset is a block this many times the quietest block before it.
+ONSET_RATIO = 4.0
+#: How far back the quietest block is looked for (s).
+ONSET_LOOKBACK_S = 0.2
+#: An onset's block is at least this many times the record's quiet level (10th percentile of blocks).
+ONSET_NOISE_RATIO = 10.0
+#: An onset's block is at least this fraction of the loudest block.
+ONSET_PEAK_FRACTION = 0.1
+#: Two onsets closer than this are one (s).
+MIN_SEGMENT_S = 0.5
+
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One pluck or tap found in a record.
+
+    Attributes
+    ----------
+    start_s, end_s : float
+        Where it starts (one envelope block before its onset) and ends (s, record time).
+    peak : float
+        Its loudest envelope block (half the range, SI unit of the signal).
+    """
+
+    start_s: float
+    end_s: float
+    peak: float
+
+
+@dataclass
+class Record:
+    """A record read from any supported file, in SI units, ready to become a measurement.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The file.
+    format : str
+        The format recognised.
+    time_s : numpy.ndarray
+        Time stamps (s), strictly increasing, from 0 at the file's first sample.
+    output_column : str
+        ``"acceleration_m_s2"``, ``"velocity_m_s"`` or ``"displacement_m"``.
+    output : numpy.ndarray
+        The signal (SI).
+    signal : str
+        Which column of the file the signal is, and why (``"Acceleration z (m/s^2): the most
+        vibration power"``).
+    channels : list of str
+        Every column of the block read, with quantity and unit.
+    input_column : str or None
+        ``"voltage_V"`` or ``"force_N"`` when the file holds an input beside the signal.
+    input : numpy.ndarray or None
+        The input (SI).
+    segments : list of Segment
+        Plucks found (empty for one).
+    segment_index : int or None
+        0-based index of the segment kept (None: the whole record).
+    notes : list of str
+        Everything done to the data (stamps dropped, time shifted, blocks skipped).
+    """
+
+    path: object
+    format: str
+    time_s: np.ndarray
+    output_column: str
+    output: np.ndarray
+    signal: str
+    channels: list[str]
+    input_column: str | None = None
+    input: np.ndarray | None = None
+    segments: list[Segment] = field(default_factory=list)
+    segment_index: int | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def rate_Hz(self) -> float:
+        """1 / the median time step (Hz)."""
+        return 1.0 / float(np.median(np.diff(self.time_s)))
+
+    @property
+    def duration_s(self) -> float:
+        """Last minus first stamp (s)."""
+        return float(self.time_s[-1] - self.time_s[0])
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The project's columns: ``time_s``, the input if any, the output."""
+        return record_arrays(self)
+
+
+def record_arrays(record) -> dict[str, np.ndarray]:
+    """``{"time_s": ..., input column: ... (if any), output column: ...}`` of anything with
+    ``time_s``, ``input_column``, ``input``, ``output_column`` and ``output``."""
+    out = {"time_s": record.time_s}
+    if record.input_column is not None:
+        out[record.input_column] = record.input
+    out[record.output_column] = record.output
+    return out
+
+
+def _psd(time_s: np.ndarray, values: np.ndarray):
+    """(frequency, Welch PSD, lowest vibration frequency) of finite samples on the median step, or None.
+
+    Segments of about a quarter of the record (at most 2^16 samples); stamps need not be
+    uniform for a ranking or a block length."""
+    finite = np.isfinite(values) & np.isfinite(time_s)
+    t, y = time_s[finite], values[finite]
+    if y.size < 8:
+        return None
+    step = float(np.median(np.diff(t)))
+    if not step > 0:
+        return None
+    frequency, density = welch(y - np.mean(y), fs=1.0 / step, nperseg=int(min(y.size, max(64, min(2**16, y.size // 4)))))
+    return frequency, density, max(VIBRATION_LOW_HZ, 4.0 / max(float(t[-1] - t[0]), step))
+
+
+def vibration_power(time_s: np.ndarray, values: np.ndarray) -> float:
+    """Power of ``values`` above max(:data:`VIBRATION_LOW_HZ`, 4 / duration) (unit²), from
+    Welch's estimate (:func:`_psd`)."""
+    spectrum = _psd(time_s, values)
+    if spectrum is None:
+        return 0.0
+    frequency, density, low = spectrum
+    band = frequency >= low
+    if not np.any(band):
+        return 0.0
+    return float(np.sum(density[band]) * (frequency[1] - frequency[0]))
+
+
+def _time_axis(record: RawRecord, block: Block, rate: float | None, time_unit: str | None) -> tuple[np.ndarray, str]:
+    path = record.path
+    n = block.columns[0].values.size
+    if rate is not None:
+        return np.arange(n) / float(rate), f"time from --rate {rate:g} Hz"
+    if block.time is not None:
+        values = block.time.values
+        factor = block.time.meaning.factor if block.time.meaning.quantity == "time" else None
+        if time_unit is not None:
+            factor = TIME_UNITS[time_unit]
+        if factor is None:
+            finite = values[np.isfinite(values)]
+            steps = np.diff(finite)
+            typical = float(np.median(steps[steps > 0])) if np.any(steps > 0) else 0.0
+            if finite.size and np.all(finite == np.round(finite)) and typical >= 1:
+                raise BeamInputError(
+                    f"{path}: time column {block.time.name!r} holds whole numbers stepping by {typical:g} with no unit "
+                    "(an Arduino's micros() or millis()?); give --time-unit ms|us, or --time-unit s if they are seconds")
+            factor = 1.0
+        where = f"time from column {block.time.name!r}" + (f" in {time_unit}" if time_unit else "")
+        return values * factor, where
+    if block.rate_Hz is not None:
+        return block.start_s + np.arange(n) / block.rate_Hz, f"time from the file's sampling rate {block.rate_Hz:g} Hz"
+    raise BeamInputError(f"{path}: no time column and no sampling rate in the file; give the sampling rate "
+                         "with --rate HZ (or a time column named time, t or 'Time (s)')")
+
+
+def _channel_listing(block: Block) -> list[str]:
+    out = []
+    for column in block.columns:
+        meaning = column.meaning
+        what = meaning.quantity or "unknown quantity"
+        unit = f" in {meaning.unit}" if meaning.unit else ""
+        out.append(f"{column.position}: {column.name} ({what}{unit})")
+    return out
+
+
+def _pick_column(record: RawRecord, block: Block, column: str | None) -> Column:
+    if column is None:
+        raise AssertionError  # pragma: no cover
+    text = str(column).strip()
+    data = block.data_columns
+    if text.isdigit():
+        index = int(text)
+        match = next((c for c in block.columns if c.position == index), None)
+        if match is None:
+            raise BeamInputError(f"{record.path}: --column {index}: the file has columns 1 to {len(block.columns)}")
+        return match
+    lowered = text.lower()
+    match = next((c for c in data if c.name.lower() == lowered), None) or next(
+        (c for c in data if c.name.lower().startswith(lowered)), None)
+    if match is None:
+        names = ", ".join(repr(c.name) for c in block.columns)
+        raise BeamInputError(f"{record.path}: --column {text!r}: no such column; the file has {names}")
+    return match
+
+
+def _with_unit(column: Column, unit: str | None) -> Column:
+    if unit is None:
+        return column
+    return Column(column.name, column.values, column_meaning(column.name, unit), column.position)
+
+
+def choose_signal(record: RawRecord, block: Block, time_s: np.ndarray, *, column: str | None, axis: str | None,
+                  unit: str | None) -> tuple[Column, str]:
+    """The signal column of a block and why it was chosen (module notes, step 3)."""
+    if unit is not None and normalise_unit(unit) not in UNITS:
+        raise BeamInputError(f"--unit {unit!r}: unknown unit; expected one of g, m/s^2, mm/s, m/s, mm, µm, m, V, N")
+    if column is not None:
+        chosen = _with_unit(_pick_column(record, block, column), unit)
+        return _checked(record, chosen), f"{chosen.name}: chosen with --column"
+    candidates = [_with_unit(c, unit) if c.meaning.factor is None else c for c in block.data_columns]
+    motion = [c for c in candidates if c.meaning.quantity in OUTPUT_COLUMN_OF or c.meaning.quantity is None]
+    if axis is not None:
+        on_axis = [c for c in motion if c.meaning.axis == axis.lower()]
+        if not on_axis:
+            axes = sorted({c.meaning.axis for c in motion if c.meaning.axis in ("x", "y", "z")})
+            raise BeamInputError(f"{record.path}: --axis {axis}: no column on that axis (axes: {', '.join(axes) or 'none named'}); "
+                                 "use --column NAME|INDEX")
+        motion = on_axis
+    signed = [c for c in motion if not c.meaning.is_total] or motion
+    strains = [c for c in candidates if c.meaning.quantity == "strain"]
+    if not signed and strains:
+        _checked(record, strains[0])
+    if not signed:
+        listing = "; ".join(_channel_listing(block))
+        raise BeamInputError(f"{record.path}: no column measures motion (acceleration, velocity or displacement); "
+                             f"columns: {listing}; choose one with --column and its unit with --unit")
+    kinds = {c.meaning.quantity for c in signed}
+    if len(signed) == 1:
+        return _checked(record, signed[0]), f"{signed[0].name}: the only signal"
+    if len(kinds) > 1:
+        names = ", ".join(f"{c.name!r} ({c.meaning.quantity or 'unknown'})" for c in signed)
+        raise BeamInputError(f"{record.path}: columns of different quantities ({names}) cannot be compared; "
+                             "choose one with --column NAME|INDEX")
+    powers = [vibration_power(time_s, c.values * (c.meaning.factor or 1.0)) for c in signed]
+    best = int(np.argmax(powers))
+    chosen = signed[best]
+    ranked = ", ".join(f"{c.name} {p:.3g}" for c, p in sorted(zip(signed, powers), key=lambda cp: -cp[1]))
+    return _checked(record, chosen), f"{chosen.name}: the most vibration power (SI units²: {ranked})"
+
+
+def _checked(record: RawRecord, column: Column) -> Column:
+    meaning = column.meaning
+    if meaning.quantity == "strain":
+        raise BeamInputError(f"{record.path}: column {column.name!r} is a strain; strain records are not calibrated yet "
+                             "(an accelerometer, velocity or displacement record is)")
+    if meaning.quantity in INPUT_COLUMN_OF:
+        raise BeamInputError(f"{record.path}: column {column.name!r} is a {meaning.quantity} (an input, in "
+                             f"{meaning.unit}); if it is the sensor's output give its unit with --unit (g, m/s^2, mm, ...)")
+    if meaning.factor is None or meaning.quantity not in OUTPUT_COLUMN_OF:
+        raise BeamInputError(f"{record.path}: column {column.name!r} has no unit the reader knows; give it with "
+                             "--unit (g, m/s^2, mm/s, m/s, µm, mm, m)")
+    return column
+
+
+def _input_column(block: Block, chosen: Column) -> Column | None:
+    inputs = [c for c in block.data_columns if c is not chosen and c.meaning.quantity in INPUT_COLUMN_OF
+              and c.meaning.factor is not None]
+    return inputs[0] if len(inputs) == 1 else None
+
+
+def clean_stamps(time_s: np.ndarray, *arrays: np.ndarray) -> tuple[np.ndarray, str | None]:
+    """Mask of samples kept: finite time and values, stamps strictly increasing (module notes, step 4).
+
+    Returns
+    -------
+    keep : (n,) bool array
+    report : str or None
+        What was dropped (None when nothing was).
+    """
+    finite = np.isfinite(time_s)
+    for array in arrays:
+        finite &= np.isfinite(array)
+    t = np.where(finite, time_s, -np.inf)
+    previous_max = np.maximum.accumulate(np.concatenate([[-np.inf], t[:-1]]))
+    repeated = finite & (t == previous_max)
+    backwards = finite & (t < previous_max)
+    keep = finite & ~repeated & ~backwards
+    parts = []
+    if np.any(~finite):
+        parts.append(f"{int(np.count_nonzero(~finite))} row(s) with a missing value")
+    if np.any(repeated):
+        parts.append(f"{int(np.count_nonzero(repeated))} repeated stamp(s)")
+    if np.any(backwards):
+        first = int(np.flatnonzero(backwards)[0])
+        parts.append(f"{int(np.count_nonzero(backwards))} stamp(s) going back in time (first at sample {first})")
+    return keep, ("dropped " + ", ".join(parts)) if parts else None
+
+
+def dominant_frequency(time_s: np.ndarray, values: np.ndarray) -> float | None:
+    """Frequency (Hz) of the highest Welch peak above max(:data:`VIBRATION_LOW_HZ`, 4 / duration), None if none."""
+    spectrum = _psd(time_s, values)
+    if spectrum is None:
+        return None
+    frequency, density, low = spectrum
+    band = frequency >= low
+    if not np.any(band) or not np.any(density[band] > 0):
+        return None
+    return float(frequency[band][np.argmax(density[band])])
+
+
+def find_segments(time_s: np.ndarray, values: np.ndarray) -> list[Segment]:
+    """Plucks or taps in a signal (module notes, step 5); empty when there are fewer than two."""
+    n = values.size
+    if n < 16:
+        return []
+    step = float(np.median(np.diff(time_s)))
+    dominant = dominant_frequency(time_s, values)
+    block_s = max(ENVELOPE_BLOCK_S, 2.0 / dominant) if dominant else ENVELOPE_BLOCK_S
+    per_block = max(4, int(round(block_s / step)))
+    count = n // per_block
+    if count < 8:
+        return []
+    blocks = values[: count * per_block].reshape(count, per_block)
+    envelope = 0.5 * (blocks.max(axis=1) - blocks.min(axis=1))
+    quiet = float(np.percentile(envelope, 10))
+    loudest = float(envelope.max())
+    if loudest <= 0:
+        return []
+    lookback = max(3, int(round(ONSET_LOOKBACK_S / (per_block * step))))
+    onsets: list[int] = []
+    for k in range(1, count - 1):
+        first = max(0, k - lookback, onsets[-1] + 1 if onsets else 0)
+        if first >= k:
+            continue
+        before = float(envelope[first:k].min())
+        level = min(envelope[k], envelope[k + 1])
+        if (level >= ONSET_RATIO * before and envelope[k] >= ONSET_NOISE_RATIO * quiet
+                and envelope[k] >= ONSET_PEAK_FRACTION * loudest):
+            start_time = float(time_s[k * per_block])
+            if onsets and start_time - float(time_s[onsets[-1] * per_block]) < MIN_SEGMENT_S:
+                continue
+            onsets.append(k)
+    if len(onsets) < 2:
+        return []
+    segments = []
+    bounds = onsets + [count]
+    for k, (start, stop) in enumerate(zip(bounds[:-1], bounds[1:])):
+        first = max(0, start - 1) * per_block
+        last = (stop - 1) * per_block if k + 1 < len(onsets) else n
+        segments.append(Segment(float(time_s[first]), float(time_s[min(last, n) - 1]),
+                                float(envelope[start:stop].max())))
+    return segments
+
+
+def build_record(raw: RawRecord, *, column: str | None = None, axis: str | None = None, rate: float | None = None,
+                 time_unit: str | None = None, unit: str | None = None, segment: int | None = None) -> Record:
+    """One record from a file's columns (module notes).
+
+    Parameters
+    ----------
+    raw : RawRecord
+        What the format reader found.
+    column : str, optional
+        The signal's column, by name (or a name's beginning) or 1-based position.
+    axis : {"x", "y", "z"}, optional
+        The signal's axis.
+    rate : float, optional
+        Sampling rate (Hz): time is k / rate (overrides a time column).
+    time_unit : {"s", "ms", "us"}, optional
+        Unit of the time column.
+    unit : str, optional
+        Unit of the signal column (for a column whose name has none).
+    segment : int, optional
+        1-based segment (block or pluck) to keep.
+
+    Raises
+    ------
+    BeamInputError
+        Anything that keeps the file from being one record; one line naming the file.
+    """
+    if rate is not None and not (math.isfinite(rate) and rate > 0):
+        raise BeamInputError(f"--rate must be a positive number of Hz, got {rate!r}")
+    if time_unit is not None and time_unit not in TIME_UNITS:
+        raise BeamInputError(f"--time-unit must be one of {', '.join(TIME_UNITS)}, got {time_unit!r}")
+    notes = list(raw.notes)
+    blocks = raw.blocks
+    block = blocks[0]
+    block_segments: list[Segment] = []
+    if len(blocks) > 1:
+        scored = []
+        for candidate in blocks:
+            t, _ = _time_axis(raw, candidate, rate, time_unit)
+            chosen, _ = choose_signal(raw, candidate, t, column=column, axis=axis, unit=unit)
+            factor = chosen.meaning.factor
+            scored.append((candidate, t, vibration_power(t, chosen.values * factor), float(np.nanmax(np.abs(chosen.values * factor)))))
+        block_segments = [Segment(float(t[0]), float(t[-1]), peak) for _, t, _, peak in scored]
+        if segment is not None:
+            if not 1 <= segment <= len(blocks):
+                raise BeamInputError(f"{raw.path}: --segment {segment}: the file has segments 1 to {len(blocks)}")
+            index = segment - 1
+        else:
+            index = int(np.argmax([power for _, _, power, _ in scored]))
+        block = blocks[index]
+        notes.append(f"{len(blocks)} blocks in the file ({', '.join(b.label for b in blocks)}); "
+                     f"using {block.label}" + (" (the most vibration power)" if segment is None else ""))
+    time_s, time_source = _time_axis(raw, block, rate, time_unit)
+    chosen, why = choose_signal(raw, block, time_s, column=column, axis=axis, unit=unit)
+    output = chosen.values * chosen.meaning.factor
+    input_column = _input_column(block, chosen)
+    input_values = input_column.values * input_column.meaning.factor if input_column is not None else None
+    keep, dropped = clean_stamps(time_s, output, *([input_values] if input_values is not None else []))
+    if dropped:
+        notes.append(dropped)
+    time_s, output = time_s[keep], output[keep]
+    input_values = input_values[keep] if input_values is not None else None
+    if time_s.size < 2:
+        raise BeamInputError(f"{raw.path}: fewer than 2 usable samples in column {chosen.name!r}")
+    if time_s[0] != 0:
+        notes.append(f"time shifted by {-time_s[0]:+.9g} s to start at 0")
+        time_s = time_s - time_s[0]
+    notes.insert(0, time_source)
+    segments = block_segments
+    segment_index = blocks.index(block) if len(blocks) > 1 else None
+    if len(blocks) == 1:
+        segments = find_segments(time_s, output)
+        if segments:
+            if segment is not None:
+                if not 1 <= segment <= len(segments):
+                    raise BeamInputError(f"{raw.path}: --segment {segment}: the record has segments 1 to {len(segments)}")
+                segment_index = segment - 1
+            else:
+                segment_index = int(np.argmax([s.peak for s in segments]))
+            kept = segments[segment_index]
+            inside = (time_s >= kept.start_s) & (time_s <= kept.end_s)
+            time_s, output = time_s[inside] - kept.start_s, output[inside]
+            input_values = input_values[inside] if input_values is not None else None
+            notes.append(f"{len(segments)} plucks/taps found; using segment {segment_index + 1} "
+                         f"({kept.start_s:.3f}-{kept.end_s:.3f} s of the record)"
+                         + (" (the strongest)" if segment is None else ""))
+        elif segment is not None and segment != 1:
+            raise BeamInputError(f"{raw.path}: --segment {segment}: the record holds one pluck")
+    return Record(
+        path=raw.path, format=raw.format, time_s=np.ascontiguousarray(time_s), output_column=OUTPUT_COLUMN_OF[chosen.meaning.quantity],
+        output=np.ascontiguousarray(output), signal=why, channels=_channel_listing(block),
+        input_column=INPUT_COLUMN_OF[input_column.meaning.quantity] if input_column is not None else None,
+        input=np.ascontiguousarray(input_values) if input_values is not None else None,
+        segments=segments, segment_index=segment_index, notes=notes,
+    )
