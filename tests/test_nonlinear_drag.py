@@ -177,3 +177,16 @@ def test_the_general_kernel_with_the_spring_reproduces_the_spring_s_own_kernel()
     expected = spring.response(parameters, voltage, 1e-3, modes=4)
     got = both.response(dict(parameters, drag_coefficient=1e-9), voltage, 1e-3, modes=4)
     assert np.abs(got - expected).max() <= 1e-5 * np.abs(expected).max()
+
+
+def test_the_sidecar_s_width_reaches_the_geometry(tmp_path):
+    from beam.io.measurement import read_measurement
+
+    time = np.arange(200) * 1e-3
+    (tmp_path / "strip.csv").write_text("time_s,acceleration_m_s2\n" + "".join(
+        f"{t:.3f},{0.4 + np.sin(40 * t):.6f}\n" for t in time))
+    sidecar = "[beam]\nlength_m = 0.5\nlinear_density_kg_m = 0.27\n{}[sensor]\nposition_m = 0.44\n"
+    (tmp_path / "strip.toml").write_text(sidecar.format("width_m = 0.05\nthickness_m = 0.002\n"))
+    assert read_measurement(tmp_path / "strip.csv").geometry.width_m == 0.05
+    (tmp_path / "strip.toml").write_text(sidecar.format(""))
+    assert read_measurement(tmp_path / "strip.csv").geometry.width_m is None
