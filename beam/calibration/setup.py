@@ -57,7 +57,7 @@ from beam.inference import (
 )
 from beam.io.measurement import Measurement
 from beam.physics.basis import DEFAULT_INTERVALS, DEFAULT_KNOTS
-from beam.physics.effects import PARAMETER_SPECS, parse_effects
+from beam.physics.effects import EFFECTS, PARAMETER_SPECS, parse_effects
 from beam.physics.model import BeamModel
 
 #: Fewest samples a calibration window may hold.
@@ -76,6 +76,7 @@ NOMINAL_LOG_SD: dict[str, float] = {
     "patch_added_kelvin_voigt_Nm2s": 1.5,
     "tip_cubic_stiffness_N_m3": 1.5,
     "sensor_mass_kg": 1.0,
+    "drag_coefficient": 1.0,
 }
 #: sigma of log x for a damping ratio of the ``modal_damping`` family centred on a nominal value.
 MODAL_DAMPING_LOG_SD = 1.5
@@ -291,7 +292,8 @@ def make_setup(
         raise BeamInputError(f"modes must be between 1 and {model.size} (the mesh holds {model.size} modes), got {modes}")
     if model.is_nonlinear and (measurement.is_free or not measurement.uniform or measurement.output_kind != "displacement"):
         raise BeamInputError(
-            "tip_cubic_spring is computed for a driven record with uniform time stamps and a displacement output only"
+            f"{', '.join(e for e in effects if EFFECTS[e].nonlinear)} is calibrated on a driven record with uniform "
+            "time stamps and a displacement output only"
         )
     if measurement.is_free:
         released = measurement.time_s >= measurement.time_s[free_start_indices(measurement, int(modes))[1]]

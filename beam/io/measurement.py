@@ -1000,6 +1000,8 @@ def read_geometry(
             patch_end_m=values.get(("patch", "end_m")),
             sensor_position_m=values[("sensor", "position_m")],
             force_position_m=values.get(("force", "position_m")),
+            width_m=(reader.number("beam", reader.table("beam"), "width_m", required=False)
+                     if "width_m" in tables.get("beam", ()) else None),  # for the quadratic drag
         )
     except BeamInputError as exc:  # the patch, force or sensor does not fit on the beam
         message = str(exc)

@@ -18,6 +18,7 @@ patch_stiffening    added density/stiffness on patch     patch_added_density_kg_
                                                          patch_added_stiffness_Nm2
 patch_damping       added strain-rate damping on patch   patch_added_kelvin_voigt_Nm2s
 tip_cubic_spring    nonlinear tip force -k3 w(L)^3       tip_cubic_stiffness_N_m3
+quadratic_drag      air drag -½ rho_air C_d b |w_t| w_t  drag_coefficient
 sensor_mass         point mass at the sensor x_obs       sensor_mass_kg
 modal_damping       damping ratio per undamped mode      damping_ratio_mode_1, damping_ratio_mode_2,
                                                          ... (one per retained mode)
@@ -31,6 +32,20 @@ range except the clamp's stiffness (a rigid clamp is k_theta -> infinity).
     A point mass m_s at the sensor's position x_obs, which always comes from the sidecar's
     ``[sensor] position_m`` (the part ``mass_sensor`` is assembled from the geometry): an
     accelerometer glued to the strip loads it where it measures. Translation only.
+``quadratic_drag``
+    Air drag on the strip moving broadside, force per unit length -½ rho_air C_d b |w_t| w_t
+    (rho_air = :data:`beam.physics.nonlinear.AIR_DENSITY_KG_M3`, b the width from the sidecar's
+    ``[beam] width_m``, w_t the local transverse velocity): a damping that grows with the
+    amplitude (equivalent viscous coefficient (8 / 3 pi) ½ rho_air C_d b |w_t|max). It is
+    projected on the retained modes by Gauss quadrature along the span and integrated with the
+    tip spring's ETDRK4 scheme (:func:`beam.physics.nonlinear.integrate_general`). Plausible
+    values of C_d for a flat plate or strip in oscillating flow at Keulegan–Carpenter numbers
+    KC = 2 pi A / b of order 0.1–10 lie between about 2 and 20, rising as KC falls
+    (Keulegan & Carpenter 1958, J. Res. Natl. Bur. Stand. 60, 423–440, plates in an oscillating
+    fluid; Graham 1980, J. Fluid Mech. 97, 331–346, C_d ∝ KC^(-1/3) for sharp-edged bodies at low
+    KC; Bidkar et al. 2009, J. Fluid Mech. 634, 269–289, cantilevered strips at KC of order 1).
+    The prior range 0.01–50 reaches below that band so that the effect vanishes at its low
+    end (a model with it nests the model without it).
 ``modal_damping``
     Damping applied in the coordinates of the undamped modes (of the current M and K, sensor mass
     and all): mode j gets the ratio zeta_j, so that alone it has the poles
@@ -49,7 +64,10 @@ range except the clamp's stiffness (a rigid clamp is k_theta -> infinity).
 Effects flagged ``missing_effect_candidate=False`` are left out of the missing-effect ranking
 (:data:`CANDIDATE_EFFECTS`): ``modal_damping`` replaces a damping law rather than adding physics,
 and ``sensor_mass`` matters for a contact sensor (an accelerometer), which a displacement record
-from a laser does not have; the diagnosis decides when to offer them.
+from a laser does not have; the diagnosis decides when to offer them. ``quadratic_drag`` needs the
+strip's width and, on the free decays where it shows, a calibration of a nonlinear free response
+(the calibration profiles a free response's initial state as linear coefficients): it is left
+out of the ranking until the calibration offers that.
 """
 
 from __future__ import annotations
@@ -319,6 +337,15 @@ EFFECTS: dict[str, Effect] = {
             nonlinear=True,
         ),
         Effect(
+            "quadratic_drag",
+            "Quadratic air drag",
+            "air drag on the strip moving broadside, force per length -½ rho_air C_d b |w_t| w_t (b from [beam] width_m)",
+            (ParameterSpec("drag_coefficient", "1", "C_d", "drag coefficient of the strip in oscillating flow", 0.01, 50.0),),
+            (Term("quadratic_drag", "mass_beam", "drag_coefficient"),),
+            nonlinear=True,
+            missing_effect_candidate=False,
+        ),
+        Effect(
             "sensor_mass",
             "Sensor mass",
             "point mass of the sensor at its position x_obs (from the sidecar; translation only)",
@@ -349,6 +376,8 @@ EFFECT_NEEDS: dict[str, frozenset[str]] = {
     "patch_damping": frozenset({"patch"}),
     "sensor_mass": frozenset({"contact_sensor"}),
     "tip_cubic_spring": frozenset({"input", "uniform", "displacement"}),
+    # the same solver gate today (a free decay's nonlinear fit is not in the calibration yet)
+    "quadratic_drag": frozenset({"input", "uniform", "displacement"}),
 }
 
 

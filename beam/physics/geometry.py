@@ -26,6 +26,9 @@ class BeamGeometry:
         Where the sensor measures w(x_obs, t) (or its velocity or acceleration) (m), in (0, L].
     force_position_m : float or None
         Where a measured point force acts (m), in (0, L]; None when no point force drives the beam.
+    width_m : float or None
+        Width b of the strip (m), the side the air meets as it bends (``[beam] width_m``); only the
+        ``quadratic_drag`` effect needs it. None when unknown.
     """
 
     length_m: float
@@ -34,6 +37,7 @@ class BeamGeometry:
     patch_end_m: float | None
     sensor_position_m: float
     force_position_m: float | None = None
+    width_m: float | None = None
 
     def __post_init__(self) -> None:
         if (self.patch_start_m is None) != (self.patch_end_m is None):
@@ -41,9 +45,9 @@ class BeamGeometry:
                 f"patch needs both start_m and end_m (or neither, for a beam without a patch), got start_m = "
                 f"{self.patch_start_m}, end_m = {self.patch_end_m}"
             )
-        optional = ("patch_start_m", "patch_end_m", "force_position_m")
+        optional = ("patch_start_m", "patch_end_m", "force_position_m", "width_m")
         for name in ("length_m", "linear_density_kg_m", "patch_start_m", "patch_end_m", "sensor_position_m",
-                     "force_position_m"):
+                     "force_position_m", "width_m"):
             value = getattr(self, name)
             if value is None and name in optional:
                 continue
@@ -56,6 +60,8 @@ class BeamGeometry:
                 raise BeamInputError(f"{name} must be positive, got {value}")
             if not low <= value <= high:
                 raise BeamInputError(f"{name} must lie in [{low:g}, {high:g}] {unit} (where the model is finite), got {value:g}")
+        if self.width_m is not None and not 0 < self.width_m <= self.length_m:
+            raise BeamInputError(f"width_m must be positive and at most the length {self.length_m} m, got {self.width_m}")
         if self.has_patch and not 0 <= self.patch_start_m < self.patch_end_m <= self.length_m:
             raise BeamInputError(
                 f"patch must satisfy 0 <= start_m < end_m <= length_m = {self.length_m}, "

@@ -135,6 +135,7 @@ class _Layout:
     key_matrix: np.ndarray  # (mass + stiffness terms, rows): the coefficients that set the mode shapes
     key_denominators: np.ndarray  # row of key_matrix @ table dividing each (rho or EI): the ratios
     cubic_row: int  # row of the tip cubic stiffness in the table, -1 if not given
+    drag_row: int  # row of the drag coefficient in the table, -1 if not given
     modal_rows: np.ndarray  # rows of the table holding the given modal damping ratios
     modal_modes: np.ndarray  # their 0-based mode indices
 
@@ -304,11 +305,12 @@ class BeamModel:
             key_matrix = select[np.concatenate([mass, stiffness])]
             key_denominators = np.repeat([0, mass.size], [mass.size, stiffness.size])
             cubic_row = rows.get("tip_cubic_stiffness_N_m3", -1)
+            drag_row = rows.get("drag_coefficient", -1)
             modal = where("modal_damping")
             modal_rows = np.array([rows[terms[i].parameter] for i in modal], dtype=int)
             modal_modes = np.array([terms[i].mode - 1 for i in modal], dtype=int)
             layout = _Layout(terms, columns, mass, stiffness, damping, force, damping_map, scale_matrix, key_matrix,
-                             key_denominators, cubic_row, modal_rows, modal_modes)
+                             key_denominators, cubic_row, drag_row, modal_rows, modal_modes)
             self._layouts[names] = layout
         return layout
 
@@ -698,6 +700,56 @@ class BeamModel:
             )
         return int(n_modes)
 
+    def _is_nonlinear_at(self, layout: _Layout, table: np.ndarray) -> bool:
+        """Whether any set of ``table`` switches a nonlinear term on (k3 > 0 or C_d > 0)."""
+        return any(row >= 0 and bool(np.any(table[row] > 0)) for row in (layout.cubic_row, layout.drag_row))
+
+    def _general_response(
+        self, parameters: Mapping[str, float | np.ndarray], layout: _Layout, table: np.ndarray, n_modes: int,
+        inputs: np.ndarray, steps_s: np.ndarray, order: int, initial: np.ndarray | None, static_correction: bool,
+    ) -> np.ndarray:
+        """The retained modes with the spring and the drag (:func:`beam.physics.nonlinear.integrate_general`).
+
+        The undamped modes are solved densely for each set (the drag needs the shapes along the
+        span, which the cached unit modes do not keep); C_r = Phi^T C Phi carries every damping
+        term (modal damping included). The static correction (displacement only) is the
+        discarded modes' quasi-static share of the input and of the spring's force, as in
+        :meth:`response`.
+        """
+        from beam.physics.nonlinear import AIR_DENSITY_KG_M3, drag_quadrature, integrate_general
+
+        matrices = self.system_matrices(parameters)
+        mass, damping, stiffness, force = (matrices[k] for k in ("mass", "damping", "stiffness", "force"))
+        omega2, shapes = modal.undamped_modes(mass, stiffness, shift=self.parts.basis.free_root_rotation)
+        shapes = shapes * _shape_signs(self.parts.tip_values @ shapes)[:, None, :]
+        kept = shapes[:, :, :n_modes]
+        kept_t = np.swapaxes(kept, 1, 2)
+        reduced_damping = kept_t @ damping @ kept
+        reduced_force = np.einsum("bnm,bn->bm", kept, force)
+        sensor = self.parts.sensor_values @ kept
+        tip = self.parts.tip_values @ kept
+        nodes, weights = drag_quadrature(self.geometry.length_m)
+        gauss = self.parts.basis.evaluate(nodes, 0) @ kept  # (B, G, m)
+        batch = table.shape[1]
+        drag = np.zeros((batch, nodes.size))
+        if layout.drag_row >= 0:
+            width = self.geometry.width_m
+            if width is None:
+                raise BeamInputError("quadratic_drag needs the strip's width: [beam] width_m in the sidecar")
+            drag = 0.5 * AIR_DENSITY_KG_M3 * width * table[layout.drag_row][:, None] * weights[None, :]
+        cubic = table[layout.cubic_row] if layout.cubic_row >= 0 else np.zeros(batch)
+        static = None
+        if static_correction and order == 0:
+            loads = np.stack([force, np.broadcast_to(self.parts.tip_values, force.shape)], axis=2)  # (B, n, 2)
+            full = np.linalg.solve(stiffness, loads)  # K⁻¹ [f, tip]
+            retained = kept @ ((kept_t @ loads) / omega2[:, :n_modes, None])
+            rest = full - retained
+            rows = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
+            share = rows @ rest  # (B, 2 outputs, 2 loads)
+            static = np.concatenate([share[:, :, 0], share[:, :, 1]], axis=1)
+        return integrate_general(omega2[:, :n_modes], reduced_damping, reduced_force, sensor, tip, gauss, cubic, drag,
+                                 inputs, steps_s, order, initial, static)
+
     def _check_driven(self) -> None:
         if self.input_kind is None:
             raise BeamInputError("this model has no input (a free response): use free_response or free_response_basis")
@@ -809,7 +861,16 @@ class BeamModel:
         n_modes = self._check_modes(modes)
         names, table, batched = self._table(parameters)
         layout = self._layout(names)
-        if layout.cubic_row >= 0 and np.any(table[layout.cubic_row] > 0):
+        if layout.drag_row >= 0 and np.any(table[layout.drag_row] > 0):
+            voltage = self._check_record(voltage, sample_interval_s)
+            out = self._general_response(parameters, layout, table, n_modes, voltage,
+                                         np.full(voltage.size - 1, float(sample_interval_s)), order, None,
+                                         static_correction)
+            if static_correction and order > 0:  # the input's share as in the linear path
+                matrices_static = self._reduced_modes(layout, table, n_modes)["static"][:, 0]
+                out += matrices_static[:, None] * held_input_derivative(voltage, sample_interval_s, order)[None, :]
+            finite = np.isfinite(out).all()
+        elif layout.cubic_row >= 0 and np.any(table[layout.cubic_row] > 0):
             if order != 0:
                 raise BeamInputError("with tip_cubic_spring the response is computed for the displacement only")
             from beam.physics.nonlinear import integrate_tip_cubic
@@ -958,13 +1019,17 @@ class BeamModel:
         n_modes = self._check_modes(modes)
         names, table, batched = self._table(parameters)
         layout = self._layout(names)
-        if layout.cubic_row >= 0 and np.any(table[layout.cubic_row] > 0):
-            raise BeamInputError("free responses are linear; tip_cubic_spring is not supported here")
-        reduced = self._reduced_modes(layout, table, n_modes)
         batch = table.shape[1]
         eta = np.broadcast_to(np.asarray(initial_displacement, dtype=float), (batch, n_modes))
         rate = np.zeros_like(eta) if initial_velocity is None else np.broadcast_to(
             np.asarray(initial_velocity, dtype=float), (batch, n_modes))
+        if self._is_nonlinear_at(layout, table):  # the spring or the drag: integrated from the state
+            out = self._general_response(parameters, layout, table, n_modes, np.zeros(time.size), np.diff(time), order,
+                                         np.concatenate([eta, rate], axis=1), False)
+            if not np.isfinite(out).all():
+                raise BeamInputError("the free response is not finite (parameters out of any physical range); check the values")
+            return out if batched else out[0]
+        reduced = self._reduced_modes(layout, table, n_modes)
         poles, vectors, gains = self._free_gains(reduced, order)
         coefficients = np.linalg.solve(vectors, np.concatenate([eta, rate], axis=1)[:, :, None])[:, :, 0]
         tau = time - time[0]

@@ -30,6 +30,7 @@ import math
 import numba
 import numpy as np
 
+from beam.physics import modal
 from beam.physics.modal import ComplexModes, _collapse, zoh_factor
 
 #: Largest (modal frequency x substep) the integrator allows.
@@ -481,4 +482,233 @@ def _etdrk4_grouped(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, vol
         out[rows] = _etdrk4_rows(cplx, real, np.ascontiguousarray(gamma_sensor[rows].T),
                                  np.ascontiguousarray(gamma_tip[rows].T), np.ascontiguousarray(cubic[rows]), voltage,
                                  np.ascontiguousarray(substeps[rows]), np.ascontiguousarray(static[rows]))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# The general path: the tip spring and the distributed quadratic air drag, from rest or from a
+# given state, at uniform or irregular sample times, for any output.
+
+
+@numba.njit(cache=True, nogil=True)
+def _forcing(xi, u, row, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static,
+             out, gauss_force):  # pragma: no cover - jitted
+    """The modal forcing beta_u u + beta_tip s(w_tip) + sum_g beta_g F_g of the state ``xi`` into
+    ``out``, the drag forces F_g = -c_g |v_g| v_g into ``gauss_force``; returns the spring's force s
+    (N). v_g = Re(gamma_g . xi) is the velocity at Gauss point g (gains already doubled for a
+    conjugate pair), w_tip the tip displacement with the discarded modes' quasi-static share."""
+    n_poles = xi.shape[0]
+    k3 = cubic[row]
+    spring = 0.0
+    if k3 != 0.0:
+        w = static[row, 1] * u
+        for j in range(n_poles):
+            w += (gamma_tip[row, j] * xi[j]).real
+        w = _corrected_tip(w, k3, static[row, 3])
+        spring = -k3 * w * w * w
+    for j in range(n_poles):
+        out[j] = beta_u[row, j] * u + beta_tip[row, j] * spring
+    for g in range(gauss_force.shape[0]):
+        c = drag[row, g]
+        if c == 0.0:
+            gauss_force[g] = 0.0
+            continue
+        v = 0.0
+        for j in range(n_poles):
+            gain = gamma_gauss[row, g, j]
+            state = xi[j]
+            v += gain.real * state.real - gain.imag * state.imag
+        force = -c * abs(v) * v
+        gauss_force[g] = force
+        for j in range(n_poles):
+            gain = beta_gauss[row, g, j]
+            out[j] += complex(gain.real * force, gain.imag * force)
+    return spring
+
+
+@numba.njit(cache=True, nogil=True)
+def _step_coefficients(poles, widths):  # pragma: no cover - jitted
+    """ETDRK4 coefficients (6, U, P) of each distinct substep h in ``widths`` (U,): E, E_h, Q,
+    f1, 2 f2, f3 (see :func:`_etdrk4_general`)."""
+    n_poles = poles.shape[0]
+    table = np.empty((6, widths.shape[0], n_poles), np.complex128)
+    for u in range(widths.shape[0]):
+        h = widths[u]
+        for j in range(n_poles):
+            z = poles[j] * h
+            table[0, u, j] = np.exp(z)
+            table[1, u, j] = np.exp(0.5 * z)
+            p1h, _, _ = _phi123(0.5 * z)
+            table[2, u, j] = 0.5 * h * p1h
+            p1, p2, p3 = _phi123(z)
+            table[3, u, j] = h * (p1 - 3.0 * p2 + 4.0 * p3)
+            table[4, u, j] = 2.0 * h * (p2 - 2.0 * p3)
+            table[5, u, j] = h * (4.0 * p3 - p2)
+    return table
+
+
+@numba.njit(cache=True, nogil=True)
+def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_tip, gamma_gauss, direct, cubic, drag,
+                    static, initial, voltage, step_id, counts, table):  # pragma: no cover - jitted
+    """ETDRK4 (Cox & Matthews 2002) on xi' = Lambda xi + N(xi, u) for parameter set ``row``.
+
+    Stages a = E_h xi + Q N(xi), b = E_h xi + Q N(a), c = E_h a + Q (2 N(b) - N(xi)),
+    xi+ = E xi + f1 N(xi) + 2 f2 (N(a) + N(b)) + f3 N(c) (E = exp(Lambda h), E_h its half step,
+    Q = (E_h - 1) / Lambda, f1..f3 the phi-function weights of :func:`_etdrk4`). Sample k is held
+    over its interval, split into ``counts[k]`` substeps whose coefficients are
+    ``table[:, step_id[k]]`` (:func:`_step_coefficients`; a record's stamps take few distinct
+    steps). Output at t_k: Re(gamma_out . xi) + direct[0] u + direct[1] s + sum_g direct[2 + g] F_g
+    + the quasi-static terms of the displacement (static[0] u - static[2] k3 w³), as in :func:`_etdrk4`.
+    """
+    n_poles = poles.shape[1]
+    n = voltage.shape[0]
+    n_gauss = drag.shape[1]
+    out = np.zeros(n)
+    xi = initial[row].copy()
+    sa = np.empty(n_poles, np.complex128)
+    sb = np.empty(n_poles, np.complex128)
+    sc = np.empty(n_poles, np.complex128)
+    n0 = np.empty(n_poles, np.complex128)
+    na = np.empty(n_poles, np.complex128)
+    nb = np.empty(n_poles, np.complex128)
+    nc = np.empty(n_poles, np.complex128)
+    forces = np.empty(n_gauss)
+    b = row
+    for k in range(n):
+        u = voltage[k]
+        spring = _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces)
+        value = (static[b, 0] + direct[b, 0]) * u + (direct[b, 1] + static[b, 2]) * spring
+        for g in range(n_gauss):
+            value += direct[b, 2 + g] * forces[g]
+        for j in range(n_poles):
+            value += (gamma_out[b, j] * xi[j]).real
+        out[k] = value
+        if k == n - 1:
+            break
+        e_full, e_half, q_half = table[0, step_id[k]], table[1, step_id[k]], table[2, step_id[k]]
+        f1, f2, f3 = table[3, step_id[k]], table[4, step_id[k]], table[5, step_id[k]]
+        for sub in range(counts[k]):
+            if sub > 0:
+                _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces)
+            for j in range(n_poles):
+                sa[j] = e_half[j] * xi[j] + q_half[j] * n0[j]
+            _forcing(sa, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, na, forces)
+            for j in range(n_poles):
+                sb[j] = e_half[j] * xi[j] + q_half[j] * na[j]
+            _forcing(sb, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nb, forces)
+            for j in range(n_poles):
+                sc[j] = e_half[j] * sa[j] + q_half[j] * (2.0 * nb[j] - n0[j])
+            _forcing(sc, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nc, forces)
+            for j in range(n_poles):
+                xi[j] = e_full[j] * xi[j] + f1[j] * n0[j] + f2[j] * (na[j] + nb[j]) + f3[j] * nc[j]
+    return out
+
+
+#: Density of air (kg/m³) at 20 °C and 101.325 kPa, for the quadratic drag.
+AIR_DENSITY_KG_M3 = 1.204
+#: Gauss–Legendre quadrature of the drag along the span: panels of equal length, points per panel.
+DRAG_PANELS = 4
+DRAG_POINTS = 4
+#: Largest |lambda_max| h of the general path (rad per substep, lambda_max the highest retained pole).
+GENERAL_RESOLUTION = STEP_RESOLUTION * MAX_COARSENING
+
+
+def drag_quadrature(length_m: float, panels: int = DRAG_PANELS, points: int = DRAG_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss–Legendre nodes (m) and weights (m) on [0, L] split into equal panels."""
+    nodes, weights = np.polynomial.legendre.leggauss(points)
+    edges = np.linspace(0.0, float(length_m), panels + 1)
+    half = 0.5 * np.diff(edges)[:, None]
+    centre = 0.5 * (edges[1:] + edges[:-1])[:, None]
+    return (centre + half * nodes[None, :]).ravel(), (half * weights[None, :]).ravel()
+
+
+def integrate_general(
+    omega_squared: np.ndarray, reduced_damping: np.ndarray, force: np.ndarray, sensor: np.ndarray, tip: np.ndarray,
+    gauss: np.ndarray, cubic_N_m3: np.ndarray, drag_kg_m: np.ndarray, voltage: np.ndarray, steps_s: np.ndarray,
+    order: int = 0, initial: np.ndarray | None = None, static_gains: np.ndarray | None = None,
+) -> np.ndarray:
+    """Sensor output (B, n) of the retained modes with the tip spring and the quadratic air drag.
+
+    The retained modes (mass-normalised undamped shapes) obey
+
+        eta'' + C_r eta' + diag(omega²) eta = f_r u(t) + tip_r s + sum_g psi_g F_g,
+        s = -k3 w_tip³,  F_g = -c_g |v_g| v_g,  v_g = psi_g . eta'
+
+    with psi_g the shapes at the Gauss points x_g of :func:`drag_quadrature` and c_g =
+    ½ rho_air C_d b w_g (kg/m): the distributed drag ½ rho_air C_d b |w_t| w_t projected on the
+    modes by quadrature. They are diagonalised (first-order form, one coordinate per conjugate
+    pair) and stepped by ETDRK4 (:func:`_etdrk4_general`), whose linear part is exact.
+
+    Parameters
+    ----------
+    omega_squared : (B, m)  omega² (rad²/s²).
+    reduced_damping : (B, m, m)  C_r (1/s).
+    force, sensor, tip : (B, m)  the input's modal force per unit input, the sensor's and the tip's
+        displacement rows.
+    gauss : (B, G, m)  the shapes at the Gauss points.
+    cubic_N_m3 : (B,)  k3 (N/m³).
+    drag_kg_m : (B, G)  c_g (kg/m).
+    voltage : (n,)  input held over each interval (V or N; zeros for a free response).
+    steps_s : (n - 1,)  t_k+1 - t_k (s), uniform or not.
+    order : {0, 1, 2}  displacement (m), velocity (m/s) or acceleration (m/s²) at the sensor.
+    initial : (B, 2m), optional  (eta, eta') at t_0; rest when omitted.
+    static_gains : (B, 4), optional  the discarded modes' quasi-static share (see
+        :func:`integrate_tip_cubic`), displacement only.
+    """
+    omega2 = np.asarray(omega_squared, dtype=float)
+    batch, m = omega2.shape
+    poles, vectors = modal.modal_decomposition(omega2, np.asarray(reduced_damping, dtype=float))
+    inverse = np.linalg.inv(vectors)
+    upper = vectors[:, :m, :]  # displacement part of each eigenvector, (B, m, 2m)
+    scale = np.max(np.abs(poles), axis=1, keepdims=True)
+    keep = poles.imag >= -1e-12 * scale  # one of each conjugate pair, and real poles
+    factor = np.where(poles.imag > 1e-12 * scale, 2.0, 1.0)
+    width = int(keep.sum(axis=1).max())
+    order_idx = np.argsort(~keep, axis=1, kind="stable")[:, :width]
+    kept = np.take_along_axis(keep, order_idx, axis=1)
+
+    def take(array: np.ndarray) -> np.ndarray:  # (..., 2m) -> (..., width), kept poles first
+        index = order_idx.reshape((batch,) + (1,) * (array.ndim - 2) + (width,))
+        return np.take_along_axis(array, np.broadcast_to(index, array.shape[:-1] + (width,)), axis=-1)
+
+    def inputs(rows: np.ndarray) -> np.ndarray:  # modal forces (B, ..., m) -> gains (B, ..., width)
+        return take(np.einsum("bjm,b...m->b...j", inverse[:, :, m:], rows)) * kept.reshape((batch,) + (1,) * (rows.ndim - 2) + (width,))
+
+    def outputs(rows: np.ndarray, power: int) -> np.ndarray:  # displacement rows -> doubled gains of the derivative
+        gains = np.einsum("b...m,bmj->b...j", rows, upper) * (factor * poles**power).reshape((batch,) + (1,) * (rows.ndim - 2) + (2 * m,))
+        return take(gains) * kept.reshape((batch,) + (1,) * (rows.ndim - 2) + (width,))
+
+    kept_poles = np.where(kept, take(poles), -1.0 + 0j)
+    gauss = np.asarray(gauss, dtype=float)
+    direct = np.zeros((batch, 2 + gauss.shape[1]))
+    if order == 2:  # the retained modes' acceleration feels the modal force at once
+        direct[:, 0] = np.einsum("bm,bm->b", sensor, force)
+        direct[:, 1] = np.einsum("bm,bm->b", sensor, tip)
+        direct[:, 2:] = np.einsum("bm,bgm->bg", sensor, gauss)
+    static = np.zeros((batch, 4))
+    if static_gains is not None and order == 0:
+        given = np.asarray(static_gains, dtype=float)
+        static[:, : given.shape[-1]] = given
+    start = np.zeros((batch, width), complex)
+    if initial is not None:
+        state = np.broadcast_to(np.asarray(initial, dtype=float), (batch, 2 * m))
+        start = take(np.einsum("bjk,bk->bj", inverse, state)) * kept
+    critical = np.abs(kept_poles).max(axis=1)
+    args = (
+        np.ascontiguousarray(kept_poles), inputs(np.asarray(force, dtype=float)[:, None, :])[:, 0],
+        inputs(np.asarray(tip, dtype=float)[:, None, :])[:, 0], np.ascontiguousarray(inputs(gauss)),
+        np.ascontiguousarray(outputs(np.asarray(sensor, dtype=float)[:, None, :], order)[:, 0]),
+        np.ascontiguousarray(outputs(np.asarray(tip, dtype=float)[:, None, :], 0)[:, 0]),
+        np.ascontiguousarray(outputs(gauss, 1)), direct,
+        np.ascontiguousarray(np.broadcast_to(np.asarray(cubic_N_m3, dtype=float), (batch,))),
+        np.ascontiguousarray(np.broadcast_to(np.asarray(drag_kg_m, dtype=float), (batch, gauss.shape[1]))),
+        static, np.ascontiguousarray(start), np.ascontiguousarray(voltage, dtype=float),
+    )
+    steps = np.asarray(steps_s, dtype=float)
+    out = np.empty((batch, steps.size + 1))
+    for row in range(batch):
+        counts = np.maximum(1, np.ceil(critical[row] * steps / GENERAL_RESOLUTION)).astype(np.int64)
+        widths, step_id = np.unique(steps / counts, return_inverse=True)
+        table = _step_coefficients(args[0][row], widths)
+        out[row] = _etdrk4_general(row, *args, step_id.reshape(-1).astype(np.int64), counts, table)
     return out
