@@ -15,6 +15,7 @@ from bokeh.models import ColumnDataSource, Range1d, Span
 from bokeh.plotting import figure
 
 from dashboard.outputs.toy import PAIR_PARAMETERS, PARAMETER_LABELS
+from dashboard.plots.fonts import TICKS_PX, style_figure
 
 __all__ = ["CornerPlot"]
 
@@ -55,6 +56,8 @@ class CornerPlot:
 
     def __init__(self, names=PAIR_PARAMETERS, size: int = 170, labels: dict | None = None) -> None:
         self.names = tuple(names)
+        #: Width and height of one panel (px).
+        self.size = size
         labels = PARAMETER_LABELS if labels is None else labels
         n = len(self.names)
         self.ranges = ranges = {name: Range1d(0.0, 1.0) for name in self.names}
@@ -71,8 +74,6 @@ class CornerPlot:
                 fig = figure(width=size, height=size, x_range=ranges[xname], toolbar_location=None,
                              tools="pan,wheel_zoom,reset", min_border=4)
                 fig.xaxis.axis_label = labels[xname] if i == n - 1 else None
-                fig.xaxis.major_label_text_font_size = "8pt"
-                fig.yaxis.major_label_text_font_size = "8pt"
                 fig.xaxis.ticker.desired_num_ticks = 3
                 # tilted, so that long tick labels (0.2925, 0.2930, ...) do not run into each other
                 fig.xaxis.major_label_orientation = 0.7
@@ -81,7 +82,6 @@ class CornerPlot:
                     fig.y_range = self.hist_ranges[xname] = Range1d(0.0, 1.0)
                     fig.yaxis.visible = False
                     fig.title.text = labels[xname]
-                    fig.title.text_font_size = "9pt"
                     for key, color, alpha in (("pinned", PINNED, 0.35), ("current", CURRENT, 0.6)):
                         src = ColumnDataSource(_hist(np.array([])), name=f"corner-{xname}-{key}")
                         fig.quad(left="left", right="right", top="top", bottom=0, source=src, color=color,
@@ -100,6 +100,8 @@ class CornerPlot:
                     src = ColumnDataSource({"x": [], "y": []})
                     fig.scatter("x", "y", source=src, marker="x", color=TRUTH, size=12, line_width=3)
                     self.sources[(xname, yname, "truth")] = src
+                style_figure(fig)
+                fig.title.text_font_size = f"{TICKS_PX}px"  # a parameter's name over its marginal
                 row.append(fig)
             rows.append(row)
         #: Rows of figures (None above the diagonal). Lay them out with separate panes
