@@ -295,7 +295,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
                                                 css_classes=["beam-modes"])
         options = beam.effect_options()
         effects = pn.widgets.CheckBoxGroup(options=options, value=list(beam.effects), inline=False,
-                                           css_classes=["beam-effects"])
+                                           sizing_mode="stretch_width", css_classes=["beam-effects"])
         effects.param.watch(lambda e: setattr(beam, "effects", list(e.new)) if list(e.new) != list(beam.effects) else None,
                             "value")
         beam.param.watch(lambda e: setattr(effects, "value", list(e.new)) if list(e.new) != effects.value else None,
@@ -368,7 +368,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
             return
         names = tuple(bs.summary(beam.result))
         if self._corner is None or self._corner.names != names:
-            self._corner = CornerPlot(names, size=150, labels={n: bs.short_label(n, bs.output_units(beam.result).si_unit) for n in names})
+            self._corner = CornerPlot(names, labels={n: bs.short_label(n, bs.output_units(beam.result).si_unit) for n in names})
             self._posterior_tab[:] = [self._posterior_tab[0], corner_grid(self._corner.grid, self._corner.size)]
         pinned = beam.pinned if beam.pinned is not None and tuple(bs.summary(beam.pinned)) == names else None
         answer = self.session.diagnosis.answer

@@ -42,7 +42,8 @@ BUTTON_WRAP = [":host .bk-btn { white-space: normal; text-align: center; }"]
 
 #: Smallest text a student reads on a projected 1280 x 800 screen (px): the base size of every
 #: widget and pane (Bokeh's ``--bokeh-font-size``, 12 px by default), of buttons (Bootstrap's
-#: 0.8 rem, 12.8 px) and of ``<small>`` and ``<code>`` (0.875 of the base, 10.5 px before).
+#: 0.8 rem, 12.8 px), of ``<small>`` and ``<code>`` (0.875 of the base, 10.5 px before) and of
+#: the tables (Panel's ``dataframe.css``: 12 px).
 MIN_TEXT_PX = 14
 #: The text size of the views (px).
 BASE_TEXT_PX = 15
@@ -50,9 +51,13 @@ BASE_TEXT_PX = 15
 #: (a CSS custom property crosses shadow boundaries).
 ROOT_CSS = f":root {{ --bokeh-font-size: {BASE_TEXT_PX}px; }}"
 #: Added to every component by :class:`ClassroomDesign` (after Bootstrap's sheet, so it wins);
-#: a button's label wraps (at 15 px, "4. Drift, 12 s, AR(1)" ran past its half of the column).
+#: a button's label, a check box's label and a row of tabs wrap (at 15 px, "4. Drift, 12 s, AR(1)"
+#: ran past its half of the column, "Patch stiffening (Δρ in kg/m, ΔEI in N m²)" past the input
+#: column, the beam view's fourth result tab past the main column at 1280 px).
 READABLE_CSS = (f".bk-btn {{ --bs-btn-font-size: {BASE_TEXT_PX}px; white-space: normal; }} "
-                f"small, code, .bk-slider-value {{ font-size: max({MIN_TEXT_PX}px, 0.9em); }}")
+                f"small, code, .bk-slider-value {{ font-size: max({MIN_TEXT_PX}px, 0.9em); }} "
+                f":host table.panel-df {{ font-size: {BASE_TEXT_PX}px; }} "
+                ".bk-input-group label { white-space: normal; } .bk-header { flex-wrap: wrap; }")
 
 
 class ClassroomDesign(pn.theme.Bootstrap):
@@ -96,8 +101,9 @@ def corner_grid(grid: list[list], size: int) -> pn.Column:
     the diagonal) as one pane each in a grid of ``size`` px cells (not a bokeh GridPlot, see
     :mod:`dashboard.plots.corner`), in a column that scrolls sideways when the grid is wider
     than it: its last column (the noise σ) ran over the class panel at 1280 px."""
-    cells = [pn.pane.Bokeh(fig, sizing_mode="fixed", margin=0) if fig is not None else pn.Spacer(width=size, height=size)
-             for row in grid for fig in row]
+    cells = [pn.pane.Bokeh(fig, sizing_mode="fixed", margin=0) if fig is not None
+             else pn.Spacer(width=size, height=grid[i][0].height, margin=0)
+             for i, row in enumerate(grid) for fig in row]
     return pn.Column(pn.GridBox(*cells, ncols=len(grid), sizing_mode="fixed"), sizing_mode="stretch_width",
                      styles={"overflow-x": "auto", "max-width": "100%"}, css_classes=["pair-plot"])
 

@@ -21,16 +21,8 @@ from dashboard.plots.timeseries import TimeSeriesPlot
 from dashboard.plots.toy import SweepPlot
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
-from dashboard.views.panes import (
-    FLEX_ITEM_GUIDE,
-    FLEX_ITEM_INPUTS,
-    FLEX_ITEM_MAIN,
-    HTML,
-    DataFrame,
-    Markdown,
-    alert_html,
-    corner_grid,
-)
+from dashboard.views import panes
+from dashboard.views.panes import FLEX_ITEM_GUIDE, FLEX_ITEM_INPUTS, FLEX_ITEM_MAIN, HTML, DataFrame, Markdown, alert_html
 from dashboard.views.texts import TOY_GLOSSARY, TOY_GUIDE, TOY_STEPS
 
 __all__ = ["ToyView"]
@@ -210,7 +202,7 @@ class ToyView(pn.viewable.Viewer):
             self._posterior_tab.append(self._corner_grid())
 
     def _corner_grid(self) -> pn.Column:
-        return corner_grid(self._corner.grid, self._corner.size)
+        return panes.corner_grid(self._corner.grid, self._corner.size)
 
     def _controls(self) -> pn.Card:
         p = self._toy.param

@@ -65,6 +65,21 @@ READ_STATE_JS = """() => {
 }"""
 
 
+#: Defines ``window.__deepAll(selector)``: the elements of the page that match, shadow roots
+#: included (Panel renders each pane in one), with a non-empty box.
+DEEP_JS = """
+window.__deepAll = (sel) => {
+  const out = [];
+  const walk = (root) => {
+    root.querySelectorAll(sel).forEach((e) => out.push(e));
+    root.querySelectorAll('*').forEach((e) => { if (e.shadowRoot) walk(e.shadowRoot); });
+  };
+  walk(document);
+  return out.filter((e) => { const r = e.getBoundingClientRect(); return r.width > 0 && r.height > 0; });
+};
+"""
+
+
 def free_port() -> int:
     """A TCP port free on 127.0.0.1 right now."""
     with socket.socket() as sock:

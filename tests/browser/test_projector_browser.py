@@ -24,25 +24,17 @@ import time
 from pathlib import Path
 
 import pytest
-from harness import BEAM_FINAL, launch, serve_app, wait_for_status
+from harness import BEAM_FINAL, DEEP_JS, serve_app, wait_for_status
 
 pytestmark = pytest.mark.browser
 
 SIZES = [(1024, 768), (1280, 800), (1920, 1080)]
 MIN_PX = 14.0
 
-#: Visible elements of the page, shadow roots included (Panel renders each pane in one).
-DEEP_JS = """
-window.__deepAll = (sel) => {
-  const out = [];
-  const walk = (root) => {
-    root.querySelectorAll(sel).forEach((e) => out.push(e));
-    root.querySelectorAll('*').forEach((e) => { if (e.shadowRoot) walk(e.shadowRoot); });
-  };
-  walk(document);
-  return out.filter((e) => { const r = e.getBoundingClientRect(); return r.width > 0 && r.height > 0
-                                     && getComputedStyle(e).visibility !== 'hidden'; });
-};
+#: ``__deepAll`` (the harness's: shadow roots included) and the helpers below; ``__shown`` leaves
+#: out what is hidden.
+HELPERS_JS = DEEP_JS + """
+window.__shown = (sel) => window.__deepAll(sel).filter((e) => getComputedStyle(e).visibility !== 'hidden');
 window.__label = (e) => (typeof e.className === 'string' && e.className ? e.className : e.tagName) + ': '
                         + (e.textContent || '').trim().slice(0, 60);
 window.__px = (size) => {  // a Bokeh font size ("14px", "10.5pt", {value: "14px"}) in px
@@ -62,7 +54,7 @@ window.__plotViews = () => [...Bokeh.index.query((v) => v.model && v.model.type 
 #: Text in the page (own text of an element) smaller than the minimum, at the current size.
 SMALL_TEXT_JS = """(min) => {
   const small = [];
-  for (const e of window.__deepAll('*')) {
+  for (const e of window.__shown('*')) {
     let own = '';
     for (const n of e.childNodes) if (n.nodeType === 3) own += n.textContent;
     if (!own.trim()) continue;
@@ -95,15 +87,16 @@ CANVAS_TEXT_JS = """(min) => {
 #: What is cut or runs out of its place, at the current size.
 CLIPPED_JS = """() => {
   const problems = [];
-  for (const e of window.__deepAll('th, td, h1, h2, h3, h4, .bk-btn, .bk-tab, .bk-card-title, label, .bk-slider-title, .notice'))
+  for (const e of window.__shown('th, td, h1, h2, h3, h4, .bk-btn, .bk-tab, .bk-card-title, label, .bk-slider-title, .notice'))
     if (e.scrollWidth > e.clientWidth + 1) problems.push(`clipped: ${window.__label(e)} (${e.scrollWidth} > ${e.clientWidth})`);
-  for (const e of window.__deepAll('.bk-btn')) {  // a button inside its widget (the widget's box cuts what runs over)
+  // a button, a check box's label, a tab inside its widget (whose box cuts or lets run over what is wider)
+  for (const e of window.__shown('.bk-btn, .bk-input-group label, .bk-tab')) {
     const host = e.getRootNode().host;
     if (!host) continue;
     const a = e.getBoundingClientRect(), b = host.getBoundingClientRect();
-    if (a.left < b.left - 1 || a.right > b.right + 1) problems.push(`button wider than its place: ${window.__label(e)}`);
+    if (a.left < b.left - 1 || a.right > b.right + 1) problems.push(`runs out of its widget: ${window.__label(e)}`);
   }
-  for (const s of window.__deepAll('select')) {  // a menu shows its whole entry
+  for (const s of window.__shown('select')) {  // a menu shows its whole entry
     const cs = getComputedStyle(s), opt = s.options[s.selectedIndex];
     if (!opt) continue;
     const room = s.clientWidth - parseFloat(cs.paddingLeft) - parseFloat(cs.paddingRight);
@@ -120,8 +113,8 @@ CLIPPED_JS = """() => {
     const room = frame - (bar && v.model.toolbar_location === 'above' ? bar.getBoundingClientRect().width : 0);
     if (need > room) problems.push(`plot title cut: "${t.text}" (${need.toFixed(0)} > ${room.toFixed(0)} px)`);
   }
-  const guides = window.__deepAll('.toy-class-guide, .beam-class-guide, .diag-class-guide');
-  for (const g of window.__deepAll('.pair-plot')) {  // the pair plot inside its column (scrolling sideways if need be)
+  const guides = window.__shown('.toy-class-guide, .beam-class-guide, .diag-class-guide');
+  for (const g of window.__shown('.pair-plot')) {  // the pair plot inside its column (scrolling sideways if need be)
     const a = g.getBoundingClientRect();
     if (a.right > window.innerWidth + 1) problems.push('pair plot wider than the window');
     for (const guide of guides) {
@@ -209,7 +202,7 @@ def check_tab(page, name: str, directory: Path, report: dict) -> None:
     for w, h in SIZES:
         page.set_viewport_size({"width": w, "height": h})
         page.wait_for_timeout(1500)
-        page.evaluate(DEEP_JS)
+        page.evaluate(HELPERS_JS)
         screenshots(page, directory, f"{name}_{w}x{h}")
         clipped = page.evaluate(CLIPPED_JS)
         assert clipped == [], f"{name} at {w} x {h}: {clipped} (screenshots in {directory})"
@@ -247,7 +240,7 @@ def test_every_tab_is_readable_on_a_projector(page, tmp_path):
     for w, h in SIZES:  # the ladder of a fresh diagnosis: one bar, the case whose log axis overprinted
         page.set_viewport_size({"width": w, "height": h})
         page.wait_for_timeout(1200)
-        page.evaluate(DEEP_JS)
+        page.evaluate(HELPERS_JS)
         ladder = page.evaluate(LADDER_JS)
         assert ladder["found"], "no ladder plot on the diagnosis tab"
         assert ladder["bars"] >= 1 and len(ladder["boxes"]["y"]) >= 2, ladder
