@@ -125,8 +125,9 @@ def loading_page(state: Startup, title: str) -> pn.template.BootstrapTemplate:
         if state.done and not state.error:
             callback.stop()
             location = pn.state.location
-            location.reload = True
-            location.search = f"?started={int(time.time())}"  # a new address: the browser loads the app
+            if location is not None:  # None in the session ``--warm`` runs without a browser
+                location.reload = True
+                location.search = f"?started={int(time.time())}"  # a new address: the browser loads the app
 
     callback = pn.state.add_periodic_callback(tick, period=500)
     return page

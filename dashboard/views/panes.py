@@ -57,7 +57,7 @@ ROOT_CSS = f":root {{ --bokeh-font-size: {BASE_TEXT_PX}px; }}"
 READABLE_CSS = (f".bk-btn {{ --bs-btn-font-size: {BASE_TEXT_PX}px; white-space: normal; }} "
                 f"small, code, .bk-slider-value {{ font-size: max({MIN_TEXT_PX}px, 0.9em); }} "
                 f":host table.panel-df {{ font-size: {BASE_TEXT_PX}px; }} "
-                ".bk-input-group label { white-space: normal; } .bk-header { flex-wrap: wrap; }")
+                ".bk-input-group label { white-space: normal; } :host(.bk-above) .bk-headers-wrapper { flex-wrap: wrap; }")
 
 
 class ClassroomDesign(pn.theme.Bootstrap):
