@@ -35,12 +35,9 @@ import panel as pn
 from panel.io.resources import LOCAL_DIST
 from panel.io.state import set_curdoc
 
-from dashboard.jobs.beam import warm_worker
-from dashboard.jobs.warm import schedule_warm_up
-from dashboard.runtime import monitor, scheduler, server
-from dashboard.runtime.staging import held
-from dashboard.state.session import SessionState
-from dashboard.views.tabs import VIEWS
+# Only Panel and the loading page at the top: the first session of a server shows the loading page
+# at once while the rest is imported on a thread (dashboard.views.loading), then the app.
+from dashboard.views.loading import loading_page, start
 
 __all__ = ["create_app", "session_dispatch"]
 
@@ -53,6 +50,8 @@ def session_dispatch(doc):
     Each callback runs with the document held (:func:`dashboard.runtime.staging.held`): every
     change it makes reaches the browser in the order it was made.
     """
+
+    from dashboard.runtime.staging import held
 
     def dispatch(fn):
         with set_curdoc(doc):
@@ -69,6 +68,11 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
     session : SessionState, optional
         Default: a new one whose updates are dispatched to the current document.
     """
+    from dashboard.jobs.warm import schedule_warm_up
+    from dashboard.state.session import SessionState
+    from dashboard.views.panes import ROOT_CSS, ClassroomDesign
+    from dashboard.views.tabs import VIEWS
+
     pn.extension("filedropper", notifications=False)  # the upload widget (built with the Beam tab, after load)
     doc = pn.state.curdoc
     if session is None:
@@ -130,17 +134,33 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
         pn.state.onload(start)
     else:
         start()
-    template = pn.template.BootstrapTemplate(title=TITLE, main=[tabs], header_background="#2f4f6f")
+    template = pn.template.BootstrapTemplate(title=TITLE, main=[tabs], header_background="#2f4f6f",
+                                             design=ClassroomDesign, raw_css=[ROOT_CSS])
     template.session_state = session  # for tests and debugging
     template.views = views
     template.tab_titles = list(tabs._names)  # the titles as the tabs show them (for tests)
     return template
 
 
-if __name__.startswith("bokeh"):
+def start_workers() -> None:
+    """Start the shared pool's worker processes with their warm-up (on the start-up thread, once
+    the imports are done: they warm up while the first visitor still reads the loading page)."""
+    from dashboard.jobs.beam import warm_worker
+    from dashboard.runtime import scheduler
+
     scheduler.set_worker_warm_up(warm_worker)  # before the pool starts its worker processes
-    server.prepare()  # once per server process: worker processes, lag monitor, gc freeze
-    _t0 = time.perf_counter()
-    create_app().servable(title=TITLE)
-    if monitor.current() is not None:
-        monitor.current().note("session script", seconds=round(time.perf_counter() - _t0, 3))
+    scheduler.shared_pool().start_processes()
+
+
+if __name__.startswith("bokeh"):
+    _startup = start(start_workers)  # once per server process (``--warm``: before the first visitor)
+    if not _startup.done or _startup.error:
+        loading_page(_startup, TITLE).servable(title=f"{TITLE}: starting")  # the title tells it apart (tests)
+    else:
+        from dashboard.runtime import monitor, server
+
+        server.prepare()  # once per server process, on the event loop: lag monitor, gc freeze
+        _t0 = time.perf_counter()
+        create_app().servable(title=TITLE)
+        if monitor.current() is not None:
+            monitor.current().note("session script", seconds=round(time.perf_counter() - _t0, 3))

@@ -98,12 +98,13 @@ def bundled_names() -> list[str]:
     return bundled_record_names()
 
 
-def effects_epilog() -> str:
-    """The effect ids with their titles, for the ``--help`` of the commands that take ``--effects``."""
+def effects_epilog(option: str = "--effects") -> str:
+    """The effect ids with their titles, for the ``--help`` of the commands that take effect ids
+    (``option``: the option that takes them, ``--effects`` or ``--base``)."""
     from beam.physics.effects import EFFECTS
 
     width = max(len(name) for name in EFFECTS)
-    lines = ["effects (ids for --effects):"] + [f"  {name:<{width}}  {effect.title}" for name, effect in EFFECTS.items()]
+    lines = [f"effects (ids for {option}):"] + [f"  {name:<{width}}  {effect.title}" for name, effect in EFFECTS.items()]
     names = bundled_names()
     if names:
         lines += ["", "bundled measurements (DATA by name): " + ", ".join(names)]

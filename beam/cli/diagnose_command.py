@@ -7,7 +7,7 @@ import json
 import sys
 
 from beam.cli.arguments import HelpFormatter, effects_epilog, non_negative_int
-from beam.cli.calibrate_command import add_model_arguments
+from beam.cli.calibrate_command import _in_unit, _percent, add_model_arguments, format_window
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -18,7 +18,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Calibrate the base model on the window (MAP + Laplace), examine its residuals (band exceedances, "
         "spectrum, whiteness, identified modes, amplitude dependence), rank every catalogue effect not in the model "
         "by Laplace evidence and held-out error, and climb the error ladder.",
-        epilog=effects_epilog(),
+        epilog=effects_epilog("--base"),
         formatter_class=HelpFormatter,
     )
     add_model_arguments(parser)
@@ -26,19 +26,76 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="effects of the current model (default air_damping,kelvin_voigt; '' for the bare beam)")
     parser.add_argument("--mcmc", action="store_true", help="re-calibrate every ladder step with full MCMC (slower)")
     parser.add_argument("--seed", type=non_negative_int, default=0, metavar="S", help="random seed of the MCMC (default 0)")
-    parser.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    parser.add_argument("--json", action="store_true",
+                        help="print the report as one JSON object (SI units; no progress line)")
+    parser.add_argument("--report", default=None, metavar="FILE.html",
+                        help="also write a one-page printable summary (self-contained HTML: the error ladder, the "
+                        "residual plots, the ranked candidates, the modes)")
     parser.set_defaults(func=run)
+
+
+class TerminalProgress:
+    """One status line on a terminal, rewritten in place: the elapsed time and the step.
+
+    Called from the fitting threads too (a lock keeps the lines whole); :meth:`close` erases it.
+    """
+
+    def __init__(self, stream) -> None:
+        import threading
+        import time
+
+        self._stream, self._lock, self._clock = stream, threading.Lock(), time.perf_counter
+        self._t0 = self._clock()
+
+    def __call__(self, text: str) -> None:
+        import shutil
+
+        line = f"[{self._clock() - self._t0:4.0f} s] {text}"[: max(shutil.get_terminal_size().columns - 1, 20)]
+        with self._lock:
+            self._stream.write(f"\r\x1b[K{line}")
+            self._stream.flush()
+
+    def close(self) -> None:
+        with self._lock:
+            self._stream.write("\r\x1b[K")
+            self._stream.flush()
+
+
+def wants_progress(args: argparse.Namespace) -> bool:
+    """A progress line only for a person at a terminal: not with ``--json``, not when stdout or
+    stderr is redirected (a pipe, a file, a test's capture)."""
+    return not args.json and sys.stdout.isatty() and sys.stderr.isatty()
 
 
 def run(args: argparse.Namespace) -> int:
     from beam.cli.record_arguments import measurement_from_args
 
+    if args.report is not None and not str(args.report).lower().endswith((".html", ".htm")):
+        from beam.errors import BeamInputError
+
+        raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
     measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
+    progress = TerminalProgress(sys.stderr) if wants_progress(args) else None
+    if progress is not None:
+        progress(f"loading the calibration engine ({measurement.name})")
     from beam.discovery.report import diagnose
 
-    report = diagnose(measurement, window=args.window, modes=args.modes, base=args.base, ladder_mcmc=args.mcmc,
-                      seed=args.seed)
+    try:
+        report = diagnose(measurement, window=args.window, modes=args.modes, base=args.base, ladder_mcmc=args.mcmc,
+                          seed=args.seed, progress=progress)
+        if args.report:
+            if progress is not None:
+                progress(f"writing {args.report}")
+            from beam.discovery.handout import report_handout
+            from beam.io.text import atomic_write_texts
+
+            written = str(atomic_write_texts({args.report: report_handout(report)})[0])
+    finally:
+        if progress is not None:
+            progress.close()
     summary = report.to_json()
+    if args.report:
+        summary["report"] = written
     if args.json:
         json.dump(summary, sys.stdout, allow_nan=False)
         sys.stdout.write("\n")
@@ -51,16 +108,22 @@ def _m(value) -> str:
     return "n/a" if value is None else f"{value:.3g}"
 
 
+def _nats(value) -> str:
+    return "failed" if value is None else f"{value:+.1f}"
+
+
 def format_report(summary: dict) -> str:
-    """A readable report of a diagnosis."""
+    """A readable report of a diagnosis, in the units ``beam calibrate`` prints (lengths in µm, a
+    velocity or acceleration in its SI unit, coverage in %; the JSON keeps SI units)."""
     from beam.residuals.modal_id import DIFFERENCE_CONVENTION
 
+    unit = summary.get("output_unit", "m")
     lines = [
-        f"{summary['measurement']}: window {summary['window_s'][0]:g}-{summary['window_s'][1]:g} s, {summary['modes']} modes, "
+        f"{summary['measurement']}: calibration window {format_window(summary['window_s'])}, {summary['modes']} modes, "
         f"base model: {', '.join(summary['base']) or 'bare beam'}",
         *([f"modes: {summary['modes']}, chosen: {summary['modes_reason']}"] if summary.get("modes_reason") else []),
-        f"held-out RMSE of the base model {_m(summary['rmse_prediction_base'])} {summary.get('output_unit', 'm')}, coverage of its 95% band "
-        f"{_m(summary['coverage95_prediction_base'])}",
+        f"held-out RMSE of the base model {_in_unit(summary['rmse_prediction_base'], unit)}, held-out data inside its "
+        f"95 % prediction band: {_percent(summary['coverage95_prediction_base'])}",
         "",
         f"modes (data vs model; data vs model %: {DIFFERENCE_CONVENTION})",
         f"  {'mode':>4s} {'f data (Hz)':>12s} {'f model (Hz)':>13s} {'data vs model %':>16s} {'zeta data':>10s} {'zeta model':>11s}",
@@ -69,17 +132,19 @@ def format_report(summary: dict) -> str:
         lines.append(f"  {row['mode']:>4d} {_m(row['frequency_data_Hz']):>12s} {_m(row['frequency_model_Hz']):>13s} "
                      f"{_m(row['frequency_error_pct']):>16s} {_m(row['damping_data']):>10s} {_m(row['damping_model']):>11s}"
                      + (f"  not seen: {row['note']}" if row.get("note") else ""))
-    lines += ["", "candidate effects, best first",
+    lines += ["", "candidate effects, best first (* materially improves the model)",
               f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE':>18s}  why"]
     for c in summary["candidates"]:
         mark = "*" if c["material"] else " "
-        lines.append(f"{mark} {c['effect']:18s} {_m(c['delta_log_evidence']):>15s} {_m(c['rmse_prediction']):>18s}  {c['explanation']}")
+        lines.append(f"{mark} {c['effect']:18s} {_nats(c['delta_log_evidence']):>15s} {_in_unit(c['rmse_prediction'], unit):>18s}"
+                     f"  {c['explanation']}")
     lines += ["", "error ladder"]
     for step in summary["ladder"]:
         name = "base" if step["added"] is None else f"+ {step['added']}"
-        unit = summary.get("output_unit", "m")
-        lines.append(f"  {name:22s} RMSE calibration {_m(step['rmse_calibration'])} {unit}, prediction {_m(step['rmse_prediction'])} {unit}, "
-                     f"coverage {_m(step['coverage95_prediction'])}")
+        lines.append(f"  {name:22s} RMSE calibration {_in_unit(step['rmse_calibration'], unit)}, held-out "
+                     f"{_in_unit(step['rmse_prediction'], unit)}, held-out inside the 95 % band "
+                     f"{_percent(step['coverage95_prediction'])}")
     lines += ["", summary["verdict"]] + [f"note: {n}" for n in summary["notes"]]
+    lines += [f"written: {summary['report']}"] if "report" in summary else []
     lines.append(f"({summary['seconds']:.1f} s)")
     return "\n".join(lines) + "\n"

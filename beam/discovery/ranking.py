@@ -28,6 +28,7 @@ MCMC; the command line uses the preview unless asked for MCMC).
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -190,10 +191,12 @@ FIT_ERRORS = (RuntimeError, FloatingPointError, ValueError, BeamInputError)
 
 
 def thread_fitter(measurement: Measurement, window: tuple[float, float], modes: int, workers: int = 2,
-                  search: bool = True) -> Fitter:
+                  search: bool = True, on_fit: Callable[[tuple[str, ...], int, int], None] | None = None) -> Fitter:
     """The default :data:`Fitter`: previews in ``workers`` threads (the compiled kernels release
     the GIL; the Python between them does not, so two threads gain ~1.2x on two cores);
-    ``search=False``: screening fits (:func:`beam.calibration.calibration_preview`)."""
+    ``search=False``: screening fits (:func:`beam.calibration.calibration_preview`).
+    ``on_fit(effects, done, total)``, if given, is called (from the fitting thread) as each fit
+    of a call ends: its effect set, how many of the call's ``total`` fits have ended."""
     def fit(effects: tuple[str, ...]) -> CalibrationResult | Exception:
         try:
             return calibration_preview(measurement, window=window, effects=effects, modes=modes, search=search)
@@ -201,8 +204,17 @@ def thread_fitter(measurement: Measurement, window: tuple[float, float], modes: 
             return exc
 
     def fitter(effect_sets: list[tuple[str, ...]]) -> list[CalibrationResult | Exception]:
+        ended, lock = [0], threading.Lock()
+
+        def counted(effects: tuple[str, ...]) -> CalibrationResult | Exception:
+            result = fit(effects)
+            with lock:
+                ended[0] += 1
+                on_fit(effects, ended[0], len(effect_sets))
+            return result
+
         with ThreadPoolExecutor(max_workers=max(1, int(workers))) as pool:
-            return list(pool.map(fit, effect_sets))
+            return list(pool.map(fit if on_fit is None else counted, effect_sets))
 
     return fitter
 

@@ -12,7 +12,7 @@ a record (no free decay, say) is reported as a note instead of failing the diagn
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
@@ -308,7 +308,8 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
     gain_nats : float
         Its log-evidence gain.
     rmse_before_m, rmse_after_m : float
-        Held-out RMSE (m) of the current model and with the missing effect (or of the last rung).
+        Held-out RMSE (in ``unit``) of the current model and with the missing effect (or of the
+        last rung); the sentence gives a length in µm.
     remaining : Remaining or None
         Distance of the last rung from the noise floor (None: not estimated).
     unit : str
@@ -334,7 +335,8 @@ def verdict_sentence(missing: str | None, gain_nats: float, rmse_before_m: float
     if missing is not None:
         then = list(then)
         added = missing + "".join(f", then {effect}" for effect in then)
-        head = f"missing: {added} (+{gain_nats:.0f} nats; {error_label} {rmse_before_m:.3g} -> {rmse_after_m:.3g} {unit})"
+        before, after = _amount(rmse_before_m, unit).split(" ")[0], _amount(rmse_after_m, unit)
+        head = f"missing: {added} (+{gain_nats:.0f} nats; {error_label} {before} -> {after})"
         if alternatives:
             head += (f"; the data cannot tell it from {' or '.join(alternatives)}: the same frequencies of the "
                      "modes the record shows, the same repair by another cause")
@@ -380,10 +382,11 @@ def remaining_words(remaining: Remaining, unit: str = "m", floor_text: str | Non
     unit : str
         The output's unit (the floor is quoted in it).
     floor_text : str, optional
-        The floor as the caller shows it (e.g. ``"15 µm"``); default ``"{sd:.3g} {unit}"``.
+        The floor as the caller shows it (e.g. ``"15 µm"``); default: a length in µm, another
+        quantity in its SI unit, as ``beam calibrate`` prints them.
     """
     ratio = remaining.remaining_error_ratio
-    floor = floor_text or f"{remaining.noise_floor.sd:.3g} {unit}"
+    floor = floor_text or _amount(remaining.noise_floor.sd, unit)
     size = f"{ratio:.1f}× the sensor's noise ({floor}, read from the record alone)"
     if remaining.at_noise:
         text = f"what remains is {size}: the model predicts to the noise"
@@ -415,6 +418,13 @@ def window_only_words(effect: str, gain_nats: float, held_out_change: float, fre
     return (f"{effect} gains +{gain_nats:.0f} nats of evidence inside the calibration window while its held-out "
             f"error is {rise} higher: a base model this far from the data lets any added flexibility fit the "
             "window better, so this evidence is no support for the effect")
+
+
+def _amount(value: float, unit: str) -> str:
+    """A length in µm (as ``beam calibrate`` prints it), another quantity in its SI ``unit``; 3
+    significant digits, never an exponent below 10⁶ (``"1150 µm"``, ``"46.5 µm"``)."""
+    scaled, shown = (value * 1e6, "µm") if unit == "m" else (value, unit)
+    return f"{scaled:.0f} {shown}" if 1e3 <= abs(scaled) < 1e6 else f"{scaled:.3g} {shown}"
 
 
 def _more_modes(remaining: Remaining) -> str:
@@ -667,18 +677,37 @@ def diagnose(
     base: Iterable[str] | str = DEFAULT_EFFECTS,
     ladder_mcmc: bool = False,
     seed: int = 0,
+    progress: Callable[[str], None] | None = None,
 ) -> DiagnosisReport:
     """Diagnose a record from the ``base`` model: residuals, ranked candidates, error ladder.
 
     ``modes`` defaults to ``"auto"``: chosen from the record's excited band
     (:func:`beam.calibration.modes.suggest_modes`), as the command line and the dashboard do.
+    ``progress(text)``, if given, is told each step as it starts and each candidate's fit as it
+    ends, with how many are left (called from the fitting threads too).
     """
+    from beam.discovery.ranking import thread_fitter
+
+    say = progress or (lambda text: None)
     t0 = time.perf_counter()
+    say("calibrating the current model (preview)")
     base_result = calibration_preview(measurement, window=window, effects=base, modes=modes)
+    say("residual diagnostics: band, spectrum, whiteness, modes")
     residuals = residual_report(base_result)
     modes = base_result.setup.modes
+    first = set(base_result.setup.effects)
+
+    def fitted(what: str):
+        def on_fit(effects: tuple[str, ...], done: int, total: int) -> None:
+            added = " + ".join(e for e in effects if e not in first)
+            say(f"{what} {added} fitted ({done} of {total}, {total - done} left)")
+        return on_fit
+
+    say("fitting the candidate effects")
     ranking = rank_candidates(measurement, base=base_result.setup.effects, modes=modes, base_result=base_result,
-                              explain=explainer(residuals))
+                              explain=explainer(residuals),
+                              fitter=thread_fitter(measurement, base_result.setup.window, modes, on_fit=fitted("candidate")))
+    say("error ladder" + (" (MCMC at every rung)" if ladder_mcmc else ""))
     ladder = error_ladder(measurement, ranking, mcmc=ladder_mcmc, seed=seed)
     remaining = None
     try:
@@ -687,7 +716,12 @@ def diagnose(
         if len(ladder) > 1:  # something was added, and more may be missing on top of it
             from beam.discovery.ranking import _step
 
-            climbed, remaining = climb_on(measurement, ladder[-1].result, remaining, floor, mcmc=ladder_mcmc, seed=seed)
+            top = ladder[-1].result.setup
+            climbed, remaining = climb_on(
+                measurement, ladder[-1].result, remaining, floor, mcmc=ladder_mcmc, seed=seed,
+                fitter=thread_fitter(measurement, top.window, top.modes, on_fit=fitted("on top of the ladder:")),
+                screen=thread_fitter(measurement, top.window, top.modes, search=False,
+                                     on_fit=fitted("screening on top of the ladder:")))
             ladder = [*ladder, *(_step(result, effect, ladder_mcmc) for effect, result in climbed)]
     except BeamInputError as exc:
         residuals.notes.append(f"no noise floor: {exc}")

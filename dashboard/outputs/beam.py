@@ -33,6 +33,7 @@ __all__ = [
     "compare_table",
     "convergence",
     "correlation_table",
+    "diagnosis_html",
     "effect_title",
     "evidence_words",
     "filename",
@@ -40,6 +41,7 @@ __all__ = [
     "fmt_um",
     "fmt_value",
     "judged_readouts",
+    "ladder_steps",
     "noise_floor_m",
     "output_units",
     "parameter_label",
@@ -251,6 +253,34 @@ def summary_html(result) -> io.BytesIO | None:
         return None
     notes = [f"{it['label']}: {it['value']} {it['unit']} — {it['words']}" for it in judged_readouts(result) if it["words"]]
     return io.BytesIO(calibration_handout(result, notes).encode("utf-8"))
+
+
+def ladder_steps(diagnosis, rungs: list[dict]) -> list:
+    """The ladder's rows (:func:`dashboard.state.beam.ladder_rung`, in the read-out unit) as
+    :class:`beam.discovery.ranking.LadderStep` (SI units), the starting model alone when there are none."""
+    from beam.discovery.ranking import LadderStep
+
+    if not rungs:
+        base = diagnosis.base
+        return [LadderStep(tuple(base.setup.effects), None, base.rmse_calibration, base.rmse_prediction,
+                           base.coverage95_prediction, float(base.laplace.log_evidence), not base.is_preview, base)]
+    scale = output_units(diagnosis).scale
+    return [LadderStep(tuple(e for e in r["effects"].split(", ") if e), None if r["rung"] == 0 else r["added"],
+                       r["rmse_calibration"] / scale, r["rmse_prediction"] / scale, r["coverage95_pct"] / 100.0,
+                       r["log_evidence_laplace"], r["mcmc"]) for r in rungs]
+
+
+def diagnosis_html(diagnosis, rungs: list[dict]) -> io.BytesIO | None:
+    """The diagnosis's one-page printable summary, the page ``beam diagnose --report`` writes
+    (:func:`beam.discovery.handout.diagnosis_handout`): the ladder as the view shows it, the
+    ranked candidates, the residual plots; None before a complete diagnosis."""
+    if diagnosis is None or diagnosis.pending:
+        return None
+    from beam.discovery.handout import diagnosis_handout
+
+    text = diagnosis_handout(diagnosis.base, diagnosis.residuals, diagnosis.candidates, ladder_steps(diagnosis, rungs),
+                             diagnosis.verdict, diagnosis.residuals.notes)
+    return io.BytesIO(text.encode("utf-8"))
 
 
 def bands_csv(result) -> io.BytesIO | None:

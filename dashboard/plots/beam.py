@@ -18,6 +18,7 @@ from bokeh.models import BoxAnnotation, ColumnDataSource, Legend, LegendItem, Ra
 from bokeh.plotting import figure
 
 from dashboard.outputs.beam import output_units
+from dashboard.plots.fonts import style_figure
 from dashboard.plots.timeseries import COLORS
 
 #: The pinned result (grey: the pink bands are the current result's) and the measurement (dark blue).
@@ -51,10 +52,7 @@ class BeamTimeSeriesPlot:
         fig = figure(height=height, sizing_mode="stretch_width", x_range=Range1d(0.0, 1.0), y_range=Range1d(-1.0, 1.0),
                      tools="pan,wheel_zoom,box_zoom,reset,save", toolbar_location="above", min_border_left=50,
                      title="Measurement and calibrated model (window shaded)")
-        fig.title.text_font_size = "12pt"
         fig.css_classes = ["beam-plot"]  # found by the layout tests
-        fig.xaxis.axis_label_text_font_size = fig.yaxis.axis_label_text_font_size = "11pt"
-        fig.xaxis.major_label_text_font_size = fig.yaxis.major_label_text_font_size = "10pt"
         fig.xaxis.ticker.desired_num_ticks = 6
         fig.xaxis.axis_label = "Time (s)"
         fig.yaxis.axis_label = output_units(None).axis_label()  # "Displacement (mm)" until a record is shown
@@ -63,18 +61,18 @@ class BeamTimeSeriesPlot:
         names = ("pinned-band", "prediction-band", "credible-band", "data", "pinned-mean", "mean", "true-noise")
         src = self.sources = {n: ColumnDataSource(dict(_BAND if "band" in n or n == "true-noise" else _XY),
                                                   name=f"beam-{n}") for n in names}
-        # drawn in this order: bands under the lines, the measurement over the model mean (dots, so
-        # the mean shows between them); the pinned result in grey, far from the pink bands
+        # drawn in this order: bands, the measurement, the model mean on top. The measurement's
+        # dots are small and light: dense and dark (size 2.5, opacity 0.7, drawn over the mean)
+        # they hid the red model line on a projector. The pinned result in grey, far from the pink bands.
         pinned_band = fig.varea("time_s", "lower", "upper", source=src["pinned-band"], color=PINNED, alpha=0.25)
-        items = [
-            ("95 % prediction band", fig.varea("time_s", "lower", "upper", source=src["prediction-band"],
-                                               color=COLORS["prediction"], alpha=0.45)),
-            ("95 % credible band", fig.varea("time_s", "lower", "upper", source=src["credible-band"],
-                                             color=COLORS["credible"], alpha=0.35)),
-            ("model mean", fig.line("time_s", "value", source=src["mean"], color=COLORS["mean"], line_width=1.5)),
-            ("measurement", fig.scatter("time_s", "value", source=src["data"], color=MEASUREMENT, size=2.5,
-                                        alpha=0.7)),
-        ]
+        prediction = fig.varea("time_s", "lower", "upper", source=src["prediction-band"], color=COLORS["prediction"],
+                               alpha=0.45)
+        credible = fig.varea("time_s", "lower", "upper", source=src["credible-band"], color=COLORS["credible"], alpha=0.35)
+        measured = fig.scatter("time_s", "value", source=src["data"], color=MEASUREMENT, size=2, alpha=0.35,
+                               line_alpha=0)
+        mean = fig.line("time_s", "value", source=src["mean"], color=COLORS["mean"], line_width=2.5)
+        items = [("95 % prediction band", prediction), ("95 % credible band", credible), ("model mean", mean),
+                 ("measurement", measured)]
         pinned_mean = fig.line("time_s", "value", source=src["pinned-mean"], color=PINNED, line_width=2,
                                line_dash="dashed")
         true_noise = [fig.line("time_s", edge, source=src["true-noise"], color=COLORS["truth"], line_width=1.5,
@@ -83,9 +81,10 @@ class BeamTimeSeriesPlot:
                               LegendItem(label="pinned: mean", renderers=[pinned_mean], visible=False)]
         self._truth_item = LegendItem(label="mean ± 1.96 × true noise", renderers=true_noise, visible=False)
         legend = Legend(items=[LegendItem(label=label, renderers=[r]) for label, r in items] + self._pinned_items
-                        + [self._truth_item], click_policy="hide", label_text_font_size="10pt", spacing=14,
+                        + [self._truth_item], click_policy="hide", spacing=14,
                         orientation="horizontal", padding=4, margin=4, glyph_width=18)
         fig.add_layout(legend, "below")
+        style_figure(fig)
         self.figure = fig
         self._measurement = None
         self._result = None

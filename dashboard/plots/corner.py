@@ -11,10 +11,11 @@ same parameter, zoom together; an empty plot keeps a valid range.
 from __future__ import annotations
 
 import numpy as np
-from bokeh.models import ColumnDataSource, Range1d, Span
+from bokeh.models import ColumnDataSource, NoOverlap, Range1d, Span
 from bokeh.plotting import figure
 
 from dashboard.outputs.toy import PAIR_PARAMETERS, PARAMETER_LABELS
+from dashboard.plots.fonts import TICKS_PX, style_figure
 
 __all__ = ["CornerPlot"]
 
@@ -35,6 +36,13 @@ def _hist(values: np.ndarray) -> dict:
     return {"left": edges[:-1], "right": edges[1:], "top": top}
 
 
+#: Room of the outer panels' axes (tick labels and axis label), px.
+AXIS_PX = 80
+#: Width of the panels together (px) by default: the whole pair plot fits the main column at
+#: 1280 × 800 beside the class panel (~590 px); its last column (the noise σ) was cut there.
+FIT_PX = 510
+
+
 class CornerPlot:
     """Bokeh figures for ``names`` in a lower-triangular grid; :meth:`update` shows new results.
 
@@ -42,8 +50,10 @@ class CornerPlot:
     ----------
     names : sequence of str
         Parameters (keys of ``ToyResult.draws``), default :data:`PAIR_PARAMETERS`.
-    size : int
-        Width and height of one panel in pixels.
+    size : int, optional
+        Width and height of one panel in pixels (the left column and the bottom row are wider /
+        taller by :data:`AXIS_PX` for their axes). Default: the panels share :data:`FIT_PX`,
+        90 to 170 px each.
     labels : dict, optional
         Axis label (with unit) of each name, default :data:`PARAMETER_LABELS` (the toy's).
 
@@ -53,8 +63,11 @@ class CornerPlot:
     empty) of its arguments.
     """
 
-    def __init__(self, names=PAIR_PARAMETERS, size: int = 170, labels: dict | None = None) -> None:
+    def __init__(self, names=PAIR_PARAMETERS, size: int | None = None, labels: dict | None = None) -> None:
         self.names = tuple(names)
+        size = size or max(90, min(170, FIT_PX // max(len(self.names), 1)))
+        #: Width and height of one panel (px).
+        self.size = size
         labels = PARAMETER_LABELS if labels is None else labels
         n = len(self.names)
         self.ranges = ranges = {name: Range1d(0.0, 1.0) for name in self.names}
@@ -68,11 +81,16 @@ class CornerPlot:
                 if j > i:
                     row.append(None)
                     continue
-                fig = figure(width=size, height=size, x_range=ranges[xname], toolbar_location=None,
-                             tools="pan,wheel_zoom,reset", min_border=4)
-                fig.xaxis.axis_label = labels[xname] if i == n - 1 else None
-                fig.xaxis.major_label_text_font_size = "8pt"
-                fig.yaxis.major_label_text_font_size = "8pt"
+                # tick labels and axis labels on the outer edges only (left column, bottom row), whose
+                # figures are wider / taller by the axis's room: every panel's frame is the same
+                # size - 8 px (with 14 px ticks in every panel, the first column's frames were 92 px
+                # wide and its marginal's title was cut)
+                left, bottom = j == 0, i == n - 1
+                fig = figure(width=size + (AXIS_PX if left else 0), height=size + (AXIS_PX if bottom else 0),
+                             x_range=ranges[xname], toolbar_location=None, tools="pan,wheel_zoom,reset", min_border=4,
+                             min_border_left=AXIS_PX if left else 4, min_border_bottom=AXIS_PX if bottom else 4)
+                fig.xaxis.visible = bottom
+                fig.xaxis.axis_label = labels[xname] if bottom else None
                 fig.xaxis.ticker.desired_num_ticks = 3
                 # tilted, so that long tick labels (0.2925, 0.2930, ...) do not run into each other
                 fig.xaxis.major_label_orientation = 0.7
@@ -81,7 +99,6 @@ class CornerPlot:
                     fig.y_range = self.hist_ranges[xname] = Range1d(0.0, 1.0)
                     fig.yaxis.visible = False
                     fig.title.text = labels[xname]
-                    fig.title.text_font_size = "9pt"
                     for key, color, alpha in (("pinned", PINNED, 0.35), ("current", CURRENT, 0.6)):
                         src = ColumnDataSource(_hist(np.array([])), name=f"corner-{xname}-{key}")
                         fig.quad(left="left", right="right", top="top", bottom=0, source=src, color=color,
@@ -92,7 +109,8 @@ class CornerPlot:
                     self.spans[xname] = span
                 else:
                     fig.y_range = ranges[yname]
-                    fig.yaxis.axis_label = labels[yname] if j == 0 else None
+                    fig.yaxis.visible = left
+                    fig.yaxis.axis_label = labels[yname] if left else None
                     for key, color, alpha in (("pinned", PINNED, 0.25), ("current", CURRENT, 0.25)):
                         src = ColumnDataSource({"x": [], "y": []})
                         fig.scatter("x", "y", source=src, color=color, alpha=alpha, size=2)
@@ -100,6 +118,13 @@ class CornerPlot:
                     src = ColumnDataSource({"x": [], "y": []})
                     fig.scatter("x", "y", source=src, marker="x", color=TRUTH, size=12, line_width=3)
                     self.sources[(xname, yname, "truth")] = src
+                style_figure(fig)
+                # the names over the marginals and along the axes at 14 px, and tick labels that
+                # would run into one another left out (scientific ticks of a 100 px panel did)
+                fig.title.text_font_size = f"{TICKS_PX}px"
+                for axis in (*fig.xaxis, *fig.yaxis):
+                    axis.axis_label_text_font_size = f"{TICKS_PX}px"
+                    axis.major_label_policy = NoOverlap(min_distance=4)
                 row.append(fig)
             rows.append(row)
         #: Rows of figures (None above the diagonal). Lay them out with separate panes

@@ -27,6 +27,7 @@ import numpy as np
 from dashboard.outputs.beam import effect_title as _title
 from dashboard.outputs.beam import output_units
 from dashboard.plots.elements import HIDE_ON_CLICK, css_class, hv, name_source
+from dashboard.plots.fonts import HV_FONTSIZE, TICKS_PX
 from dashboard.plots.timeseries import COLORS
 
 __all__ = ["DiagnosisPlots"]
@@ -34,7 +35,7 @@ __all__ = ["DiagnosisPlots"]
 UM = 1e6
 RED = "#d62728"
 _TOOLS = {"default_tools": ["pan", "wheel_zoom", "box_zoom", "reset", "save"], "toolbar": "above", "height": 270,
-          "responsive": True, "fontsize": {"title": "11pt", "legend": "8pt"}}
+          "responsive": True, "fontsize": HV_FONTSIZE}
 
 
 def _empty_residual() -> dict:
@@ -163,21 +164,27 @@ class DiagnosisPlots:
         unit = rungs[-1].get("unit", "µm") if rungs else "µm"
         rmse = [max(r["rmse_prediction"], 1e-12) for r in rungs]
         x = [float(r["rung"]) for r in rungs]
-        bottom = min(rmse, default=1.0) / 4
-        top = max(rmse, default=1.0) * 3
+        # whole decades, ticked at the decades only: over a range of less than a decade (one bar)
+        # the log axis ticked 2000, 2500, 3000 ... and their labels ran into one another
+        bottom = 10.0 ** math.floor(math.log10(min(rmse, default=1.0) / 4))
+        top = 10.0 ** math.ceil(math.log10(max(rmse, default=1.0) * 3))
+        decades = [10.0 ** k for k in range(round(math.log10(bottom)), round(math.log10(top)) + 1)]
         step, error = hv.Dimension("rung", label="Effect added"), hv.Dimension("rmse", label=f"Held-out error ({unit})")
         bars = hv.Rectangles({"rung": [v - 0.3 for v in x], "rmse": [bottom] * len(x), "rung_end": [v + 0.3 for v in x],
                               "rmse_end": rmse, "coverage": [r["coverage95_pct"] for r in rungs]},
                              kdims=[step, error, "rung_end", "rmse_end"],
                              vdims=["coverage"]).opts(color=COLORS["mean"], alpha=0.7, logy=True,
-                                                      xlim=(-0.6, max(len(rungs), 4) - 0.4), ylim=(bottom / 2, top),
+                                                      xlim=(-0.6, max(len(rungs), 4) - 0.4), ylim=(bottom, top),
                                                       hooks=[name_source("diag-ladder")])
         # the value above its bar, dark on the white plot (inside the bar it was hard to read)
         labels = hv.Labels({"rung": x, "rmse": rmse, "label": [f"{_amount(r['rmse_prediction'])} {r.get('unit', unit)}" for r in rungs]},
-                           [step, error], "label").opts(text_font_size="9pt", text_baseline="bottom", text_color="#222222")
-        ticks = [(v, "start" if r["rung"] == 0 else _title(r["added"])) for v, r in zip(x, rungs)] or [(0.0, "start")]
+                           [step, error], "label").opts(text_font_size=f"{TICKS_PX}px", text_baseline="bottom",
+                                                        text_color="#222222")
+        # an effect's title on two lines (four rungs of one-line titles ran into one another at 1024 px)
+        ticks = [(v, "start" if r["rung"] == 0 else _two_lines(_title(r["added"]))) for v, r in zip(x, rungs)] or [(0.0, "start")]
         return _overlay([bars, labels]).opts(
-            title="Held-out error per step", logy=True, xticks=ticks, show_legend=False, hooks=[css_class("diag-ladder-plot")], **_TOOLS)
+            title="Held-out error per step", logy=True, xticks=ticks, yticks=[(d, f"{d:g}") for d in decades],
+            show_legend=False, hooks=[css_class("diag-ladder-plot")], **_TOOLS)
 
     # -- updates ----------------------------------------------------------------------------------
     def update(self, diagnosis) -> None:
@@ -238,6 +245,15 @@ class DiagnosisPlots:
     def update_ladder(self, rungs: list[dict]) -> None:
         """Show the error ladder rows (:func:`dashboard.state.beam.ladder_rung`)."""
         self.pipes["ladder"].send(list(rungs))
+
+
+def _two_lines(text: str) -> str:
+    """``text`` broken at the space nearest its middle (a tick label on two lines)."""
+    spaces = [i for i, c in enumerate(text) if c == " "]
+    if not spaces:
+        return text
+    cut = min(spaces, key=lambda i: abs(i - len(text) / 2))
+    return f"{text[:cut]}\n{text[cut + 1:]}"
 
 
 def _amount(value: float) -> str:

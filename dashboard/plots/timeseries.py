@@ -17,6 +17,8 @@ import numpy as np
 from bokeh.models import BoxAnnotation, ColumnDataSource, Legend, LegendItem, Range1d
 from bokeh.plotting import figure
 
+from dashboard.plots.fonts import style_figure
+
 __all__ = ["COLORS", "TimeSeriesPlot"]
 
 COLORS = {
@@ -106,9 +108,10 @@ class TimeSeriesPlot:
                               LegendItem(label="pinned: mean", renderers=[lines["pinned"]], visible=False)]
         # below the plot, as the beam view's: on the right it took half the plot's width at 1024 px
         legend = Legend(items=[LegendItem(label=label, renderers=[r]) for label, r in items] + self._pinned_items,
-                        click_policy="hide", label_text_font_size="9pt", spacing=10, orientation="horizontal",
+                        click_policy="hide", spacing=10, orientation="horizontal",
                         nrows=2, padding=4, margin=4, glyph_width=18)  # two rows: in one it ran past the plot's left edge
         fig.add_layout(legend, "below")
+        style_figure(fig)
         self.figure = fig
         self._scenario = None
 

@@ -12,15 +12,17 @@ from __future__ import annotations
 import math
 
 from dashboard.plots.elements import hv, name_source
+from dashboard.plots.fonts import HV_FONTSIZE
 from dashboard.plots.timeseries import COLORS
 
 __all__ = ["QUANTITIES", "SweepPlot"]
 
 #: quantity -> (row key, axis label with unit, title, scale to the plotted unit)
+#: Titles are short: drawn on the canvas, a long one was cut at 1024 and 1280 px ("Coverage of
+#: the 95 % predicti"); the axes say the rest.
 QUANTITIES = {
-    "coverage": ("coverage95_prediction", "Held-out coverage (%)", "Coverage of the 95 % prediction band (%) vs window",
-                 100.0),
-    "rmse": ("rmse_prediction", "Held-out RMSE (du)", "Held-out RMSE (du) vs window", 1.0),
+    "coverage": ("coverage95_prediction", "Held-out coverage (%)", "95 % band coverage", 100.0),
+    "rmse": ("rmse_prediction", "Held-out RMSE (du)", "Held-out RMSE", 1.0),
 }
 
 
@@ -79,7 +81,8 @@ class SweepPlot:
         if self.quantity == "coverage":  # the nominal level
             layers.append(hv.HLine(95.0).opts(color=COLORS["truth"], line_dash="dotted"))
         return hv.Overlay(layers).opts(
-            title=self._title, height=self._height, responsive=True, toolbar=None, default_tools=[], show_legend=False)
+            title=self._title, height=self._height, responsive=True, toolbar=None, default_tools=[], show_legend=False,
+            fontsize=HV_FONTSIZE)
 
     def update(self, rows=None, window_s: float | None = None) -> None:
         """Show sweep ``rows`` (:func:`beam.toy.sweep_windows`; None: empty) and mark ``window_s``."""

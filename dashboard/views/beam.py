@@ -33,6 +33,7 @@ from dashboard.views.panes import (
     DataFrame,
     Markdown,
     alert_html,
+    corner_grid,
     status_html,
 )
 from dashboard.views.texts import beam_guide
@@ -73,7 +74,7 @@ def readouts_html(items: list[dict], true_noise_m: float | None = None) -> str:
             f'<div class="number" style="font-size:28pt;line-height:1.15;font-weight:600;color:{KIND_COLOURS[it["kind"]]};'
             f'white-space:nowrap;">{html.escape(it["value"])}<span style="font-size:14pt;font-weight:400;"> '
             f'{html.escape(it["unit"])}</span></div>'
-            f'<div class="words" style="font-size:10pt;color:#333;line-height:1.25;">{html.escape(it["words"])}</div>'
+            f'<div class="words" style="font-size:11pt;color:#333;line-height:1.25;">{html.escape(it["words"])}</div>'
             f"{extra}</div>")
     return f'<div class="beam-readouts" style="display:flex;flex-wrap:wrap;gap:6px 12px;">{"".join(boxes)}</div>'
 
@@ -163,8 +164,10 @@ class BeamCalibrationView(pn.viewable.Viewer):
         self._centre = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN,
                                  css_classes=["beam-main"])
         self._right = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=["beam-guide"])
-        self._layout[:] = [pn.FlexBox(self._left, self._centre, self._right, flex_wrap="wrap",
-                                      align_items="flex-start", sizing_mode="stretch_width")]
+        # the dataset's menu above the columns: in the 300 px input column its titles were cut
+        self._top = pn.Row(sizing_mode="stretch_width", css_classes=["beam-top"])
+        self._layout[:] = [self._top, pn.FlexBox(self._left, self._centre, self._right, flex_wrap="wrap",
+                                                 align_items="flex-start", sizing_mode="stretch_width")]
         run_steps([self._build_status, self._build_figure, self._build_plot, self._build_inputs, self._build_side,
                    self._build_tabs])
 
@@ -187,7 +190,9 @@ class BeamCalibrationView(pn.viewable.Viewer):
         self._centre.append(pn.pane.Bokeh(self._plot.figure, sizing_mode="stretch_width", height=420))
 
     def _build_inputs(self) -> None:
-        self._left.extend([self._dataset_card(), self._controls()])
+        select, card = self._dataset_card()
+        self._top.append(select)
+        self._left.extend([card, self._controls()])
 
     def _build_side(self) -> None:
         self._left.extend([self._compare_buttons(), self._reveal(), self._downloads()])
@@ -226,10 +231,11 @@ class BeamCalibrationView(pn.viewable.Viewer):
             self._beam.request(debounce=False)
 
     # -- inputs ---------------------------------------------------------------------------------
-    def _dataset_card(self) -> pn.Card:
+    def _dataset_card(self) -> tuple[pn.widgets.Select, pn.Card]:
+        """The dataset's menu and the upload card."""
         beam = self._beam
         select = pn.widgets.Select(label="Dataset (bundled lab runs or an upload)", sizing_mode="stretch_width",
-                                   css_classes=["beam-dataset"])
+                                   max_width=760, css_classes=["beam-dataset"])
 
         def sync(*_):
             select.options = {beam.dataset_label(n): n for n in beam.param.dataset.objects}
@@ -263,8 +269,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
         csv.param.watch(ready, "value")
         toml.param.watch(ready, "value")
         load.on_click(lambda e: beam.upload(*last(csv), *last(toml)))
-        return pn.Card(
-            select,
+        return select, pn.Card(
             Markdown(f"**Upload** a record: `NAME.csv` (`time_s`, then `voltage_V`, `force_N` or no input column "
                      "for a free response, then `displacement_m`, `velocity_m_s` or `acceleration_m_s2`) and its "
                      f"sidecar `NAME.toml` (geometry, sensor position); the CSV at most "
@@ -290,7 +295,7 @@ class BeamCalibrationView(pn.viewable.Viewer):
                                                 css_classes=["beam-modes"])
         options = beam.effect_options()
         effects = pn.widgets.CheckBoxGroup(options=options, value=list(beam.effects), inline=False,
-                                           css_classes=["beam-effects"])
+                                           sizing_mode="stretch_width", css_classes=["beam-effects"])
         effects.param.watch(lambda e: setattr(beam, "effects", list(e.new)) if list(e.new) != list(beam.effects) else None,
                             "value")
         beam.param.watch(lambda e: setattr(effects, "value", list(e.new)) if list(e.new) != effects.value else None,
@@ -363,11 +368,8 @@ class BeamCalibrationView(pn.viewable.Viewer):
             return
         names = tuple(bs.summary(beam.result))
         if self._corner is None or self._corner.names != names:
-            self._corner = CornerPlot(names, size=150, labels={n: bs.short_label(n, bs.output_units(beam.result).si_unit) for n in names})
-            cells = [pn.pane.Bokeh(fig, sizing_mode="fixed", margin=0) if fig is not None else pn.Spacer(width=150, height=150)
-                     for row in self._corner.grid for fig in row]
-            grid = pn.GridBox(*cells, ncols=len(names), sizing_mode="fixed")
-            self._posterior_tab[:] = [self._posterior_tab[0], grid]
+            self._corner = CornerPlot(names, labels={n: bs.short_label(n, bs.output_units(beam.result).si_unit) for n in names})
+            self._posterior_tab[:] = [self._posterior_tab[0], corner_grid(self._corner.grid, self._corner.size)]
         pinned = beam.pinned if beam.pinned is not None and tuple(bs.summary(beam.pinned)) == names else None
         answer = self.session.diagnosis.answer
         self._corner.update(_Draws(beam.result, answer["parameters"] if answer else None),

@@ -37,6 +37,7 @@ from dashboard.views.panes import (
     HTML,
     DataFrame,
     Markdown,
+    diagnosis_download,
     status_html,
 )
 from dashboard.views.texts import DIAGNOSIS_GUIDE
@@ -247,7 +248,7 @@ class DiagnosisView(pn.viewable.Viewer):
     def _build_side(self) -> None:
         self._side.extend([pn.Card(Markdown(DIAGNOSIS_GUIDE, sizing_mode="stretch_width"), title="For the class",
                                    collapsible=True, collapsed=False, sizing_mode="stretch_width",
-                                   css_classes=["diag-class-guide"]), self._reveal()])
+                                   css_classes=["diag-class-guide"]), self._reveal(), diagnosis_download(self._diag)])
 
     def activate(self) -> None:
         """Build the view and diagnose the beam view's model (called when the tab is first opened)."""

@@ -23,17 +23,52 @@ from collections import OrderedDict
 
 import panel as pn
 
-__all__ = ["ALERT_COLOURS", "BUTTON_WRAP", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "DataFrame",
-           "HTML", "Markdown", "alert_html", "status_html"]
+__all__ = ["ALERT_COLOURS", "BASE_TEXT_PX", "BUTTON_WRAP", "ClassroomDesign", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "DataFrame",
+           "HTML", "MIN_TEXT_PX", "corner_grid", "diagnosis_download", "Markdown", "READABLE_CSS", "ROOT_CSS", "alert_html",
+           "status_html"]
 
 #: Layout of the views (CSS, shared with the diagnosis view): a wrapping flex row of a fixed
 #: input column, a main column that takes the rest, and the "For the class" panel, which
 #: wraps below when the window is too narrow for three columns.
 FLEX_ITEM_INPUTS = {"flex": "0 0 300px", "min-width": "0"}
 FLEX_ITEM_MAIN = {"flex": "1 1 560px", "min-width": "0"}
-FLEX_ITEM_GUIDE = {"flex": "1 1 300px", "min-width": "0", "max-width": "460px"}
+#: The class panel stays in view while the main column scrolls (it was blank beside the lower
+#: plots and tables): sticky at the top of the scrolled area, its own scroll bar when longer than
+#: the window (the template's header and the tab bar take ~110 px).
+FLEX_ITEM_GUIDE = {"flex": "1 1 300px", "min-width": "0", "max-width": "460px", "position": "sticky", "top": "0",
+                   "max-height": "calc(100vh - 110px)", "overflow-y": "auto"}
 #: Lets a button's label wrap instead of spilling over its edges.
 BUTTON_WRAP = [":host .bk-btn { white-space: normal; text-align: center; }"]
+
+#: Smallest text a student reads on a projected 1280 x 800 screen (px): the base size of every
+#: widget and pane (Bokeh's ``--bokeh-font-size``, 12 px by default), of buttons (Bootstrap's
+#: 0.8 rem, 12.8 px), of ``<small>`` and ``<code>`` (0.875 of the base, 10.5 px before) and of
+#: the tables (Panel's ``dataframe.css``: 12 px).
+MIN_TEXT_PX = 14
+#: The text size of the views (px).
+BASE_TEXT_PX = 15
+#: The template's own stylesheet: the base size, inherited by every component's shadow root
+#: (a CSS custom property crosses shadow boundaries).
+ROOT_CSS = f":root {{ --bokeh-font-size: {BASE_TEXT_PX}px; }}"
+#: Added to every component by :class:`ClassroomDesign` (after Bootstrap's sheet, so it wins);
+#: a button's label, a check box's label and a row of tabs wrap (at 15 px, "4. Drift, 12 s, AR(1)"
+#: ran past its half of the column, "Patch stiffening (Δρ in kg/m, ΔEI in N m²)" past the input
+#: column, the beam view's fourth result tab past the main column at 1280 px).
+READABLE_CSS = (f".bk-btn {{ --bs-btn-font-size: {BASE_TEXT_PX}px; white-space: normal; }} "
+                f"small, code, .bk-slider-value {{ font-size: max({MIN_TEXT_PX}px, 0.9em); }} "
+                f":host table.panel-df {{ font-size: {BASE_TEXT_PX}px; }} "
+                ".bk-input-group label { white-space: normal; } :host(.bk-above) .bk-headers-wrapper { flex-wrap: wrap; }")
+
+
+class ClassroomDesign(pn.theme.Bootstrap):
+    """Panel's Bootstrap design with :data:`READABLE_CSS` on every component: nothing a student
+    reads is drawn smaller than :data:`MIN_TEXT_PX` (``tests/browser/test_projector_browser.py``)."""
+
+    modifiers = {
+        **pn.theme.Bootstrap.modifiers,
+        pn.viewable.Viewable: {"stylesheets": [*pn.theme.Bootstrap.modifiers[pn.viewable.Viewable]["stylesheets"],
+                                               READABLE_CSS]},
+    }
 
 
 #: Background, text and border colours of :func:`alert_html` by kind (Bootstrap 5's alerts).
@@ -59,6 +94,38 @@ def status_html(css: str, stage: str, status: str, requested: int, shown: int, t
     detail = f" <small>({status})</small>" if status else ""
     return (f'<div class="{css}" data-stage="{stage}" data-requested="{requested}" data-shown="{shown}" {attrs}>'
             f"<b>{text}</b>{detail}</div>")
+
+
+def corner_grid(grid: list[list], size: int) -> pn.Column:
+    """The pair plot's figures (rows of :attr:`dashboard.plots.corner.CornerPlot.grid`, None above
+    the diagonal) as one pane each in a grid of ``size`` px cells (not a bokeh GridPlot, see
+    :mod:`dashboard.plots.corner`), in a column that scrolls sideways when the grid is wider
+    than it: its last column (the noise σ) ran over the class panel at 1280 px."""
+    cells = [pn.pane.Bokeh(fig, sizing_mode="fixed", margin=0) if fig is not None
+             else pn.Spacer(width=size, height=grid[i][0].height, margin=0)
+             for i, row in enumerate(grid) for fig in row]
+    return pn.Column(pn.GridBox(*cells, ncols=len(grid), sizing_mode="fixed"), sizing_mode="stretch_width",
+                     styles={"overflow-x": "auto", "max-width": "100%"}, css_classes=["pair-plot"])
+
+
+def diagnosis_download(diagnosis_state) -> pn.widgets.FileDownload:
+    """"Diagnosis for print (HTML)": the page ``beam diagnose --report`` writes, of the diagnosis
+    and ladder ``diagnosis_state`` (a :class:`~dashboard.state.beam.DiagnosisState`) shows;
+    enabled once the diagnosis is complete."""
+    from dashboard.outputs.beam import diagnosis_html
+
+    d = diagnosis_state
+
+    def name() -> str:
+        return f"{d.diagnosis.base.setup.measurement.name}_diagnosis.html" if d.diagnosis is not None else "diagnosis.html"
+
+    widget = pn.widgets.FileDownload(callback=lambda: diagnosis_html(d.diagnosis, d.ladder), filename="diagnosis.html",
+                                     label="Diagnosis for print (HTML)", sizing_mode="stretch_width",
+                                     css_classes=["diag-download"],
+                                     disabled=pn.bind(lambda diagnosis: diagnosis is None or bool(diagnosis.pending),
+                                                      d.param.diagnosis))
+    d.param.watch(lambda event: setattr(widget, "filename", name()), "diagnosis")
+    return widget
 
 
 _CACHE_SIZE = 256

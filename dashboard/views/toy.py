@@ -21,6 +21,7 @@ from dashboard.plots.timeseries import TimeSeriesPlot
 from dashboard.plots.toy import SweepPlot
 from dashboard.runtime.staging import run_steps
 from dashboard.state.session import SessionState
+from dashboard.views import panes
 from dashboard.views.panes import FLEX_ITEM_GUIDE, FLEX_ITEM_INPUTS, FLEX_ITEM_MAIN, HTML, DataFrame, Markdown, alert_html
 from dashboard.views.texts import TOY_GLOSSARY, TOY_GUIDE, TOY_STEPS
 
@@ -174,14 +175,16 @@ class ToyView(pn.viewable.Viewer):
         self._update_sweep()
         # the marker follows the latest final result, not the slider (fewer redraws)
         toy.param.watch(self._update_sweep, ["sweep", "final"])
-        self._sweep_row = pn.Row(sizing_mode="stretch_width")
+        # side by side where each has 320 px, one above the other where not
+        self._sweep_row = pn.FlexBox(flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width")
         self._sweep_tab.append(self._sweep_row)
 
     def _show_sweep(self, index: int) -> None:
         # not linked: both plots' value axis is named "value" (coverage in %, RMSE in du), and
         # pn.pane.HoloViews links the axes of panes in one layout by dimension name
         self._sweep_row.append(pn.pane.HoloViews(self._sweep_plots[index].figure, sizing_mode="stretch_width", height=290,
-                                                 backend="bokeh", linked_axes=False))
+                                                 backend="bokeh", linked_axes=False,
+                                                 styles={"flex": "1 1 320px", "min-width": "0"}))
 
     def _update_sweep(self, *_) -> None:
         toy = self._toy
@@ -198,11 +201,8 @@ class ToyView(pn.viewable.Viewer):
             toy.param.watch(lambda e: self._corner.update(toy.result, toy.pinned), ["result", "pinned"])
             self._posterior_tab.append(self._corner_grid())
 
-    def _corner_grid(self) -> pn.GridBox:
-        # one pane per figure, not a bokeh GridPlot (see dashboard.plots.corner)
-        cells = [pn.pane.Bokeh(fig, sizing_mode="fixed", margin=0) if fig is not None else pn.Spacer(width=170, height=170)
-                 for row in self._corner.grid for fig in row]
-        return pn.GridBox(*cells, ncols=len(self._corner.grid), sizing_mode="fixed")
+    def _corner_grid(self) -> pn.Column:
+        return panes.corner_grid(self._corner.grid, self._corner.size)
 
     def _controls(self) -> pn.Card:
         p = self._toy.param
@@ -251,7 +251,7 @@ class ToyView(pn.viewable.Viewer):
         items = []
         for key, label, fmt, term in _READOUTS:
             value = pn.bind(lambda v, k=key: v[k] if math.isfinite(v[k]) else float("nan"), values)
-            number = pn.indicators.Number(label=label, value=value, format=fmt, font_size="24pt", title_size="10pt",
+            number = pn.indicators.Number(label=label, value=value, format=fmt, font_size="24pt", title_size="11pt",
                                           nan_format="–", margin=(0, 0, 0, 12),
                                           css_classes=[f"beam-readout-{key.replace('_', '-')}"])
             tip = TOY_GLOSSARY[term] if term else _NOISE_TIP

@@ -65,6 +65,21 @@ READ_STATE_JS = """() => {
 }"""
 
 
+#: Defines ``window.__deepAll(selector)``: the elements of the page that match, shadow roots
+#: included (Panel renders each pane in one), with a non-empty box.
+DEEP_JS = """
+window.__deepAll = (sel) => {
+  const out = [];
+  const walk = (root) => {
+    root.querySelectorAll(sel).forEach((e) => out.push(e));
+    root.querySelectorAll('*').forEach((e) => { if (e.shadowRoot) walk(e.shadowRoot); });
+  };
+  walk(document);
+  return out.filter((e) => { const r = e.getBoundingClientRect(); return r.width > 0 && r.height > 0; });
+};
+"""
+
+
 def free_port() -> int:
     """A TCP port free on 127.0.0.1 right now."""
     with socket.socket() as sock:
@@ -73,8 +88,10 @@ def free_port() -> int:
 
 
 @contextlib.contextmanager
-def serve_app(timeout_s: float = 120.0, log_path: Path | None = None):
-    """Run ``panel serve dashboard/app.py`` and yield the app URL; kill its process group at exit."""
+def serve_app(timeout_s: float = 120.0, log_path: Path | None = None, ready: bool = True):
+    """Run ``panel serve dashboard/app.py`` and yield the app URL; kill its process group at exit.
+
+    ``ready=False``: yield as soon as the server answers (the loading page of a cold start)."""
     port = free_port()
     log_path = log_path or Path(tempfile.mkdtemp(prefix="beam-serve-")) / "panel.log"
     cmd = [sys.executable, "-m", "panel", "serve", "dashboard/app.py", "--port", str(port), "--address", "127.0.0.1",
@@ -91,7 +108,8 @@ def serve_app(timeout_s: float = 120.0, log_path: Path | None = None):
                 raise RuntimeError(f"panel serve exited with status {proc.returncode}:\n{log_path.read_text()[-3000:]}")
             try:
                 with urllib.request.urlopen(url, timeout=30) as response:
-                    if response.status == 200:
+                    # the app itself, not the loading page of a cold start (dashboard.views.loading)
+                    if response.status == 200 and (not ready or b": starting</title>" not in response.read()):
                         break
             except (urllib.error.URLError, ConnectionError, TimeoutError):
                 pass

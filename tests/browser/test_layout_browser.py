@@ -9,24 +9,11 @@ column, nothing is wider than the window, and the main plot keeps a readable wid
 from __future__ import annotations
 
 import pytest
-from harness import BEAM_FINAL, wait_for_status
+from harness import BEAM_FINAL, DEEP_JS, wait_for_status
 
 pytestmark = pytest.mark.browser
 
 SIZES = [(1024, 768), (1280, 800), (1400, 1000), (1920, 1080)]
-
-#: Elements everywhere in the page, shadow roots included (Panel renders each pane in one).
-DEEP_JS = """
-window.__deepAll = (sel) => {
-  const out = [];
-  const walk = (root) => {
-    root.querySelectorAll(sel).forEach((e) => out.push(e));
-    root.querySelectorAll('*').forEach((e) => { if (e.shadowRoot) walk(e.shadowRoot); });
-  };
-  walk(document);
-  return out.filter((e) => { const r = e.getBoundingClientRect(); return r.width > 0 && r.height > 0; });
-};
-"""
 
 LAYOUT_JS = """([readouts, others, plot]) => {
   const box = (e) => { const r = e.getBoundingClientRect(); return {x: r.left, y: r.top, r: r.right, b: r.bottom,
