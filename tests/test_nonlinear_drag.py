@@ -190,3 +190,26 @@ def test_the_sidecar_s_width_reaches_the_geometry(tmp_path):
     assert read_measurement(tmp_path / "strip.csv").geometry.width_m == 0.05
     (tmp_path / "strip.toml").write_text(sidecar.format(""))
     assert read_measurement(tmp_path / "strip.csv").geometry.width_m is None
+
+
+def test_irregular_stamps_give_the_uniform_response_at_the_shared_times_and_linear_paths_refuse_the_drag():
+    """A driven response at irregular stamps (every other sample of a uniform grid dropped here and
+    there, the input held over each recorded interval) equals the uniform-grid response at the
+    kept stamps when the input is constant over the dropped samples, to the scheme's step error
+    (an interval twice as long may take one substep where the grid takes two: within 1e-5 of the
+    peak); the linear-only paths refuse a positive C_d instead of ignoring it."""
+    driven = BeamGeometry(LENGTH, DENSITY, None, None, 0.44, force_position_m=LENGTH, width_m=WIDTH)
+    model = BeamModel(driven, ["air_damping", "quadratic_drag"], input_kind="force")
+    values = {"bending_stiffness_Nm2": STIFFNESS, "air_damping_Ns_m2": 0.005, "drag_coefficient": 10.0}
+    dt = 5e-4
+    force = np.where(np.arange(3000) < 60, 0.8, 0.0)
+    uniform = model.response(values, force, dt, modes=4, output="acceleration")
+    keep = np.ones(force.size, bool)
+    keep[np.arange(200, 2900, 7)] = False  # the input is 0 there: holding the previous sample changes nothing
+    irregular = model.response_at(values, force[keep], np.arange(force.size)[keep] * dt, modes=4, output="acceleration")
+    np.testing.assert_allclose(irregular, uniform[keep], rtol=0, atol=1e-5 * np.abs(uniform).max())
+    with pytest.raises(BeamInputError, match="quadratic_drag"):
+        model.response_full(values, force, dt)
+    free = BeamModel(STRIP, ["air_damping", "quadratic_drag"], input_kind=None)
+    with pytest.raises(BeamInputError, match="quadratic_drag"):
+        free.free_response_basis(values, np.arange(10) * dt)

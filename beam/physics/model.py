@@ -928,6 +928,15 @@ class BeamModel:
         layout = self._layout(names)
         if layout.cubic_row >= 0 and np.any(table[layout.cubic_row] > 0):
             raise BeamInputError("response_at is linear; tip_cubic_spring needs response() on a uniform grid")
+        if layout.drag_row >= 0 and np.any(table[layout.drag_row] > 0):  # integrated at the stamps
+            out = self._general_response(parameters, layout, table, n_modes, signal, np.diff(time), order, None,
+                                         static_correction)
+            if static_correction and order > 0:
+                static = self._reduced_modes(layout, table, n_modes)["static"][:, 0]
+                out += static[:, None] * held_input_derivative(signal, time, order)[None, :]
+            if not np.isfinite(out).all():
+                raise BeamInputError("the response is not finite (parameters out of any physical range); check the values")
+            return out if batched else out[0]
         reduced = self._reduced_modes(layout, table, n_modes)
         poles, weights = modal.modal_poles_and_weights(reduced["omega2"], reduced["damping"], reduced["force"],
                                                        reduced["sensor"])
@@ -970,8 +979,9 @@ class BeamModel:
         n_modes = self._check_modes(modes)
         names, table, batched = self._table(parameters)
         layout = self._layout(names)
-        if layout.cubic_row >= 0 and np.any(table[layout.cubic_row] > 0):
-            raise BeamInputError("free responses are linear; tip_cubic_spring is not supported here")
+        if self._is_nonlinear_at(layout, table):
+            raise BeamInputError("the free-response basis is linear; tip_cubic_spring and quadratic_drag are not "
+                                 "supported here (free_response integrates them)")
         reduced = self._reduced_modes(layout, table, n_modes)
         poles, _ = modal.modal_decomposition(reduced["omega2"], reduced["damping"])
         basis = modal.free_basis(poles, time)
@@ -1085,8 +1095,8 @@ class BeamModel:
         self._check_driven()
         order = self._order(output)
         voltage = self._check_record(input_signal, sample_interval_s)
-        if np.any(np.asarray(parameters.get("tip_cubic_stiffness_N_m3", 0.0)) > 0):
-            raise BeamInputError("the full state-space reference is linear; use response() for tip_cubic_spring")
+        if any(np.any(np.asarray(parameters.get(name, 0.0)) > 0) for name in ("tip_cubic_stiffness_N_m3", "drag_coefficient")):
+            raise BeamInputError("the full state-space reference is linear; use response() for tip_cubic_spring and quadratic_drag")
         _, _, batched = self._table(parameters)
         matrices = self.system_matrices(parameters)
         batch = matrices["mass"].shape[0]
@@ -1113,6 +1123,9 @@ class BeamModel:
         """
         order = self._order(output)
         time = self._check_times(time_s)
+        if any(np.any(np.asarray(parameters.get(name, 0.0)) > 0) for name in ("tip_cubic_stiffness_N_m3", "drag_coefficient")):
+            raise BeamInputError("the full state-space reference is linear; use free_response() for tip_cubic_spring "
+                                 "and quadratic_drag")
         matrices = self.system_matrices(parameters)
         if matrices["mass"].shape[0] != 1:
             raise BeamInputError("free_response_full takes one parameter set")
