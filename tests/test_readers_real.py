@@ -26,7 +26,7 @@ from beam.io.readers import read_record
 from tests.record_files import REAL_EXCERPT_S, REAL_SOURCE, write_headerless_lvm, write_phyphox_csv
 
 FORMATS_DIR = ASSETS / "real" / "formats"
-SHARED = Path(__file__).resolve().parents[1].parent.parent / "shared" / "real-data"
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "real-data"  # ../shared beside the clone
 G = 9.80665
 #: The rig's description, in a student's words (assets/real/README.md).
 STRIP = {"beam": {"length_m": 0.5, "width_m": 0.05, "thickness_m": 0.002, "material": "aluminium"},

@@ -159,7 +159,8 @@ def suggest_modes(measurement: Measurement, window: tuple[float, float] | None =
     data = y[inside] if np.count_nonzero(inside) >= 64 else y[usable]
     fs = 1.0 / measurement.median_interval_s
     frequency, psd = signal.welch(data - np.median(data), fs=fs, nperseg=int(min(256, data.size // 4)), detrend="linear")
-    edge = _excited_edge(frequency, psd, floor.sd**2 / (0.5 * fs))
+    with np.errstate(over="ignore"):  # a record of absurd magnitude: an infinite floor, reported downstream
+        edge = _excited_edge(frequency, psd, np.float64(floor.sd) ** 2 / (0.5 * fs))
 
     linear = [e for e in parse_effects(effects) if e not in LEFT_OUT]
     model = BeamModel(measurement.geometry, linear, input_kind=measurement.input_kind)
