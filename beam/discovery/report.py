@@ -648,7 +648,9 @@ def explainer(residuals: ResidualReport) -> Explainer:
             return sentence
         held_out = fit.rmse_prediction_map / max(base_fit.rmse_prediction_map, 1e-300) - 1.0
         if held_out > HELD_OUT_RISE:
-            words = window_only_words(effect, gain, held_out, base_fit.setup.is_free)
+            from beam.physics.effects import EFFECTS
+
+            words = window_only_words(EFFECTS[effect].title, gain, held_out, base_fit.setup.is_free)
             return f"{words}. What the residuals show: {sentence}"
         if scores.get(effect, 0.0) >= 1.0:
             return sentence
