@@ -898,8 +898,9 @@ def free_response_start(time_s: np.ndarray, output: np.ndarray, band_edge_Hz: fl
     low = values - high
     low -= np.median(low[grid >= t[release]])
     edge = max(3, int(math.ceil(TRANSIENT_EDGE_PERIODS / (band_edge_Hz * step_s))))
-    high_rms = np.sqrt(uniform_filter1d(high * high, edge, mode="nearest"))
-    low_rms = np.sqrt(uniform_filter1d(low * low, period, mode="nearest"))
+    # a running mean of squares can round a hair below zero where the signal is ~0: clip before the root
+    high_rms = np.sqrt(np.maximum(uniform_filter1d(high * high, edge, mode="nearest"), 0.0))
+    low_rms = np.sqrt(np.maximum(uniform_filter1d(low * low, period, mode="nearest"), 0.0))
     above = high_rms > TRANSIENT_FRACTION * low_rms
     first = int(np.searchsorted(grid, t[release]))
     last = min(count - period, first + int(TRANSIENT_SEARCH_PERIODS * period))
