@@ -57,7 +57,7 @@ the piezo patch bonded to the beam:
 - the **held-out error** depends on the window: 1.45 mm after the first 0.35 s, 0.93 mm after 2.1 s
   (i.i.d.); with AR(1) noise it stays between 1.09 and 1.31 mm — the noise model does not remove it;
 - the **coverage** of the 95 % band is 62 % for the shortest window and 100 % from 1.05 s on (i.i.d.) —
-  not a good prediction: the "noise" the model fits there (1.2–1.3 mm, 80–86 times the sensor's 15 µm)
+  not a good prediction: the "noise" the model fits there (1.2–1.3 mm, about 80 times the sensor's 15 µm)
   absorbs the physics it misses;
 - the **stiffness EI** (i.i.d.) settles near 0.286 N m², 42 % below the beam's true 0.491 N m², and the
   interval of the first window (0.292–0.300) excludes those of the later ones: the estimate drifts with
