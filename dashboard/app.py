@@ -114,6 +114,10 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
             view.activate()
 
     tabs.param.watch(opened, "active")
+    for view in views.values():  # a view may open another tab (the window study: a cell in the beam view)
+        if "goto" in view.param:
+            view.param.watch(lambda event: setattr(tabs, "active", list(views).index(event.new)) if event.new else None,
+                             "goto")
 
     diagnosis_view = views.get("Diagnosis")
     if hasattr(diagnosis_view, "prebuild"):

@@ -21,7 +21,8 @@ from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.study.cells import StudyCell, code_version, error_row, run_cell
 
-__all__ = ["SCHEDULER_ENV", "SINGLE_THREAD_ENV", "open_client", "scheduler_address", "stream_cells"]
+__all__ = ["SCHEDULER_ENV", "SINGLE_THREAD_ENV", "connect", "disconnect", "open_client", "scheduler_address",
+           "stream_cells"]
 
 #: Environment variable naming an existing scheduler (Dask's own convention).
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
@@ -46,10 +47,10 @@ def _import_engine() -> str:
     return code_version()
 
 
-@contextmanager
-def open_client(address: str | None = None, workers: int | None = None,
-                warm: Callable[[], None] | None = None, timeout_s: float = 60.0):
-    """A :class:`distributed.Client` on the scheduler at ``address``, or on a new local cluster.
+def connect(address: str | None = None, workers: int | None = None, warm: Callable[[], None] | None = None,
+            timeout_s: float = 60.0):
+    """A :class:`distributed.Client` on the scheduler at ``address``, or on a new local cluster,
+    ready for cells; the caller closes it (and ``client.cluster``, a local one) with :func:`disconnect`.
 
     Parameters
     ----------
@@ -63,8 +64,8 @@ def open_client(address: str | None = None, workers: int | None = None,
     timeout_s : float
         How long to wait for the scheduler, and for its first worker (s).
 
-    Yields
-    ------
+    Returns
+    -------
     distributed.Client
         With the engine imported on every worker present.
 
@@ -100,20 +101,47 @@ def open_client(address: str | None = None, workers: int | None = None,
         if other:
             raise BeamInputError(f"the Dask worker {next(iter(other))} runs another version of beam than this "
                                  "command (install the same code on the cluster)")
+    except BaseException:
+        disconnect(client)
+        raise
+    return client
+
+
+def disconnect(client) -> None:
+    """Close a client of :func:`connect` and the local cluster it started, if any (never raises)."""
+    cluster = getattr(client, "cluster", None)
+    for closable in (client, cluster):
+        if closable is not None:
+            try:
+                closable.close()
+            except Exception:  # noqa: BLE001 - closing a cluster that is already gone
+                logging.getLogger(__name__).debug("closing %r failed", closable, exc_info=True)
+
+
+@contextmanager
+def open_client(address: str | None = None, workers: int | None = None,
+                warm: Callable[[], None] | None = None, timeout_s: float = 60.0):
+    """:func:`connect` as a context manager: yields the client, closes it (and its local cluster) at exit."""
+    client = connect(address, workers, warm, timeout_s)
+    try:
         yield client
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        disconnect(client)
 
 
-def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[StudyCell]) -> Iterator[tuple[StudyCell, dict]]:
+def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[StudyCell], *,
+                 stop: Callable[[], bool] | None = None, poll_s: float = 0.2) -> Iterator[tuple[StudyCell, dict]]:
     """Run ``cells`` on ``client``'s workers; yield ``(cell, outcome)`` as each finishes.
 
     ``records`` maps a cell's ``record_hash`` to its record; each record is sent to the cluster
     once. Longer windows (the longer calibrations) are given a higher priority, so that the
     short ones fill the workers at the end. ``outcome`` is :func:`beam.study.cells.run_cell`'s dict, with ``task["submitted"]``
     and ``task["received"]`` (epoch s, this process's clock) added.
+
+    ``stop``, if given, is asked every ``poll_s`` seconds (s) while no result is ready: once it
+    returns True the cells not finished are cancelled (a cell already running on a worker runs to
+    its end there; its result is dropped) and the iteration ends. Closing the iterator early
+    cancels them too.
     """
     from distributed import as_completed
 
@@ -128,13 +156,37 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
         future = client.submit(run_cell, scattered[cell.record_hash], cell, key=f"beam-study-{run}-{index}",
                                pure=False, priority=cell.window[1] - cell.window[0])
         futures[future.key] = (cell, future, time.time())
-    for future in as_completed([f for _, f, _ in futures.values()]):
-        cell, _, submitted = futures.pop(future.key)
-        try:
-            outcome = future.result()
-        except Exception as exc:  # noqa: BLE001 - a lost worker: that cell fails, the others go on
-            outcome = {"row": error_row(cell, f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"),
-                       "extra": {}, "draws": {}, "task": {}}
-        future.release()
-        outcome["task"].update(submitted=submitted, received=time.time())
-        yield cell, outcome
+    pending = as_completed([f for _, f, _ in futures.values()])
+    try:
+        while not pending.is_empty():
+            if stop is None:
+                batch = [next(pending)]
+            else:
+                batch = pending.next_batch(block=False)
+                if not batch:
+                    if stop():
+                        return
+                    time.sleep(poll_s)
+                    continue
+            for future in batch:
+                cell, _, submitted = futures.pop(future.key)
+                try:
+                    outcome = future.result()
+                except Exception as exc:  # noqa: BLE001 - a lost worker: that cell fails, the others go on
+                    outcome = {"row": error_row(cell, f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"),
+                               "extra": {}, "draws": {}, "task": {}}
+                future.release()
+                outcome["task"].update(submitted=submitted, received=time.time())
+                yield cell, outcome
+    finally:
+        if futures:  # stopped or closed early: what has not finished is not wanted
+            left = [f for _, f, _ in futures.values()]
+            try:
+                client.cancel(left)
+            except Exception:  # noqa: BLE001 - the client is closing
+                pass
+            for _, f, _ in futures.values():
+                f.release()
+            futures.clear()
+        for future in scattered.values():
+            future.release()

@@ -15,6 +15,7 @@ from dashboard.state.session import SessionState
 from dashboard.views.beam import BeamCalibrationView
 from dashboard.views.diagnosis import DiagnosisView
 from dashboard.views.panes import Markdown
+from dashboard.views.study import StudyView
 from dashboard.views.texts import PLACEHOLDER
 from dashboard.views.toy import ToyView
 
@@ -36,5 +37,6 @@ class PlaceholderView(pn.viewable.Viewer):
 VIEWS = (
     ("Toy periodic model", ToyView),
     ("Beam calibration", BeamCalibrationView),
+    ("Window study", StudyView),
     ("Diagnosis", DiagnosisView),
 )
