@@ -33,6 +33,7 @@ from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState, DiagnosisState
 from dashboard.state.editing import editing
+from dashboard.state.record import RecordState
 
 __all__ = ["LANDING_SEED", "LIKELIHOOD_LABELS", "SessionState", "ToyState"]
 
@@ -230,6 +231,7 @@ class SessionState(param.Parameterized):
         diagnosis.attach(self.slot("diagnosis", diagnosis.on_run_update, debounce_s=0.0))
         with editing(self):
             self.param.update(toy=toy, beam=beam, diagnosis=diagnosis)
+        self.record = RecordState.attached(self)  # the "Your record" view's state
 
     def slot(self, name: str, on_update: Callable[[sch.Update], None], *, debounce_s: float | None = None) -> sch.RunSlot:
         """A new named run slot of this session (one per activity: a new request cancels only its own)."""

@@ -15,6 +15,7 @@ from dashboard.state.session import SessionState
 from dashboard.views.beam import BeamCalibrationView
 from dashboard.views.diagnosis import DiagnosisView
 from dashboard.views.panes import Markdown
+from dashboard.views.record import RecordView
 from dashboard.views.texts import PLACEHOLDER
 from dashboard.views.toy import ToyView
 
@@ -37,4 +38,5 @@ VIEWS = (
     ("Toy periodic model", ToyView),
     ("Beam calibration", BeamCalibrationView),
     ("Diagnosis", DiagnosisView),
+    ("Your record", RecordView),
 )
