@@ -34,13 +34,27 @@ from dashboard.jobs.beam import MAX_UPLOAD_BYTES, upload_size_text
 from dashboard.runtime import scheduler as sch
 
 __all__ = ["MAX_SPECTRUM_POINTS", "Described", "RecordRead", "beam_document", "describe", "describe_job",
-           "read_job", "read_upload", "reduce_spectrum"]
+           "in_words", "read_job", "read_upload", "reduce_spectrum"]
 
 #: Points of the spectrum sent to the browser at most (a 50 MB record's Welch spectrum has ~500,000).
 MAX_SPECTRUM_POINTS = 1500
 #: Ideal beam modes computed at most (those within the record's spectrum are drawn): as many as
 #: ``beam import`` lists.
 MAX_MODES = 6
+#: The readers' command-line flags (in their messages) as the view names its reading options.
+FLAG_WORDS = {
+    "--rate HZ": "the sampling rate (Hz) under Reading options",
+    "--rate": "the sampling rate (Hz) under Reading options",
+    "--time-unit ms|us": "the time column's unit under Reading options",
+    "--time-unit": "the time column's unit under Reading options",
+    "--unit": "the signal's unit under Reading options",
+    "--column NAME|INDEX": "the signal column under Reading options",
+    "--column": "the signal column under Reading options",
+    "--axis x|y|z": "the signal column under Reading options",
+    "--axis": "the signal column under Reading options",
+    "--segment K": "the pluck to use under Reading options",
+    "--segment": "the pluck to use under Reading options",
+}
 #: The signal's SI unit by output column (for the spectrum's axis).
 SIGNAL_UNITS = {"acceleration_m_s2": "m/s²", "velocity_m_s": "m/s", "displacement_m": "m", "strain": "1"}
 
@@ -113,7 +127,7 @@ def reduce_spectrum(frequency: np.ndarray, density: np.ndarray, low: float, high
     f, d = frequency[keep], density[keep]
     if f.size == 0:
         return np.empty(0), np.empty(0)
-    db = 10.0 * np.log10(np.maximum(d, max(float(d.max()), np.finfo(float).tiny) * 1e-30))
+    db = 10.0 * np.log10(np.maximum(d, max(float(d.max()) * 1e-30, np.finfo(float).tiny)))  # a flat-zero column too
     if f.size <= points:
         return f, db
     edges = np.geomspace(f[0], f[-1] * (1 + 1e-12), points + 1)
@@ -131,7 +145,14 @@ def _safe_name(file_name: str | None) -> str:
     return stem + suffix
 
 
-def read_upload(file_name: str | None, data: bytes | str | None) -> RecordRead:
+def in_words(message: str) -> str:
+    """A reader's message with its command-line flags named as the view's reading options."""
+    for flag, words in FLAG_WORDS.items():
+        message = message.replace(flag, words)
+    return message
+
+
+def read_upload(file_name: str | None, data: bytes | str | None, **options: Any) -> RecordRead:
     """Read an uploaded record file in any supported format (module notes).
 
     Parameters
@@ -140,6 +161,9 @@ def read_upload(file_name: str | None, data: bytes | str | None) -> RecordRead:
         The name it was uploaded under (its suffix helps recognise the format).
     data : bytes or str
         Its contents (text, as the upload widget decodes ``text/*`` files, is encoded back to UTF-8).
+    **options
+        ``column``, ``rate``, ``time_unit``, ``unit``, ``segment`` of
+        :func:`beam.io.readers.read_record` (None: not given).
 
     Raises
     ------
@@ -158,9 +182,9 @@ def read_upload(file_name: str | None, data: bytes | str | None) -> RecordRead:
         path = Path(tmp) / name
         path.write_bytes(data)
         try:
-            record = read_record(path)
+            record = read_record(path, **{k: v for k, v in options.items() if v is not None})
         except BeamInputError as exc:  # name the uploaded file, not the temporary path
-            raise BeamInputError(str(exc).replace(f"{tmp}/", "")) from None
+            raise BeamInputError(in_words(str(exc).replace(f"{tmp}/", ""))) from None
         except (UnicodeDecodeError, OSError) as exc:
             raise BeamInputError(f"{name}: cannot read the upload ({type(exc).__name__})") from None
     record.path = Path(name)
@@ -176,10 +200,10 @@ def read_upload(file_name: str | None, data: bytes | str | None) -> RecordRead:
                       psd_db=psd_db, peaks=peaks)
 
 
-def read_job(file_name: str | None, data: bytes | str | None) -> Iterator[sch.Stage[RecordRead]]:
+def read_job(file_name: str | None, data: bytes | str | None, **options: Any) -> Iterator[sch.Stage[RecordRead]]:
     """:func:`read_upload` as a scheduler job (a progress stage, then the final read)."""
     yield sch.progress(0.1, f"reading {file_name}")
-    read = read_upload(file_name, data)
+    read = read_upload(file_name, data, **options)
     yield sch.final(read, f"read {read.file_name}")
 
 

@@ -5,6 +5,9 @@ Param only (no panel import), tested without a server or a browser. The flow:
 1. :meth:`RecordState.upload` reads a dropped file in any format on the ``record-read`` run slot
    (:func:`dashboard.jobs.record.read_job`, off the event loop); ``read`` then holds what was read
    and its spectrum. A file that cannot be read sets ``error`` and keeps the previous record.
+   A file that does not say everything (no time column, a column without its unit, several
+   channels of different kinds) is read again whenever a reading option changes
+   (:data:`READ_OPTIONS`: the signal column, its unit, the sampling rate, the time unit, the pluck).
 2. The form (the inputs below, units in every label) describes the beam. As soon as every
    required input is filled and a record is read, the ``record-beam`` slot builds the
    measurement and the ideal beam's modes (:func:`dashboard.jobs.record.describe_job`):
@@ -29,12 +32,19 @@ from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState
 from dashboard.state.editing import editing
 
-__all__ = ["FORM_INPUTS", "RecordState"]
+__all__ = ["FORM_INPUTS", "READ_OPTIONS", "RecordState"]
 
 #: The inputs that describe the beam (all but the sensor's mass are required).
 FORM_INPUTS = ("length_m", "width_m", "thickness_m", "material", "sensor_position_m", "sensor_mass_kg",
                "sensor_mass_approximate")
 _REQUIRED = ("length_m", "width_m", "thickness_m", "material", "sensor_position_m")
+#: The reading options (parameters) and the keywords of :func:`beam.io.readers.read_record` they give.
+READ_OPTIONS = {"signal_column": "column", "signal_unit": "unit", "rate_Hz": "rate", "time_unit": "time_unit",
+                "segment": "segment"}
+#: Units offered for a signal column without one (as :mod:`beam.io.readers.units` spells them).
+OFFERED_UNITS = ("g", "mg", "m/s^2", "mm/s", "m/s", "µm", "mm", "m")
+#: Units of a time column (the readers' ``time_unit``).
+TIME_UNITS = ("s", "ms", "us")
 STAGES = ("idle", "reading", "read", "error")
 
 
@@ -64,6 +74,21 @@ class RecordState(param.Parameterized):
     sensor_mass_approximate = param.Boolean(False, label="The mass is a guess (e.g. a phone, not weighed)",
                                             doc="Give sensor_mass a wide prior instead of a fixed value.")
 
+    # -- reading options (a file that does not say) -------------------------------------------
+    signal_column = param.String(None, allow_None=True, label="Signal column",
+                                 doc="1-based column of the file to use (None: the one with the most vibration power).")
+    signal_unit = param.Selector(default=None, objects=list(OFFERED_UNITS), allow_None=True,
+                                 label="Signal's unit (when the file does not say)",
+                                 doc="Unit of the signal column, for a column whose name has none.")
+    rate_Hz = param.Number(None, allow_None=True, bounds=(0.0, None), inclusive_bounds=(False, True),
+                           label="Sampling rate (Hz), for a file without time stamps",
+                           doc="Samples per second, when the file has no time column.")
+    time_unit = param.Selector(default=None, objects=list(TIME_UNITS), allow_None=True,
+                               label="Time column's unit (s, ms or µs)",
+                               doc="Unit of the time column when it is not seconds (an Arduino's micros() is µs).")
+    segment = param.Integer(None, allow_None=True, bounds=(1, None), label="Pluck to use (1 = the first; empty: the strongest)",
+                            doc="1-based pluck or file segment.")
+
     # -- outputs -------------------------------------------------------------------------------
     beam = param.ClassSelector(class_=BeamState, constant=True, doc="The session's beam calibration state.")
     stage = param.Selector(default="idle", objects=list(STAGES), constant=True, doc="Where the latest upload is.")
@@ -82,6 +107,8 @@ class RecordState(param.Parameterized):
         self._read_slot: sch.RunSlot | None = None
         self._beam_slot: sch.RunSlot | None = None
         self._loaded_from: Described | None = None
+        self._file: tuple[str | None, bytes | str | None] | None = None  # the latest file dropped
+        self._quiet = False
 
     @classmethod
     def attached(cls, session) -> RecordState:
@@ -94,8 +121,29 @@ class RecordState(param.Parameterized):
 
     # -- the file --------------------------------------------------------------------------------
     def upload(self, file_name: str | None, data: bytes | str | None) -> int:
-        """Read a dropped file (off the event loop); returns the request id."""
-        rid = self._read_slot.request(bind(read_job, file_name, data), debounce_s=0.0)
+        """Read a dropped file (off the event loop) with the reading options (the column and the
+        pluck chosen for the previous file are dropped); returns the request id."""
+        self._file = (file_name, data)
+        self._quiet = True
+        try:
+            self.param.update(signal_column=None, segment=None)
+        finally:
+            self._quiet = False
+        return self._read()
+
+    def options(self) -> dict:
+        """The reading options given, as keywords of :func:`beam.io.readers.read_record`."""
+        values = {keyword: getattr(self, name) for name, keyword in READ_OPTIONS.items()}
+        return {keyword: value for keyword, value in values.items() if value is not None}
+
+    @param.depends(*READ_OPTIONS, watch=True)
+    def _options_changed(self) -> None:
+        if self._file is not None and not self._quiet:
+            self._read()
+
+    def _read(self) -> int:
+        file_name, data = self._file
+        rid = self._read_slot.request(bind(read_job, file_name, data, **self.options()), debounce_s=0.0)
         with editing(self):
             self.param.update(requested=rid, stage="reading", status=f"reading {file_name}", error="")
         return rid
@@ -106,9 +154,8 @@ class RecordState(param.Parameterized):
             return
         with editing(self):
             if update.kind == "error":
-                kept = " The previous record is kept." if self.read is not None else ""
                 self.param.update(stage="error", error=user_message(update.message),
-                                  status=f"could not read the file.{kept}")
+                                  status="the previous record is kept" if self.read is not None else "")
                 return
             self.param.update(stage="read", error="", read=update.value, described=None, form_error="", loaded="",
                               status=f"read in {update.elapsed_s:.1f} s")

@@ -41,6 +41,31 @@ INTRO = ("**Your own record**: a phone taped to a ruler (phyphox, Physics Toolbo
          "is, check that the ideal beam's first mode sits near the record's first peak, then calibrate.")
 
 
+#: What a menu shows for an input not given (the state's None: a menu's None shows as blank).
+NOT_GIVEN = ""
+
+
+def _select(state, name: str, options: dict, css: str) -> pn.widgets.Select:
+    """A menu of ``options`` ({label: value}, :data:`NOT_GIVEN` for None) bound both ways to the
+    state's parameter ``name``, labelled with its label."""
+    menu = pn.widgets.Select(label=state.param[name].label, options=options, sizing_mode="stretch_width",
+                             value=NOT_GIVEN if getattr(state, name) is None else getattr(state, name), css_classes=[css])
+
+    def to_state(event) -> None:
+        value = None if event.new == NOT_GIVEN else event.new
+        if value != getattr(state, name):
+            setattr(state, name, value)
+
+    def to_menu(event) -> None:
+        value = NOT_GIVEN if event.new is None else event.new
+        if value in menu.options.values() and value != menu.value:
+            menu.value = value
+
+    menu.param.watch(to_state, "value")
+    state.param.watch(to_menu, name)
+    return menu
+
+
 def _row(label: str, value: str) -> str:
     return f"<tr><th style='text-align:left;padding-right:12px;vertical-align:top'>{html.escape(label)}</th><td>{value}</td></tr>"
 
@@ -156,6 +181,49 @@ class RecordView(pn.viewable.Viewer):
             Markdown(f"Drop or browse **one record file** (at most {upload_size_text(MAX_UPLOAD_BYTES)}); no sidecar "
                      "needed: the form below describes the beam.", margin=(0, 10)),
             dropper, title="1. Your record", collapsible=False, sizing_mode="stretch_width"))
+        self._left.append(self._reading_options())
+
+    def _reading_options(self) -> pn.Card:
+        """The reading options, collapsed until a file needs one (its error names them)."""
+        r = self._record
+        column = _select(r, "signal_column", {"(the most vibration power)": NOT_GIVEN}, "record-signal-column")
+
+        def channels(*_) -> None:
+            listed = r.read.record.channels if r.read is not None else []
+            column.options = {"(the most vibration power)": NOT_GIVEN,
+                              **{c: c.split(":", 1)[0] for c in listed if ":" in c and "(time" not in c}}
+            column.value = r.signal_column if r.signal_column in column.options.values() else NOT_GIVEN
+
+        channels()
+        r.param.watch(channels, "read")
+        unit = _select(r, "signal_unit", {"(from the file)": NOT_GIVEN, **{u: u for u in r.param.signal_unit.objects}},
+                       "record-signal-unit")
+        time_unit = _select(r, "time_unit", {"(from the file)": NOT_GIVEN, "s": "s", "ms": "ms", "µs": "us"},
+                            "record-time-unit")
+        rate = pn.widgets.FloatInput.from_param(r.param.rate_Hz, sizing_mode="stretch_width", placeholder="from the file",
+                                                css_classes=["record-rate"])
+        segment = pn.widgets.IntInput.from_param(r.param.segment, sizing_mode="stretch_width", placeholder="the strongest",
+                                                 css_classes=["record-segment"])
+        card = pn.Card(Markdown("Only when the file does not say: the error above names the option to give.",
+                                margin=(0, 10)),
+                       column, unit, rate, time_unit, segment, title="Reading options", collapsible=True,
+                       collapsed=True, sizing_mode="stretch_width")
+
+        opened_here = []  # opened for an error: closed again once a file is read
+
+        def opened(event) -> None:
+            if event.new and "Reading options" in event.new and card.collapsed:
+                card.collapsed = False
+                opened_here.append(True)
+
+        def read(event) -> None:
+            if opened_here and event.new is not None:
+                opened_here.clear()
+                card.collapsed = True
+
+        r.param.watch(opened, "error")
+        r.param.watch(read, "read")
+        return card
 
     def _build_form(self) -> None:
         r = self._record
@@ -166,11 +234,8 @@ class RecordView(pn.viewable.Viewer):
         for name, step in (("length_m", 0.01), ("width_m", 0.001), ("thickness_m", 0.0001), ("sensor_position_m", 0.01),
                            ("sensor_mass_kg", 0.01)):
             numbers[name].step = step
-        material = pn.widgets.Select(label=r.param.material.label, options={"(choose)": None, **{m: m for m in
-                                                                                              r.param.material.objects}},
-                                     value=r.material, sizing_mode="stretch_width", css_classes=["record-material"])
-        material.param.watch(lambda e: setattr(r, "material", e.new), "value")
-        r.param.watch(lambda e: setattr(material, "value", e.new), "material")
+        material = _select(r, "material", {"(choose)": NOT_GIVEN, **{m: m for m in r.param.material.objects}},
+                           "record-material")
         guess = pn.widgets.Checkbox.from_param(r.param.sensor_mass_approximate, sizing_mode="stretch_width")
         missing = Markdown(pn.bind(lambda *_: ("Still to fill: " + "; ".join(r.missing()) + ".") if r.missing()
                                    else "The beam is described.", *(r.param[n] for n in
@@ -216,8 +281,8 @@ class RecordView(pn.viewable.Viewer):
         self._main.extend([
             pn.pane.Bokeh(self._sketch.figure, sizing_mode="stretch_width", height=170),
             waiting,
-            pn.pane.Bokeh(self._spectrum.figure, sizing_mode="stretch_width", height=330, visible=described,
-                          css_classes=["record-spectrum"]),
+            pn.Column(pn.pane.Bokeh(self._spectrum.figure, sizing_mode="stretch_width", height=330),
+                      visible=described, sizing_mode="stretch_width", css_classes=["record-spectrum"]),
             summary,
         ])
 

@@ -125,7 +125,7 @@ def test_a_phyphox_file_without_sidecar_is_described_shown_and_calibrated(page, 
     state = wait_for_status(page, "s.dataset && s.dataset.startsWith('upload-1-Raw Data') && s.shown === s.requested "
                                   "&& s.shown > 0 && s.band_n > 0", timeout_ms=120000)
     assert state["stage"] in ("preview", "sampling", "final")
-    expect(page.locator(".beam-dataset select option:checked")).to_have_text(re.compile(r"^upload: Raw Data — "))
+    expect(page.locator(".beam-dataset select")).to_have_value(re.compile(r"^upload: Raw Data — "), timeout=30000)
     assert page.errors == []
 
 

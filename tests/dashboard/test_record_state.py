@@ -133,3 +133,19 @@ def test_the_view_draws_the_beam_the_spectrum_and_the_modes(session):
     assert list(source("record-modes")["frequency_Hz"]) == list(r.described.modes_Hz)
     assert list(source("record-sensor")["x"]) == [0.44]
     assert list(source("record-beam")["right"]) == [0.5]
+
+
+def test_a_file_that_does_not_say_its_unit_is_read_once_the_option_is_given(session):
+    r = session.record
+    npy = PHYPHOX.with_name("adxl_50cm_114655.npy")  # time (s) and the acceleration (m/s²), no names
+    r.upload(npy.name, npy.read_bytes())
+    assert session.wait(60) and r.stage == "error" and r.read is None
+    assert "unit under Reading options" in r.error and "--unit" not in r.error
+    r.signal_unit = "m/s^2"
+    assert session.wait(60) and r.stage == "read" and r.read.file_name == npy.name
+    table = np.load(npy)
+    np.testing.assert_array_equal(r.read.record.output, table[:, 1])
+    r.signal_unit = "g"
+    assert session.wait(60) and r.stage == "read"
+    np.testing.assert_allclose(r.read.record.output, table[:, 1] * 9.80665, rtol=1e-12)
+    assert r.read.record.rate_Hz == pytest.approx(1 / np.median(np.diff(table[:, 0])), rel=1e-9)
