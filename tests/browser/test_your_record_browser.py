@@ -99,6 +99,12 @@ def test_a_phyphox_file_without_sidecar_is_described_shown_and_calibrated(page, 
     assert len(data["record-spectrum"]["frequency_Hz"]) > 100
     assert data["record-sensor"]["x"] == [SENSOR_M]
     expect(page.locator(".record-spectrum")).to_be_visible()
+    for width, height in ((1024, 768), (1280, 800), (1920, 1080)):  # a class's screens: nothing runs out of the page
+        page.set_viewport_size({"width": width, "height": height})
+        page.wait_for_timeout(600)
+        assert page.evaluate("() => document.documentElement.scrollWidth") <= width + 1
+        assert page.locator(".record-spectrum").bounding_box()["width"] >= 480
+    page.set_viewport_size({"width": 1500, "height": 1000})
 
     with page.expect_download() as download:
         page.locator(".record-sidecar button, .record-sidecar a").first.click()
