@@ -9,13 +9,15 @@ and ``record-sensor`` (unique in the document: the browser tests read them with
 from __future__ import annotations
 
 import numpy as np
-from bokeh.models import ColumnDataSource, LabelSet, Range1d
+from bokeh.models import ColumnDataSource, HoverTool, LabelSet, Range1d
 from bokeh.plotting import figure
 
 from dashboard.plots.fonts import style_figure
 
 __all__ = ["BeamSketch", "SpectrumPlot"]
 
+#: Fraction of the record's dB range left empty above it, for the modes' labels.
+HEADROOM = 0.22
 #: Colours: the record, its peaks, the ideal beam's modes, the beam, the clamp, the sensor.
 RECORD, PEAK, MODE, BEAM, CLAMP, SENSOR = "#08306b", "#08306b", "#c62828", "#6c757d", "#343a40", "#e6550d"
 
@@ -74,7 +76,7 @@ class BeamSketch:
 
 class SpectrumPlot:
     """The record's Welch spectrum (dB, log frequency) with its peaks, and the ideal beam's modes
-    as vertical red lines labelled ``mode k``."""
+    as vertical red lines labelled ``mode k`` above the record (their frequencies on hover)."""
 
     def __init__(self, height: int = 330) -> None:
         fig = figure(height=height, sizing_mode="stretch_width", x_axis_type="log", x_range=Range1d(1.0, 1000.0),
@@ -86,14 +88,16 @@ class SpectrumPlot:
         self.figure = fig
         self.spectrum = ColumnDataSource({"frequency_Hz": [], "psd_db": []}, name="record-spectrum")
         self.peaks = ColumnDataSource({"frequency_Hz": [], "psd_db": []}, name="record-peaks")
-        self.modes = ColumnDataSource({"frequency_Hz": [], "bottom": [], "top": [], "label": [], "y": []},
+        self.modes = ColumnDataSource({"frequency_Hz": [], "bottom": [], "top": [], "label": [], "text": [], "y": []},
                                       name="record-modes")
         spectrum = fig.line("frequency_Hz", "psd_db", source=self.spectrum, color=RECORD, line_width=1.5,
                             legend_label="record (Welch PSD)")
-        fig.scatter("frequency_Hz", "psd_db", source=self.peaks, size=9, color=PEAK, fill_alpha=0,
-                    line_width=2, legend_label="record's peaks")
-        fig.segment("frequency_Hz", "bottom", "frequency_Hz", "top", source=self.modes, color=MODE, line_width=2,
-                    line_dash="dashed", legend_label="ideal beam's modes")
+        peaks = fig.scatter("frequency_Hz", "psd_db", source=self.peaks, size=9, color=PEAK, fill_alpha=0,
+                            line_width=2, legend_label="record's peaks")
+        modes = fig.segment("frequency_Hz", "bottom", "frequency_Hz", "top", source=self.modes, color=MODE, line_width=2,
+                            line_dash="dashed", legend_label="ideal beam's modes")
+        fig.add_tools(HoverTool(renderers=[peaks], tooltips=[("record's peak", "@frequency_Hz{0.00} Hz")]),
+                      HoverTool(renderers=[modes], tooltips=[("ideal beam", "@text")], line_policy="interp"))
         fig.add_layout(LabelSet(x="frequency_Hz", y="y", text="label", source=self.modes, text_color=MODE,
                                 text_font_size="14px", angle=np.pi / 2, x_offset=-4, text_align="right"))
         fig.legend.location = "bottom_left"
@@ -107,8 +111,9 @@ class SpectrumPlot:
         if frequency_Hz.size:
             located = np.array([p.frequency_Hz for p in peaks]) if peaks else np.empty(0)
             self.peaks.data = {"frequency_Hz": located, "psd_db": np.interp(located, frequency_Hz, psd_db)}
-            low, high = float(psd_db.min()), float(psd_db.max())
-            self.figure.y_range.update(start=low - 5.0, end=high + 5.0)
+            low, high = float(psd_db.min()) - 5.0, float(psd_db.max()) + 5.0
+            # headroom above the record for the modes' labels: they never cross its line
+            self.figure.y_range.update(start=low, end=high + HEADROOM * (high - low))
         else:
             self.peaks.data = {"frequency_Hz": [], "psd_db": []}
         self.figure.yaxis.axis_label = f"PSD (dB re 1 ({unit})²/Hz)"
@@ -123,5 +128,6 @@ class SpectrumPlot:
             self.figure.x_range.update(start=float(f[0]), end=end)
         n = len(modes_Hz)
         self.modes.data = {"frequency_Hz": list(modes_Hz), "bottom": [bottom] * n, "top": [top] * n,
-                           "label": [f"mode {k + 1}: {f:.4g} Hz" for k, f in enumerate(modes_Hz)],
-                           "y": [top - 2.0] * n}
+                           "label": [f"mode {k + 1}" for k in range(n)],
+                           "text": [f"mode {k + 1}: {f:.4g} Hz" for k, f in enumerate(modes_Hz)],
+                           "y": [top - 0.02 * (top - bottom)] * n}
