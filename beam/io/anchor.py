@@ -84,7 +84,7 @@ def spectral_peaks(time_s: np.ndarray, values: np.ndarray, output_kind: str = "d
                    max_peaks: int = 8) -> list[Peak]:
     """The ``max_peaks`` most prominent spectral peaks, lowest first (module notes); empty for a
     short record. Strength is judged against the largest displacement power of all peaks."""
-    spectrum = _spectrum(time_s, values)
+    spectrum = welch_spectrum(time_s, values)
     if spectrum is None:
         return []
     frequency, density, low, high = spectrum
@@ -104,8 +104,10 @@ def spectral_peaks(time_s: np.ndarray, values: np.ndarray, output_kind: str = "d
     return sorted(peaks, key=lambda p: p.frequency_Hz)
 
 
-def _spectrum(time_s, values):
-    """(frequency, PSD, lowest and highest frequency searched) or None (too short)."""
+def welch_spectrum(time_s: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float] | None:
+    """The Welch spectrum the peaks are searched in (module notes): (frequency (Hz), PSD (unit²/Hz),
+    lowest and highest frequency searched (Hz)), or None for a record of fewer than
+    :data:`MIN_ANCHOR_SAMPLES` samples."""
     time_s = np.asarray(time_s, dtype=float)
     values = np.asarray(values, dtype=float)
     if values.size < MIN_ANCHOR_SAMPLES:
@@ -122,7 +124,7 @@ def _spectrum(time_s, values):
 def input_band_low_Hz(time_s: np.ndarray, input: np.ndarray) -> float | None:
     """Lowest frequency (Hz) where a driven record's input PSD reaches :data:`INPUT_BAND_FRACTION`
     of its largest bin (None for an input without power)."""
-    spectrum = _spectrum(time_s, input)
+    spectrum = welch_spectrum(time_s, input)
     if spectrum is None:
         return None
     frequency, density, _, _ = spectrum

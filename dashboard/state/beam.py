@@ -253,13 +253,19 @@ class BeamState(_Runs):
                 self.param.update(error=f"upload rejected: {message}",
                                   status="upload rejected; the previous dataset and result are kept.")
             return False
-        name = f"upload-{len(self.uploads) + 1}-{m.name}"
+        self.add_upload(m)
+        return True
+
+    def add_upload(self, measurement: Measurement) -> str:
+        """Select a measurement read elsewhere (e.g. the "Your record" view) as a new upload and
+        calibrate it; returns its dataset id."""
+        name = f"upload-{len(self.uploads) + 1}-{measurement.name}"
         with editing(self):
-            self.uploads = {**self.uploads, name: m}
+            self.uploads = {**self.uploads, name: measurement}
             self.error = ""
         self.param.dataset.objects = [*self.param.dataset.objects, name]
         self.dataset = name
-        return True
+        return name
 
     # -- inputs -> requests ----------------------------------------------------------------------
     def key(self) -> CalibrationKey:

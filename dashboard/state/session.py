@@ -34,6 +34,7 @@ from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState, DiagnosisState
 from dashboard.state.editing import editing
 from dashboard.state.study import StudyState
+from dashboard.state.record import RecordState
 
 __all__ = ["LANDING_SEED", "LIKELIHOOD_LABELS", "SessionState", "ToyState"]
 
@@ -232,6 +233,7 @@ class SessionState(param.Parameterized):
         with editing(self):
             self.param.update(toy=toy, beam=beam, diagnosis=diagnosis)
         self.study = StudyState(beam=beam, dispatch=dispatch)  # the window study (dashboard.state.study)
+        self.record = RecordState.attached(self)  # the "Your record" view's state
 
     def slot(self, name: str, on_update: Callable[[sch.Update], None], *, debounce_s: float | None = None) -> sch.RunSlot:
         """A new named run slot of this session (one per activity: a new request cancels only its own)."""

@@ -16,6 +16,7 @@ from dashboard.views.beam import BeamCalibrationView
 from dashboard.views.diagnosis import DiagnosisView
 from dashboard.views.panes import Markdown
 from dashboard.views.study import StudyView
+from dashboard.views.record import RecordView
 from dashboard.views.texts import PLACEHOLDER
 from dashboard.views.toy import ToyView
 
@@ -39,4 +40,5 @@ VIEWS = (
     ("Beam calibration", BeamCalibrationView),
     ("Window study", StudyView),
     ("Diagnosis", DiagnosisView),
+    ("Your record", RecordView),
 )

@@ -1,0 +1,233 @@
+"""Session sub-state of the "Your record" view: :class:`RecordState`.
+
+Param only (no panel import), tested without a server or a browser. The flow:
+
+1. :meth:`RecordState.upload` reads a dropped file in any format on the ``record-read`` run slot
+   (:func:`dashboard.jobs.record.read_job`, off the event loop); ``read`` then holds what was read
+   and its spectrum. A file that cannot be read sets ``error`` and keeps the previous record.
+   A file that does not say everything (no time column, a column without its unit, several
+   channels of different kinds) is read again whenever a reading option changes
+   (:data:`READ_OPTIONS`: the signal column, its unit, the sampling rate, the time unit, the pluck).
+2. The form (the inputs below, units in every label) describes the beam. As soon as every
+   required input is filled and a record is read, the ``record-beam`` slot builds the
+   measurement and the ideal beam's modes (:func:`dashboard.jobs.record.describe_job`):
+   ``described``. A description the library refuses sets ``form_error`` and clears
+   ``described``.
+3. :meth:`RecordState.load` hands the measurement to the beam calibration
+   (:meth:`dashboard.state.beam.BeamState.add_upload`, which selects and calibrates it);
+   :meth:`RecordState.sidecar_text` is the TOML sidecar for the CLI.
+"""
+
+from __future__ import annotations
+
+from functools import partial as bind
+
+import param
+
+from beam.io.materials import MATERIALS
+from beam.io.text import dump_toml
+from dashboard.jobs.record import Described, RecordRead, beam_document, describe_job, read_job
+from dashboard.outputs.toy import user_message
+from dashboard.runtime import scheduler as sch
+from dashboard.state.beam import BeamState
+from dashboard.state.editing import editing
+
+__all__ = ["FORM_INPUTS", "READ_OPTIONS", "RecordState"]
+
+#: The inputs that describe the beam (all but the sensor's mass are required).
+FORM_INPUTS = ("length_m", "width_m", "thickness_m", "material", "sensor_position_m", "sensor_mass_kg",
+               "sensor_mass_approximate")
+_REQUIRED = ("length_m", "width_m", "thickness_m", "material", "sensor_position_m")
+#: The reading options (parameters) and the keywords of :func:`beam.io.readers.read_record` they give.
+READ_OPTIONS = {"signal_column": "column", "signal_unit": "unit", "rate_Hz": "rate", "time_unit": "time_unit",
+                "segment": "segment"}
+#: Units offered for a signal column without one (as :mod:`beam.io.readers.units` spells them).
+OFFERED_UNITS = ("g", "mg", "m/s^2", "mm/s", "m/s", "µm", "mm", "m")
+#: Units of a time column (the readers' ``time_unit``).
+TIME_UNITS = ("s", "ms", "us")
+STAGES = ("idle", "reading", "read", "error")
+
+
+class RecordState(param.Parameterized):
+    """A record of the user's own, described in a student's words, for one session.
+
+    Parameters
+    ----------
+    beam : BeamState
+        The session's beam calibration state, which :meth:`load` hands the record to.
+    """
+
+    # -- the form ------------------------------------------------------------------------------
+    length_m = param.Number(None, allow_None=True, bounds=(0.0, None), inclusive_bounds=(False, True),
+                            label="Free length, clamp edge to tip (m)", doc="Free length of the beam (m).")
+    width_m = param.Number(None, allow_None=True, bounds=(0.0, None), inclusive_bounds=(False, True),
+                           label="Width (m)", doc="Width of the strip (m).")
+    thickness_m = param.Number(None, allow_None=True, bounds=(0.0, None), inclusive_bounds=(False, True),
+                               label="Thickness (m)", doc="Thickness of the strip (m).")
+    material = param.Selector(default=None, objects=list(MATERIALS), allow_None=True,
+                              label="Material (gives E in Pa and density in kg/m³)",
+                              doc="A material preset (beam/io/materials.py).")
+    sensor_position_m = param.Number(None, allow_None=True, bounds=(0.0, None), label="Sensor position (m from the clamp)",
+                                     doc="Where the sensor sits, measured from the clamp's edge (m).")
+    sensor_mass_kg = param.Number(None, allow_None=True, bounds=(0.0, None), label="Sensor mass (kg; empty if negligible)",
+                                  doc="The sensor's mass (kg), a known point mass; empty: not counted.")
+    sensor_mass_approximate = param.Boolean(False, label="The mass is a guess (e.g. a phone, not weighed)",
+                                            doc="Give sensor_mass a wide prior instead of a fixed value.")
+
+    # -- reading options (a file that does not say) -------------------------------------------
+    signal_column = param.String(None, allow_None=True, label="Signal column",
+                                 doc="1-based column of the file to use (None: the one with the most vibration power).")
+    signal_unit = param.Selector(default=None, objects=list(OFFERED_UNITS), allow_None=True,
+                                 label="Signal's unit (when the file does not say)",
+                                 doc="Unit of the signal column, for a column whose name has none.")
+    rate_Hz = param.Number(None, allow_None=True, bounds=(0.0, None), inclusive_bounds=(False, True),
+                           label="Sampling rate (Hz), for a file without time stamps",
+                           doc="Samples per second, when the file has no time column.")
+    time_unit = param.Selector(default=None, objects=list(TIME_UNITS), allow_None=True,
+                               label="Time column's unit (s, ms or µs)",
+                               doc="Unit of the time column when it is not seconds (an Arduino's micros() is µs).")
+    segment = param.Integer(None, allow_None=True, bounds=(1, None), label="Pluck to use (1 = the first; empty: the strongest)",
+                            doc="1-based pluck or file segment.")
+
+    # -- outputs -------------------------------------------------------------------------------
+    beam = param.ClassSelector(class_=BeamState, constant=True, doc="The session's beam calibration state.")
+    stage = param.Selector(default="idle", objects=list(STAGES), constant=True, doc="Where the latest upload is.")
+    status = param.String("", constant=True, doc="One-line status for the user.")
+    error = param.String("", constant=True, doc="Why the latest upload was refused, or ''.")
+    read = param.ClassSelector(class_=RecordRead, default=None, allow_None=True, constant=True,
+                               doc="The record shown (the latest file read).")
+    described = param.ClassSelector(class_=Described, default=None, allow_None=True, constant=True,
+                                    doc="The record with its beam, when the form is complete.")
+    form_error = param.String("", constant=True, doc="Why the description is refused, or ''.")
+    loaded = param.String("", constant=True, doc="Dataset id of the latest record handed to the beam calibration.")
+    requested = param.Integer(0, constant=True, doc="Id of the latest upload request.")
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self._read_slot: sch.RunSlot | None = None
+        self._beam_slot: sch.RunSlot | None = None
+        self._loaded_from: Described | None = None
+        self._file: tuple[str | None, bytes | str | None] | None = None  # the latest file dropped
+        self._quiet = False
+
+    @classmethod
+    def attached(cls, session) -> RecordState:
+        """A state on ``session`` (a :class:`~dashboard.state.session.SessionState`): its beam state
+        and two run slots, ``record-read`` and ``record-beam``."""
+        state = cls(beam=session.beam)
+        state._read_slot = session.slot("record-read", state.on_read_update, debounce_s=0.0)
+        state._beam_slot = session.slot("record-beam", state.on_beam_update)
+        return state
+
+    # -- the file --------------------------------------------------------------------------------
+    def upload(self, file_name: str | None, data: bytes | str | None) -> int:
+        """Read a dropped file (off the event loop) with the reading options (the column and the
+        pluck chosen for the previous file are dropped); returns the request id."""
+        self._file = (file_name, data)
+        self._quiet = True
+        try:
+            self.param.update(signal_column=None, segment=None)
+        finally:
+            self._quiet = False
+        return self._read()
+
+    def options(self) -> dict:
+        """The reading options given, as keywords of :func:`beam.io.readers.read_record`."""
+        values = {keyword: getattr(self, name) for name, keyword in READ_OPTIONS.items()}
+        return {keyword: value for keyword, value in values.items() if value is not None}
+
+    @param.depends(*READ_OPTIONS, watch=True)
+    def _options_changed(self) -> None:
+        if self._file is not None and not self._quiet:
+            self._read()
+
+    def _read(self) -> int:
+        file_name, data = self._file
+        rid = self._read_slot.request(bind(read_job, file_name, data, **self.options()), debounce_s=0.0)
+        with editing(self):
+            self.param.update(requested=rid, stage="reading", status=f"reading {file_name}", error="")
+        return rid
+
+    def on_read_update(self, update: sch.Update) -> None:
+        """The read slot's callback."""
+        if update.kind == "progress":
+            return
+        with editing(self):
+            if update.kind == "error":
+                self.param.update(stage="error", error=user_message(update.message),
+                                  status="the previous record is kept" if self.read is not None else "")
+                return
+            self.param.update(stage="read", error="", read=update.value, described=None, form_error="", loaded="",
+                              status=f"read in {update.elapsed_s:.1f} s")
+        self._describe()
+
+    # -- the form --------------------------------------------------------------------------------
+    def missing(self) -> list[str]:
+        """Labels of the required inputs not filled yet."""
+        return [self.param[name].label for name in _REQUIRED if getattr(self, name) is None]
+
+    def document(self) -> dict | None:
+        """The sidecar document of the form (None while a required input is empty)."""
+        if self.missing():
+            return None
+        title = f"{self.read.file_name}, described in the dashboard" if self.read is not None else "my beam"
+        return beam_document(title, self.length_m, self.width_m, self.thickness_m, self.material,
+                             self.sensor_position_m, self.sensor_mass_kg, self.sensor_mass_approximate)
+
+    def sidecar_text(self) -> str:
+        """The sidecar (TOML) of the form, for ``beam calibrate FILE --beam SIDECAR`` (or saved as
+        ``STEM.toml`` next to the file); '' while a required input is empty."""
+        document = self.document()
+        if document is None:
+            return ""
+        name = self.read.file_name if self.read is not None else "the record"
+        return dump_toml(document, header_comment=f"The beam of {name}, as described in the dashboard "
+                                                  "(beam calibrate FILE --beam THIS.toml).")
+
+    def sidecar_name(self) -> str:
+        """``STEM.toml`` of the record (found next to it by ``beam calibrate FILE``)."""
+        if self.read is None:
+            return "beam.toml"
+        stem = self.read.file_name.rsplit(".", 1)[0] if "." in self.read.file_name else self.read.file_name
+        return f"{stem}.toml"
+
+    @param.depends(*FORM_INPUTS, watch=True)
+    def _form_changed(self) -> None:
+        self._describe()
+
+    def _describe(self) -> None:
+        document = self.document()
+        if document is None or self.read is None:
+            if self._beam_slot is not None:
+                self._beam_slot.cancel()
+            with editing(self):
+                self.param.update(described=None, form_error="")
+            return
+        self._beam_slot.request(bind(describe_job, self.read, document))
+
+    def on_beam_update(self, update: sch.Update) -> None:
+        """The beam slot's callback."""
+        with editing(self):
+            if update.kind == "error":
+                self.param.update(described=None, form_error=user_message(update.message))
+            elif update.kind == "final":
+                self.param.update(described=update.value, form_error="")
+
+    # -- hand over -------------------------------------------------------------------------------
+    def can_load(self) -> bool:
+        """Whether :meth:`load` has something new to hand over: a description of the current form
+        (not one the form has changed since) not loaded yet."""
+        d = self.described
+        return d is not None and d is not self._loaded_from and d.document == self.document()
+
+    def load(self) -> str | None:
+        """Hand the described record to the beam calibration (selected there and calibrated);
+        returns its dataset id (the same again for a record loaded already), None when there is
+        nothing to load (:meth:`can_load`)."""
+        if not self.can_load():
+            return (self.loaded or None) if self._loaded_from is self.described else None
+        name = self.beam.add_upload(self.described.measurement)
+        self._loaded_from = self.described
+        with editing(self):
+            self.param.update(loaded=name, status=f"loaded into the beam calibration as {name}")
+        return name

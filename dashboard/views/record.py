@@ -1,0 +1,310 @@
+"""The "Your record" view: drop any readable file, describe the beam, see its spectrum, calibrate.
+
+A :class:`pn.viewable.Viewer` over ``session.record`` (:class:`~dashboard.state.record.RecordState`);
+nothing here calls ``beam`` directly. Its pieces are built the first time its tab is shown (the
+app makes a hidden tab's page invisible: the view watches its page's ``visible``), so sessions
+that never open it pay nothing.
+
+Left: the file (a FileDropper sending :data:`~dashboard.views.beam.UPLOAD_CHUNK_BYTES` pieces,
+each one websocket message well under Bokeh's 20 MB limit, so a 50 MB file uploads with its
+progress shown), the form (widgets from the state's parameters, units in every label), "Load
+and calibrate" and the sidecar's download. Main: the status, what was read, a side view of the
+beam with the sensor where it sits, and, once the form is complete, the record's spectrum with
+the ideal beam's modes and the summary ``beam import`` prints.
+"""
+
+from __future__ import annotations
+
+import html
+import io
+
+import panel as pn
+import param
+
+from dashboard.jobs.beam import MAX_UPLOAD_BYTES, upload_size_text
+from dashboard.plots.record import BeamSketch, SpectrumPlot
+from dashboard.runtime.staging import run_steps
+from dashboard.state.session import SessionState
+from dashboard.views.beam import UPLOAD_CHUNK_BYTES
+from dashboard.views.panes import FLEX_ITEM_INPUTS, FLEX_ITEM_MAIN, HTML, Markdown, alert_html, status_html
+
+__all__ = ["RecordView", "read_html"]
+
+_STAGE_TEXT = {
+    "idle": "Drop a record file to start.",
+    "reading": "Reading the file…",
+    "read": "Record read.",
+    "error": "Could not read that file.",
+}
+INTRO = ("**Your own record**: a phone taped to a ruler (phyphox, Physics Toolbox), a LabVIEW `.lvm`, an NI "
+         "`.tdms`, a MATLAB `.mat`, a NumPy `.npy`/`.npz` or any CSV/text table. Drop the file, say what the beam "
+         "is, check that the ideal beam's first mode sits near the record's first peak, then calibrate.")
+
+
+#: What a menu shows for an input not given (the state's None: a menu's None shows as blank).
+NOT_GIVEN = ""
+
+
+def _select(state, name: str, options: dict, css: str) -> pn.widgets.Select:
+    """A menu of ``options`` ({label: value}, :data:`NOT_GIVEN` for None) bound both ways to the
+    state's parameter ``name``, labelled with its label."""
+    menu = pn.widgets.Select(label=state.param[name].label, options=options, sizing_mode="stretch_width",
+                             value=NOT_GIVEN if getattr(state, name) is None else getattr(state, name), css_classes=[css])
+
+    def to_state(event) -> None:
+        value = None if event.new == NOT_GIVEN else event.new
+        if value != getattr(state, name):
+            setattr(state, name, value)
+
+    def to_menu(event) -> None:
+        value = NOT_GIVEN if event.new is None else event.new
+        if value in menu.options.values() and value != menu.value:
+            menu.value = value
+
+    menu.param.watch(to_state, "value")
+    state.param.watch(to_menu, name)
+    return menu
+
+
+def _row(label: str, value: str) -> str:
+    return f"<tr><th style='text-align:left;padding-right:12px;vertical-align:top'>{html.escape(label)}</th><td>{value}</td></tr>"
+
+
+def read_html(summary: dict | None) -> str:
+    """What was read (:meth:`dashboard.jobs.record.RecordRead.summary`) as an HTML table."""
+    if summary is None:
+        return "<div class='record-read'><i>No record yet.</i></div>"
+    esc = html.escape
+    channels = "<br>".join(esc(c) for c in summary["channels"])
+    if summary["segments"]:
+        segments = "<br>".join(
+            f"{k}: {a:.3f}–{b:.3f} s, peak {p:.3g}" + (" <b>(used)</b>" if summary["segment_used"] == k - 1 else "")
+            for k, (a, b, p) in enumerate(summary["segments"], start=1))
+    else:
+        segments = "one (the whole record)"
+    notes = "<br>".join(esc(n) for n in summary["notes"]) or "nothing dropped"
+    rows = [
+        _row("File", f"{esc(summary['file'])} ({upload_size_text(summary['size_bytes'])})"),
+        _row("Read as", esc(summary["format"])),
+        _row("Channels", channels),
+        _row("Signal used", f"<b>{esc(summary['signal'])}</b>"),
+        _row("Rate", f"{summary['rate_Hz']:.6g} Hz"),
+        _row("Duration", f"{summary['duration_s']:.3f} s ({summary['samples']:,} samples)"),
+        _row("Plucks / segments", segments),
+        _row("Cleaning", notes),
+    ]
+    return f"<table class='record-read' style='font-size:inherit'>{''.join(rows)}</table>"
+
+
+class RecordView(pn.viewable.Viewer):
+    """Bring your own record: read any file, describe the beam in a student's words, calibrate.
+
+    Parameters
+    ----------
+    session : SessionState
+        The browser session's state.
+    """
+
+    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self._record = self.session.record
+        self._built = False
+        self._layout = pn.Column(Markdown("Open this tab to bring your own record."), sizing_mode="stretch_width",
+                                 css_classes=["record-view"])
+        self._layout.param.watch(self._shown, "visible")
+
+    def __panel__(self):
+        return self._layout
+
+    @property
+    def built(self) -> bool:
+        """Whether the view's pieces exist."""
+        return self._built
+
+    def _shown(self, event) -> None:
+        if event.new:
+            self.build()
+
+    def build(self) -> None:
+        """Build the widgets and plots (once), in steps (see :mod:`dashboard.runtime.staging`)."""
+        if self._built:
+            return
+        self._built = True
+        self._left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS, css_classes=["record-inputs"])
+        self._main = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_MAIN, css_classes=["record-main"])
+        self._layout[:] = [pn.FlexBox(self._left, self._main, flex_wrap="wrap", align_items="flex-start",
+                                      sizing_mode="stretch_width")]
+        run_steps([self._build_status, self._build_file, self._build_form, self._build_plots, self._build_actions])
+
+    # -- steps -------------------------------------------------------------------------------------
+    def _build_status(self) -> None:
+        r = self._record
+        p = r.param
+
+        def status(stage, text, requested, read, described, loaded, form_error):
+            return status_html("record-status", stage, text, requested, 0, _STAGE_TEXT[stage],
+                               file=html.escape(read.file_name) if read is not None else "",
+                               described=int(described is not None), modes=len(described.modes_Hz) if described else 0,
+                               loaded=html.escape(loaded))
+
+        self._main.extend([
+            Markdown(INTRO, sizing_mode="stretch_width", margin=(0, 10)),
+            HTML(pn.bind(status, p.stage, p.status, p.requested, p.read, p.described, p.loaded, p.form_error),
+                 sizing_mode="stretch_width", margin=(0, 10)),
+            HTML(pn.bind(lambda e: alert_html("danger", f"<b>Error:</b> {html.escape(e)}") if e else "", p.error),
+                 sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-error"]),
+            pn.Card(HTML(pn.bind(lambda read: read_html(read.summary() if read is not None else None), p.read),
+                         sizing_mode="stretch_width", css_classes=["record-what"]),
+                    title="What was read", collapsible=False, sizing_mode="stretch_width"),
+        ])
+
+    def _build_file(self) -> None:
+        r = self._record
+        dropper = pn.widgets.FileDropper(
+            multiple=False, max_file_size=str(MAX_UPLOAD_BYTES), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
+            layout="compact", width=None, sizing_mode="stretch_width", margin=(0, 10, 5, 10),
+            css_classes=["record-upload"])
+        seen: dict[str, object] = {}
+
+        def dropped(event) -> None:  # a file finished uploading (a removal triggers this too: ignored)
+            for name, data in event.new.items():
+                if seen.get(name) is not data:
+                    seen.clear()
+                    seen[name] = data
+                    r.upload(name, data)
+                    return
+
+        dropper.param.watch(dropped, "value")
+        self._left.append(pn.Card(
+            Markdown(f"Drop or browse **one record file** (at most {upload_size_text(MAX_UPLOAD_BYTES)}); no sidecar "
+                     "needed: the form below describes the beam.", margin=(0, 10)),
+            dropper, title="1. Your record", collapsible=False, sizing_mode="stretch_width"))
+        self._left.append(self._reading_options())
+
+    def _reading_options(self) -> pn.Card:
+        """The reading options, collapsed until a file needs one (its error names them)."""
+        r = self._record
+        column = _select(r, "signal_column", {"(the most vibration power)": NOT_GIVEN}, "record-signal-column")
+
+        def channels(*_) -> None:
+            listed = r.read.record.channels if r.read is not None else []
+            column.options = {"(the most vibration power)": NOT_GIVEN,
+                              **{c: c.split(":", 1)[0] for c in listed if ":" in c and "(time" not in c}}
+            column.value = r.signal_column if r.signal_column in column.options.values() else NOT_GIVEN
+
+        channels()
+        r.param.watch(channels, "read")
+        unit = _select(r, "signal_unit", {"(from the file)": NOT_GIVEN, **{u: u for u in r.param.signal_unit.objects}},
+                       "record-signal-unit")
+        time_unit = _select(r, "time_unit", {"(from the file)": NOT_GIVEN, "s": "s", "ms": "ms", "µs": "us"},
+                            "record-time-unit")
+        rate = pn.widgets.FloatInput.from_param(r.param.rate_Hz, sizing_mode="stretch_width", placeholder="from the file",
+                                                css_classes=["record-rate"])
+        segment = pn.widgets.IntInput.from_param(r.param.segment, sizing_mode="stretch_width", placeholder="the strongest",
+                                                 css_classes=["record-segment"])
+        card = pn.Card(Markdown("Only when the file does not say: the error above names the option to give.",
+                                margin=(0, 10)),
+                       column, unit, rate, time_unit, segment, title="Reading options", collapsible=True,
+                       collapsed=True, sizing_mode="stretch_width")
+
+        opened_here = []  # opened for an error: closed again once a file is read
+
+        def opened(event) -> None:
+            if event.new and "Reading options" in event.new and card.collapsed:
+                card.collapsed = False
+                opened_here.append(True)
+
+        def read(event) -> None:
+            if opened_here and event.new is not None:
+                opened_here.clear()
+                card.collapsed = True
+
+        r.param.watch(opened, "error")
+        r.param.watch(read, "read")
+        return card
+
+    def _build_form(self) -> None:
+        r = self._record
+        numbers = {name: pn.widgets.FloatInput.from_param(r.param[name], sizing_mode="stretch_width",
+                                                          css_classes=[f"record-{name.replace('_', '-')}"],
+                                                          placeholder="empty")
+                   for name in ("length_m", "width_m", "thickness_m", "sensor_position_m", "sensor_mass_kg")}
+        for name, step in (("length_m", 0.01), ("width_m", 0.001), ("thickness_m", 0.0001), ("sensor_position_m", 0.01),
+                           ("sensor_mass_kg", 0.01)):
+            numbers[name].step = step
+        material = _select(r, "material", {"(choose)": NOT_GIVEN, **{m: m for m in r.param.material.objects}},
+                           "record-material")
+        guess = pn.widgets.Checkbox.from_param(r.param.sensor_mass_approximate, sizing_mode="stretch_width")
+        missing = Markdown(pn.bind(lambda *_: ("Still to fill: " + "; ".join(r.missing()) + ".") if r.missing()
+                                   else "The beam is described.", *(r.param[n] for n in
+                                                                   ("length_m", "width_m", "thickness_m", "material",
+                                                                    "sensor_position_m"))),
+                           margin=(0, 10), css_classes=["record-missing"])
+        form_error = HTML(pn.bind(lambda e: alert_html("warning", html.escape(e)) if e else "", r.param.form_error),
+                          sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-form-error"])
+        self._left.append(pn.Card(
+            numbers["length_m"], numbers["width_m"], numbers["thickness_m"], material, numbers["sensor_position_m"],
+            numbers["sensor_mass_kg"], guess, missing, form_error,
+            title="2. Your beam", collapsible=False, sizing_mode="stretch_width"))
+
+    def _build_plots(self) -> None:
+        r = self._record
+        self._sketch = BeamSketch()
+        self._spectrum = SpectrumPlot()
+
+        def sketch(*_):
+            self._sketch.update(r.length_m, r.sensor_position_m, r.sensor_mass_kg)
+
+        sketch()
+        r.param.watch(sketch, ["length_m", "sensor_position_m", "sensor_mass_kg"])
+
+        def spectrum(*_):
+            read = r.read
+            if read is not None:
+                self._spectrum.show_record(read.frequency_Hz, read.psd_db, read.peaks, read.signal_unit)
+            self._spectrum.show_modes(r.described.modes_Hz if r.described is not None else ())
+
+        spectrum()
+        r.param.watch(spectrum, ["read", "described"])
+        described = pn.bind(lambda d: d is not None, r.param.described)
+        waiting = Markdown(pn.bind(lambda read, d: "" if d is not None else
+                                   ("The spectrum appears as soon as the beam is described." if read is not None else
+                                    "Drop a record, then describe the beam: its spectrum appears here."),
+                                   r.param.read, r.param.described), margin=(0, 10), css_classes=["record-waiting"])
+        summary = pn.Card(HTML(pn.bind(lambda d: f"<pre style='white-space:pre-wrap;font-size:14px'>"
+                                                 f"{html.escape(d.summary)}</pre>" if d is not None else "",
+                                       r.param.described), sizing_mode="stretch_width"),
+                          title="The summary beam import prints", collapsible=True, collapsed=True,
+                          sizing_mode="stretch_width", visible=described)
+        self._main.extend([
+            pn.pane.Bokeh(self._sketch.figure, sizing_mode="stretch_width", height=170),
+            waiting,
+            pn.Column(pn.pane.Bokeh(self._spectrum.figure, sizing_mode="stretch_width", height=330),
+                      visible=described, sizing_mode="stretch_width", css_classes=["record-spectrum"]),
+            summary,
+        ])
+
+    def _build_actions(self) -> None:
+        r = self._record
+        ready = pn.bind(lambda *_: not r.can_load(), r.param.described, r.param.loaded,
+                        *(r.param[n] for n in ("length_m", "width_m", "thickness_m", "material", "sensor_position_m",
+                                               "sensor_mass_kg", "sensor_mass_approximate")))
+        load = pn.widgets.Button(label="Load and calibrate", color="primary", sizing_mode="stretch_width",
+                                 disabled=ready, css_classes=["record-load"])
+        load.on_click(lambda e: r.load())
+        sidecar = pn.widgets.FileDownload(
+            callback=lambda: io.StringIO(r.sidecar_text()), filename="beam.toml",
+            label="Download the sidecar (TOML) for the command line", sizing_mode="stretch_width",
+            disabled=pn.bind(lambda d: d is None, r.param.described), css_classes=["record-sidecar"])
+        r.param.watch(lambda e: setattr(sidecar, "filename", r.sidecar_name()), "read")
+        done = HTML(pn.bind(lambda name: alert_html(
+            "success", f"Loaded into the beam calibration as <b>{html.escape(name)}</b>: open the "
+                       "<b>Beam calibration</b> tab to see it calibrated (it is calibrating now).") if name else "",
+            r.param.loaded), sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-loaded"])
+        self._left.append(pn.Card(
+            load, done, sidecar,
+            Markdown("Saved next to the record as its name with `.toml`, `beam calibrate FILE` finds it.",
+                     margin=(0, 10)),
+            title="3. Calibrate", collapsible=False, sizing_mode="stretch_width"))
