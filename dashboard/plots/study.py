@@ -25,7 +25,7 @@ from dashboard.plots.fonts import style_figure
 __all__ = ["LIKELIHOOD_TITLES", "QUANTITIES", "StudyPlots", "set_colours", "window_label"]
 
 #: Figures per likelihood: (quantity, title).
-QUANTITIES = (("error", "Held-out error"), ("coverage", "Held-out coverage"), ("interval", "95 % interval"))
+QUANTITIES = (("error", "Held-out error"), ("coverage", "Band coverage"), ("interval", "95 % interval"))
 LIKELIHOOD_TITLES = {"iid": "i.i.d. noise", "ar1": "AR(1) noise"}
 #: Horizontal distance between two effect sets at one window (in windows).
 DODGE = 0.12

@@ -249,6 +249,21 @@ def test_every_tab_is_readable_on_a_projector(page, tmp_path):
     assert page.errors == []
 
 
+def test_the_window_study_and_your_record_tabs_are_readable_on_a_projector(page, tmp_path):
+    """The two tabs a teacher opens beside the class flow, before anything runs in them."""
+    directory = shots_dir(tmp_path)
+    report: dict = {}
+    open_tab(page, "Window study")
+    page.locator(".study-class-guide").first.wait_for(timeout=120000)
+    page.locator(".study-run").first.wait_for(timeout=60000)
+    check_tab(page, "study", directory, report)
+    open_tab(page, "Your record")
+    page.locator(".record-inputs").first.wait_for(timeout=120000)
+    check_tab(page, "record", directory, report)
+    print(f"screenshots in {directory}; plots checked per tab: {report}")
+    assert page.errors == []
+
+
 def test_a_cold_server_shows_its_loading_page_at_once_then_the_app(browser_context, tmp_path):
     """The first visit after ``panel serve`` starts: the loading page says what is loading within
     seconds (it was a blank page for the 27 s of imports), and the app follows by itself."""
