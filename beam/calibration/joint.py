@@ -44,16 +44,18 @@ from beam.calibration.engine import Engine, default_engine
 from beam.calibration.run import (
     BAND_DRAWS,
     CalibrationResult,
-    calibration_preview,
     default_walkers,
+    preview_map,
     record_bands,
 )
+from beam.calibration.setup import BeamCalibrationSetup
 from beam.calibration.spec import CalibrationSpec
 from beam.errors import BeamInputError
 from beam.inference import LIKELIHOODS, EnsembleRun, LaplaceResult, MapResult, Parameter, PosteriorResult, Problem, laplace
 from beam.inference.likelihood import log_likelihood
 from beam.inference.summaries import summarize_draws
-from beam.physics.effects import EFFECTS, PARAMETER_SPECS
+from beam.physics import modal
+from beam.physics.effects import EFFECTS
 
 __all__ = [
     "JointCalibrationResult",
@@ -265,14 +267,24 @@ class JointProblem(Problem):
         return out
 
 
+@dataclass(frozen=True)
+class RecordFit:
+    """One record's own calibration preview without its bands (:func:`beam.calibration.run.preview_map`):
+    its setup, problem and MAP + Laplace (the joint search's starts; its own evidence)."""
+
+    setup: BeamCalibrationSetup
+    problem: Problem
+    laplace: LaplaceResult
+
+
 @dataclass
 class JointCalibrationResult:
     """A joint calibration: the joint posterior and each record's view of it.
 
     Attributes
     ----------
-    records : tuple of CalibrationResult
-        Each record's single calibration preview (its own MAP: the joint search's starts).
+    records : tuple of RecordFit
+        Each record's own calibration preview (its own MAP and evidence: the joint search's starts).
     problem : JointProblem
         The joint problem.
     laplace : LaplaceResult
@@ -283,7 +295,7 @@ class JointCalibrationResult:
         Wall time (s).
     """
 
-    records: tuple[CalibrationResult, ...]
+    records: tuple[RecordFit, ...]
     problem: JointProblem
     laplace: LaplaceResult
     posterior: PosteriorResult | None
@@ -394,6 +406,97 @@ class JointCalibrationResult:
         }
 
 
+#: Half the 95 % quantile of chi-squared with one degree of freedom (nats): the drop of the profile
+#: log posterior at the ends of a 95 % profile interval.
+PROFILE_DROP_95 = 0.5 * 3.841458820694124
+
+
+@dataclass(frozen=True)
+class ProfileInterval:
+    """A profile interval of one parameter (:func:`profile_interval`).
+
+    Attributes
+    ----------
+    name : str
+        The parameter (joint name).
+    lower, upper : float
+        Ends of the interval (natural units): where the profile log posterior has dropped by
+        :data:`PROFILE_DROP_95` nats below its highest value on the grid (linear between grid
+        points in the internal coordinate; an end at the grid's edge means the interval reaches at
+        least that far).
+    best : float
+        The grid value of the highest profile log posterior.
+    grid, profile : tuple of float
+        The values scanned (natural units) and the profile log posterior at each (nats).
+    """
+
+    name: str
+    lower: float
+    upper: float
+    best: float
+    grid: tuple[float, ...]
+    profile: tuple[float, ...]
+
+
+def profile_interval(result: JointCalibrationResult, name: str, *, span: float = 1.0, points: int = 21) -> ProfileInterval:
+    """The 95 % profile interval of a physical parameter: the joint log posterior maximised over the
+    other physical parameters (least squares on the whitened residuals from the neighbouring grid
+    point, each record's noise sd re-estimated) on a grid of ``points`` values of ``name`` spanning
+    ±``span`` in its internal coordinate (natural log for a positive parameter) around the MAP.
+
+    Where one mode per record leaves EI, a mass and the clamp stiffness on a thin curved ridge, the
+    Laplace approximation at the MAP (and an ensemble sampler started there) sees only the ridge's
+    local width; the profile follows the ridge (docs/joint-calibration.md).
+    """
+    problem = result.problem
+    i = problem.index(name)
+    if name in problem.noise_names:
+        raise BeamInputError(f"{name} is a noise parameter: profile a physical parameter")
+    centre = result.laplace.map.z
+    lo, hi = problem.internal_bounds
+    grid = np.clip(centre[i] + np.linspace(-span, span, points), lo[i] + 1e-9, hi[i] - 1e-9)
+    columns = np.array([c for c in _physical_columns(problem) if c != i], dtype=int)
+    profile = np.full(points, -np.inf)
+    middle = points // 2
+    for order in (range(middle, points), range(middle, -1, -1)):  # outwards from the MAP
+        z = centre.copy()
+        for j in order:
+            z[i] = grid[j]
+            for _ in range(2):  # the whitening follows the noise sd
+                values = problem.from_internal(z[None, :])
+                sigma = np.concatenate([np.full(p.data.size, float(values[problem.noise_names[k]][0]))
+                                        for k, p in enumerate(problem.problems)])
+
+                def rows(zz: np.ndarray, sigma=sigma) -> np.ndarray:
+                    whitened = (problem.data - problem.predict(problem.from_internal(zz))) / sigma
+                    return np.hstack([whitened, _prior_residuals(problem, zz, columns)])
+
+                z, _ = _batched_least_squares(problem, rows, z, columns)
+                values = problem.from_internal(z[None, :])
+                estimate = problem.noise_estimate({n: float(a[0]) for n, a in values.items()})
+                for n, v in estimate.items():
+                    k = problem.index(n)
+                    z[k] = float(np.clip(problem.parameters[k].prior.to_internal(v), lo[k], hi[k]))
+            profile[j] = max(profile[j], float(problem.log_posterior(z)[0]))
+    prior = problem.parameters[i].prior
+    natural = prior.from_internal(grid)
+    top = float(np.max(profile))
+    level = top - PROFILE_DROP_95
+    inside = np.flatnonzero(profile >= level)
+
+    def crossing(a: int, b: int) -> float:  # linear in the internal coordinate between grid points a (out), b (in)
+        if not np.isfinite(profile[a]):
+            return float(grid[b])
+        return float(grid[a] + (level - profile[a]) / (profile[b] - profile[a]) * (grid[b] - grid[a]))
+
+    first, last = int(inside[0]), int(inside[-1])
+    lower = grid[first] if first == 0 else crossing(first - 1, first)
+    upper = grid[last] if last == points - 1 else crossing(last + 1, last)
+    return ProfileInterval(name, float(prior.from_internal(lower)), float(prior.from_internal(upper)),
+                           float(natural[int(np.argmax(profile))]), tuple(float(v) for v in natural),
+                           tuple(float(v) for v in profile))
+
+
 def _thinned(draws: Mapping[str, np.ndarray], n: int, seed: int) -> dict[str, np.ndarray]:
     """At most ``n`` of ``draws`` (a seeded choice without replacement when there are more)."""
     size = next(iter(draws.values())).shape[0]
@@ -446,7 +549,7 @@ def joint_preview(
     t0 = time.perf_counter()
     measurements, spec = _records_and_spec(measurements, spec, options)
     engine = default_engine() if engine is None else engine
-    singles = tuple(calibration_preview(m, spec, engine=engine) for m in measurements)
+    singles = tuple(RecordFit(*preview_map(m, spec, engine=engine)[:3]) for m in measurements)
     for single in singles:
         single.problem.joint_setup = single.setup  # what the joint search reads of each record
     physical: list[str] = []
@@ -597,55 +700,99 @@ def _physical_columns(problem: JointProblem) -> np.ndarray:
 
 
 def _prior_residuals(problem: JointProblem, z: np.ndarray, columns: np.ndarray) -> np.ndarray:
-    """One pseudo-residual per Gaussian prior (internal coordinates) of ``columns``."""
+    """One pseudo-residual per Gaussian prior (internal coordinates) of ``columns``, rows of ``z``
+    (B, ndim) -> (B, number of Gaussian priors)."""
     out = []
     for i in columns:
         quadratic = problem.parameters[i].prior.internal_quadratic()
         if quadratic is not None and np.isfinite(quadratic[2]):
-            out.append((z[i] - quadratic[1]) / quadratic[2])
-    return np.array(out, dtype=float)
+            out.append((z[:, i] - quadratic[1]) / quadratic[2])
+    return np.column_stack(out) if out else np.zeros((z.shape[0], 0))
+
+
+def _modes_of(setup, values: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Natural frequencies (Hz) and damping ratios, each (B, modes), of the retained modes of
+    ``setup``'s model at ``values`` (arrays of B): the poles of its reduced system."""
+    reduced, _, _ = setup.model.reduced_system(values, setup.modes)
+    poles, _ = modal.modal_decomposition(reduced["omega2"], reduced["damping"])
+    upper = poles[:, ::2]  # conjugate pairs adjacent, Im > 0 first
+    magnitude = np.abs(upper)
+    return magnitude / (2.0 * np.pi), -upper.real / np.where(magnitude > 0, magnitude, 1.0)
 
 
 def modal_match(problem: JointProblem, singles: Sequence[LaplaceResult], z0: np.ndarray) -> np.ndarray:
     """Joint internal vector near ``z0`` whose model gives each record's single-MAP natural
     frequencies and damping ratios of its retained modes (log differences over
     :data:`MATCH_FREQUENCY` and :data:`MATCH_DAMPING`, plus the Gaussian priors' pseudo-residuals),
-    by :func:`scipy.optimize.least_squares` on the physical parameters (noise kept)."""
-    from scipy import optimize
-
-    columns = _physical_columns(problem)
+    by :func:`_batched_least_squares` on the physical parameters (noise kept)."""
     targets = []
-    for k, single in enumerate(singles):
+    for single in singles:
         setup = _setup_of(single)
-        values = {n: float(single.map.values[n]) for n in setup.physical_names}
-        f, zeta = setup.model.natural_modes(values, setup.modes)
-        targets.append((setup, np.log(f), np.log(np.maximum(zeta, 1e-12))))
+        f, zeta = _modes_of(setup, {n: np.atleast_1d(single.map.values[n]) for n in setup.physical_names})
+        targets.append((setup, np.log(f[0]), np.log(np.maximum(zeta[0], 1e-12))))
+    columns = _physical_columns(problem)
 
-    def residuals(x: np.ndarray) -> np.ndarray:
-        z = z0.copy()
-        z[columns] = x
-        values = {n: float(v[0]) for n, v in problem.from_internal(z[None, :]).items()}
+    def rows(z: np.ndarray) -> np.ndarray:
+        values = problem.from_internal(z)
         out = [_prior_residuals(problem, z, columns)]
         for k, (setup, log_f, log_zeta) in enumerate(targets):
             names = problem.record_names(k)
-            own = {n: values[names[n]] for n in setup.physical_names}
-            with np.errstate(all="ignore"):
-                f, zeta = setup.model.natural_modes(own, setup.modes)
-                out.append((np.log(f) - log_f) / MATCH_FREQUENCY)
-                out.append((np.log(np.maximum(zeta, 1e-12)) - log_zeta) / MATCH_DAMPING)
-        r = np.concatenate(out)
-        return np.where(np.isfinite(r), r, 1e6)
+            f, zeta = _modes_of(setup, {n: values[names[n]] for n in setup.physical_names})
+            out.append((np.log(f) - log_f) / MATCH_FREQUENCY)
+            out.append((np.log(np.maximum(zeta, 1e-12)) - log_zeta) / MATCH_DAMPING)
+        return np.hstack(out)
+
+    z, _ = _batched_least_squares(problem, rows, z0, columns)
+    return z
+
+
+def _batched_least_squares(problem: JointProblem, rows, z0: np.ndarray, columns: np.ndarray,
+                           max_nfev: int = 100) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`scipy.optimize.least_squares` (trust-region reflective, bounds) over the internal
+    coordinates ``columns`` of ``z0`` (the others held) of the residual rows ``rows(z) -> (B, N)``,
+    whose forward-difference Jacobian is one call of ``rows`` on the point and its stencil.
+    Returns the point (all coordinates) and the Jacobian there ((N, len(columns)))."""
+    from scipy import optimize
 
     lo, hi = problem.internal_bounds
-    x0 = np.clip(z0[columns], lo[columns], hi[columns])
+    scale = np.array([p.prior.internal_scale for p in problem.parameters])[columns]
+    lo, hi = lo[columns], hi[columns]
+    cache: dict[bytes, np.ndarray] = {}
+
+    def evaluate(x: np.ndarray) -> np.ndarray:
+        z = np.repeat(z0[None, :], x.shape[0], axis=0)
+        z[:, columns] = x
+        with np.errstate(all="ignore"):
+            out = rows(z)
+        return np.where(np.isfinite(out), out, 1e6)
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        key = x.tobytes()
+        if key not in cache:
+            cache.clear()
+            cache[key] = evaluate(x[None, :])[0]
+        return cache[key]
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        h = 1e-6 * np.maximum(np.abs(x), scale)
+        h = np.where(x + h > hi, -h, h)
+        stencil = np.repeat(x[None, :], 1 + x.size, axis=0)
+        stencil[1 + np.arange(x.size), np.arange(x.size)] += h
+        out = evaluate(stencil)
+        cache.clear()
+        cache[x.tobytes()] = out[0]
+        return ((out[1:] - out[0]) / h[:, None]).T
+
+    x0 = np.clip(z0[columns], lo + 1e-9 * scale, hi - 1e-9 * scale)
     try:
-        fit = optimize.least_squares(residuals, x0, bounds=(lo[columns], hi[columns]), method="trf", max_nfev=100,
-                                     ftol=1e-10, xtol=1e-10, gtol=1e-10)
+        fit = optimize.least_squares(residuals, x0, jac=jacobian, bounds=(lo, hi), method="trf", x_scale="jac",
+                                     max_nfev=max_nfev, ftol=1e-10, xtol=1e-10, gtol=1e-10)
+        x, jac = fit.x, fit.jac
     except (ValueError, np.linalg.LinAlgError):
-        return z0
+        x, jac = x0, jacobian(x0)
     z = z0.copy()
-    z[columns] = fit.x
-    return z
+    z[columns] = x
+    return z, jac
 
 
 def _setup_of(single: LaplaceResult):
@@ -660,49 +807,18 @@ def _least_squares(problem: JointProblem, singles: Sequence[LaplaceResult],
     set to each record's residual RMS. Returns the point and finite-difference steps for the
     Newton iteration from it (internal): a tenth of each coordinate's conditional sd under the
     Gauss–Newton curvature (noise: of the log sd, 1/sqrt(2 n))."""
-    from scipy import optimize
-
     columns = _physical_columns(problem)
     lo, hi = problem.internal_bounds
     scale = np.array([p.prior.internal_scale for p in problem.parameters])
     sigma = np.concatenate([np.full(p.data.size, float(s.map.values["noise_sd"]) if "noise_sd" in s.map.values
                                     else float(np.std(p.data)))
                             for p, s in zip(problem.problems, singles)])
-    cache: dict[bytes, np.ndarray] = {}
 
-    def rows(x: np.ndarray) -> np.ndarray:
-        z = np.repeat(z0[None, :], x.shape[0], axis=0)
-        z[:, columns] = x
-        with np.errstate(all="ignore"):
-            whitened = (problem.data - problem.predict(problem.from_internal(z))) / sigma
-        priors = np.array([_prior_residuals(problem, row, columns) for row in z])
-        out = np.hstack([whitened, priors.reshape(x.shape[0], -1)])
-        return np.where(np.isfinite(out), out, 1e6)
+    def rows(z: np.ndarray) -> np.ndarray:
+        whitened = (problem.data - problem.predict(problem.from_internal(z))) / sigma
+        return np.hstack([whitened, _prior_residuals(problem, z, columns)])
 
-    def residuals(x: np.ndarray) -> np.ndarray:
-        key = x.tobytes()
-        if key not in cache:
-            cache.clear()
-            cache[key] = rows(x[None, :])[0]
-        return cache[key]
-
-    def jacobian(x: np.ndarray) -> np.ndarray:
-        h = 1e-6 * np.maximum(np.abs(x), scale[columns])
-        h = np.where(x + h > hi[columns], -h, h)
-        stencil = np.repeat(x[None, :], 1 + x.size, axis=0)
-        stencil[1 + np.arange(x.size), np.arange(x.size)] += h
-        out = rows(stencil)
-        cache.clear()
-        cache[x.tobytes()] = out[0]
-        return ((out[1:] - out[0]) / h[:, None]).T
-
-    x0 = np.clip(z0[columns], lo[columns] + 1e-9 * scale[columns], hi[columns] - 1e-9 * scale[columns])
-    try:
-        fit = optimize.least_squares(residuals, x0, jac=jacobian, bounds=(lo[columns], hi[columns]), method="trf",
-                                     x_scale="jac", max_nfev=100, ftol=1e-10, xtol=1e-10, gtol=1e-10)
-        x, jac = fit.x, fit.jac
-    except (ValueError, np.linalg.LinAlgError):
-        x, jac = x0, jacobian(x0)
+    z, jac = _batched_least_squares(problem, rows, z0, columns)
     steps = 1e-3 * scale.copy()
     curvature = np.sum(jac**2, axis=0)
     steps[columns] = np.where(curvature > 0, 0.1 / np.sqrt(np.maximum(curvature, 1e-300)), 1e-3 * scale[columns])
@@ -710,8 +826,6 @@ def _least_squares(problem: JointProblem, singles: Sequence[LaplaceResult],
         for name in problem._noise:
             steps[problem.index(joint_name(name, k))] = 0.1 / math.sqrt(2.0 * p.data.size)
     steps = np.minimum(steps, 0.1 * scale)
-    z = z0.copy()
-    z[columns] = x
     values = problem.from_internal(z[None, :])
     for name, v in problem.noise_estimate({n: float(a[0]) for n, a in values.items()}).items():
         i = problem.index(name)

@@ -93,11 +93,13 @@ class JointDiagnosis:
 
     @property
     def separated(self) -> list[tuple[str, str]]:
-        """Pairs (better, worse) of material candidates that every record alone leaves within
-        :data:`SEPARATING_NATS` of each other but the records together separate by more."""
+        """Pairs (better, worse): a material candidate and one ranked below it that every record
+        alone leaves within :data:`SEPARATING_NATS` of it but the records together separate by more."""
         out = []
-        ranked = [c for c in self.candidates if c.material]
+        ranked = [c for c in self.candidates if c.delta_log_evidence is not None]
         for i, a in enumerate(ranked):
+            if not a.material:
+                continue
             for b in ranked[i + 1:]:
                 alone = np.abs(np.subtract(a.records_delta_log_evidence, b.records_delta_log_evidence))
                 if np.all(alone < SEPARATING_NATS) and a.delta_log_evidence - b.delta_log_evidence >= SEPARATING_NATS:
