@@ -53,7 +53,6 @@ from beam.calibration.spec import CalibrationSpec
 from beam.errors import BeamInputError
 from beam.inference import LIKELIHOODS, EnsembleRun, LaplaceResult, MapResult, Parameter, PosteriorResult, Problem, laplace
 from beam.inference.likelihood import log_likelihood
-from beam.inference.summaries import summarize_draws
 from beam.physics import modal
 from beam.physics.effects import EFFECTS
 
@@ -318,15 +317,10 @@ class JointCalibrationResult:
         """Shared physical parameters (joint names = their own)."""
         return tuple(n for n in self.problem.names if SEPARATOR not in n)
 
-    def draws(self) -> dict[str, np.ndarray]:
-        """Joint posterior draws (natural units): MCMC, or Laplace draws for a preview."""
-        if self._draws is None:
-            self._draws = self.posterior.draws() if self.posterior is not None else self.laplace.draws(4000, seed=0)
-        return self._draws
-
-    def summary(self) -> dict[str, dict[str, float]]:
-        """``{joint name: {"mean", "sd", "q025", "q975"}}`` of every sampled parameter."""
-        return summarize_draws(self.draws())
+    #: Joint posterior draws (natural units, joint names): MCMC, or Laplace draws for a preview.
+    draws = CalibrationResult.draws
+    #: ``{joint name: {"mean", "sd", "q025", "q975"}}`` of every sampled parameter.
+    summary = CalibrationResult.summary
 
     def record_results(self) -> tuple[CalibrationResult, ...]:
         """Each record's :class:`CalibrationResult` under the joint posterior: its parameters (own

@@ -147,14 +147,19 @@ def run_joint(args: argparse.Namespace) -> int:
     from beam.calibration.joint import joint_calibrate
 
     result = joint_calibrate(measurements, spec_of(args), per_record=args.per_record, shared=args.shared)
-    summary = result.to_json()
+    return print_joint(args, result.to_json(), format_joint_summary)
+
+
+def print_joint(args: argparse.Namespace, summary: dict, readable) -> int:
+    """Print a joint command's summary: one JSON object with ``--json`` (NaN as null), else
+    ``readable(summary)``; exit status 0."""
     if args.json:
         from beam.residuals.common import jsonable
 
         json.dump(jsonable(summary), sys.stdout, allow_nan=False)
         sys.stdout.write("\n")
     else:
-        sys.stdout.write(format_joint_summary(summary))
+        sys.stdout.write(readable(summary))
     return 0
 
 

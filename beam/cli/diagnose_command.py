@@ -18,6 +18,7 @@ from beam.cli.calibrate_command import (
     add_model_arguments,
     check_joint_arguments,
     format_window,
+    print_joint,
 )
 
 
@@ -133,15 +134,7 @@ def run_joint(args: argparse.Namespace) -> int:
 
     report = joint_diagnose(measurements, window=args.window, modes=args.modes, base=args.base,
                             per_record=args.per_record, shared=args.shared)
-    summary = report.to_json()
-    if args.json:
-        from beam.residuals.common import jsonable
-
-        json.dump(jsonable(summary), sys.stdout, allow_nan=False)
-        sys.stdout.write("\n")
-    else:
-        sys.stdout.write(format_joint_report(summary))
-    return 0
+    return print_joint(args, report.to_json(), format_joint_report)
 
 
 def format_joint_report(summary: dict) -> str:
