@@ -353,8 +353,8 @@ class JointCalibrationResult:
         return CalibrationResult(single.setup, own, view, None, bands, self.seconds, _draws=draws)
 
     def record_json(self, k: int) -> dict:
-        """Record ``k``'s entry of the JSON: ``record`` (its name), ``parameters`` (its own
-        physical parameters), ``noise_sd``, ``rmse_calibration``, ``rmse_prediction``,
+        """Record ``k``'s entry of the JSON: ``record`` (its name), ``output_unit``, ``parameters``
+        (its own physical parameters), ``noise_sd``, ``rmse_calibration``, ``rmse_prediction``,
         ``coverage95_prediction`` and ``frequencies_Hz`` (the joint MAP model's natural
         frequencies of its retained modes, Hz)."""
         view = self.record_results()[k]
@@ -364,6 +364,7 @@ class JointCalibrationResult:
         frequencies = view.setup.model.natural_modes(values, view.setup.modes)[0]
         return {
             "record": view.setup.measurement.name,
+            "output_unit": view.setup.measurement.output_unit,
             "parameters": physical,
             "noise_sd": summary.get("noise_sd"),
             "window_s": list(view.setup.window),

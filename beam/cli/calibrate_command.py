@@ -172,13 +172,14 @@ def format_joint_summary(summary: dict) -> str:
     for name, s in summary["parameters"].items():
         lines.append(f"{name:32s} {s['mean']:12.5g} {s['sd']:11.3g} {s['q025']:12.5g} {s['q975']:12.5g}")
     for record in summary["records"]:
+        unit = record.get("output_unit", "m")
         own = ", ".join(f"{name} {s['mean']:.5g}" for name, s in record["parameters"].items())
         lines += ["", f"{record['record']}: window {format_window(record['window_s'])}, {record['modes']} modes"
                   + (f"; {own}" if own else ""),
                   f"  f (Hz) {', '.join(f'{f:.4g}' for f in record['frequencies_Hz'])}; noise sd "
-                  f"{_number(record['noise_sd']['mean'] if record['noise_sd'] else None)}; RMSE calibration "
-                  f"{_number(record['rmse_calibration'])}, held-out {_number(record['rmse_prediction'])}, held-out inside "
-                  f"the 95 % band {_percent(record['coverage95_prediction'])}"]
+                  f"{_in_unit(record['noise_sd']['mean'] if record['noise_sd'] else None, unit)}; RMSE calibration "
+                  f"{_in_unit(record['rmse_calibration'], unit)}, held-out {_in_unit(record['rmse_prediction'], unit)}, "
+                  f"held-out inside the 95 % band {_percent(record['coverage95_prediction'])}"]
     lines += ["", f"ESS min {_number(summary['ess_min'])}, R-hat max {_number(summary['rhat_max'])}, "
               f"{'converged' if summary['converged'] else 'NOT converged'}; {summary['seconds']:.2f} s"]
     lines += [f"warning: {w}" for w in summary["warnings"]]
