@@ -143,6 +143,9 @@ class JointProblem(Problem):
         likelihood kind.
     per_record : sequence of str
         Physical parameters calibrated per record (the others are shared).
+    setups : sequence of BeamCalibrationSetup, optional
+        Each record's setup (its model, modes, geometry), which the joint MAP search reads
+        (:func:`modal_match`); required there.
 
     Notes
     -----
@@ -152,8 +155,10 @@ class JointProblem(Problem):
     (what :meth:`predict` and :meth:`residuals` return, and what a saved posterior stores).
     """
 
-    def __init__(self, problems: Sequence[Problem], per_record: Sequence[str] = ()) -> None:
+    def __init__(self, problems: Sequence[Problem], per_record: Sequence[str] = (),
+                 setups: Sequence[BeamCalibrationSetup] | None = None) -> None:
         problems = tuple(problems)
+        self.setups = None if setups is None else tuple(setups)
         if not problems:
             raise BeamInputError("a joint calibration needs at least one record")
         likelihoods = {p.likelihood for p in problems}
@@ -545,13 +550,11 @@ def joint_preview(
     measurements, spec = _records_and_spec(measurements, spec, options)
     engine = default_engine() if engine is None else engine
     singles = tuple(RecordFit(*preview_map(m, spec, engine=engine)[:3]) for m in measurements)
-    for single in singles:
-        single.problem.joint_setup = single.setup  # what the joint search reads of each record
     physical: list[str] = []
     for single in singles:
         physical += [n for n in single.setup.physical_names if n not in physical]
     chosen = resolve_per_record(per_record, physical, shared)
-    problem = JointProblem([s.problem for s in singles], chosen)
+    problem = JointProblem([s.problem for s in singles], chosen, setups=[s.setup for s in singles])
     found = joint_map(problem, [s.laplace for s in singles], tuple(starts))
     approximation = laplace(problem, found)
     approximation.seconds = time.perf_counter() - t0
@@ -721,8 +724,7 @@ def modal_match(problem: JointProblem, singles: Sequence[LaplaceResult], z0: np.
     :data:`MATCH_FREQUENCY` and :data:`MATCH_DAMPING`, plus the Gaussian priors' pseudo-residuals),
     by :func:`_batched_least_squares` on the physical parameters (noise kept)."""
     targets = []
-    for single in singles:
-        setup = _setup_of(single)
+    for setup, single in zip(problem.setups, singles):
         f, zeta = _modes_of(setup, {n: np.atleast_1d(single.map.values[n]) for n in setup.physical_names})
         targets.append((setup, np.log(f[0]), np.log(np.maximum(zeta[0], 1e-12))))
     columns = _physical_columns(problem)
@@ -788,11 +790,6 @@ def _batched_least_squares(problem: JointProblem, rows, z0: np.ndarray, columns:
     z = z0.copy()
     z[columns] = x
     return z, jac
-
-
-def _setup_of(single: LaplaceResult):
-    """The setup behind a record's single preview (kept on its problem by :func:`joint_preview`)."""
-    return single.problem.joint_setup
 
 
 def _least_squares(problem: JointProblem, singles: Sequence[LaplaceResult],
