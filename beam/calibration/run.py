@@ -512,9 +512,19 @@ def calibration_preview(
         The engine that searches and remembers (default: the process's, :func:`default_engine`).
     """
     t0 = time.perf_counter()
-    extra_guesses = tuple(extra_guesses)
     spec = CalibrationSpec.of(spec, **options)
-    seed = spec.seed
+    setup, problem, laplace_result, screened = preview_map(measurement, spec, extra_guesses=extra_guesses, start=start,
+                                                           search=search, engine=engine)
+    bands = preview_bands(laplace_result, setup, spec.seed)
+    return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0, screened=screened)
+
+
+def preview_map(measurement: Measurement, spec: CalibrationSpec, *, extra_guesses: Iterable[dict[str, float]] = (),
+                start: Mapping[str, float] | None = None, search: bool = True,
+                engine: Engine | None = None) -> tuple[BeamCalibrationSetup, Problem, LaplaceResult, bool]:
+    """The MAP + Laplace of :func:`calibration_preview` without its bands: ``(setup, problem,
+    laplace, screened)`` (same arguments; the same search, recall and memory of the engine)."""
+    extra_guesses = tuple(extra_guesses)
     engine = default_engine() if engine is None else engine
     setup, problem = prepare(measurement, spec, extra_guesses=extra_guesses, start=start, search=False, engine=engine)
     cold = start is None and not extra_guesses
@@ -528,8 +538,7 @@ def calibration_preview(
         else:
             laplace_result = _searched_laplace(engine, problem, setup, quick)  # the two stages of calibration_stream
             _remember(engine, setup, laplace_result.map, cold)
-    bands = preview_bands(laplace_result, setup, seed)
-    return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0, screened=screened)
+    return setup, problem, laplace_result, screened
 
 
 def preview_bands(laplace_result: LaplaceResult, setup: BeamCalibrationSetup, seed: int) -> PredictiveBands:

@@ -1,4 +1,9 @@
-"""``beam calibrate DATA``: calibrate the beam on a window of a measurement, predict the rest."""
+"""``beam calibrate DATA [DATA ...]``: calibrate the beam on a window of a measurement, predict the rest.
+
+Several records of one beam (each with its own sidecar) are calibrated jointly
+(:mod:`beam.calibration.joint`): ``--shared`` / ``--per-record`` say which physical parameters
+are shared; the JSON adds a ``records`` list. One record keeps the single calibration's output.
+"""
 
 from __future__ import annotations
 
@@ -26,9 +31,10 @@ LIKELIHOOD_CHOICES = ("iid", "ar1")
 def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     """--window and --modes, shared with ``beam diagnose`` (defaults: :class:`~beam.calibration.spec.CalibrationSpec`'s)."""
     defaults = CalibrationSpec()
-    parser.add_argument("data", metavar="DATA", type=measurement_path,
+    parser.add_argument("data", metavar="DATA", type=measurement_path, nargs="+",
                         help="measurement: NAME.csv, NAME.toml or NAME; a bundled run (e.g. lab_run_1) by its name; or a "
-                        "record in another format (phyphox, .lvm, .mat, .npy, ...; see beam import)")
+                        "record in another format (phyphox, .lvm, .mat, .npy, ...; see beam import). Several records of "
+                        "one beam (each with its own sidecar: length, sensor position, input) are calibrated jointly")
     parser.add_argument("--window", type=time_window, default=defaults.window, metavar="START:END",
                         help=f"calibration window in seconds, e.g. 0:1.5 (default: the first "
                         f"{100 * defaults.window_fraction:g} %% of the record)")
@@ -65,6 +71,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help=f"ensemble steps (default: sample until every parameter has ESS >= {defaults.target_ess:g})")
     parser.add_argument("--seed", type=non_negative_int, default=defaults.seed, metavar="S",
                         help=f"random seed (default {defaults.seed})")
+    add_joint_arguments(parser)
     parser.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     parser.add_argument("--save", default=None, metavar="PREFIX",
                         help="also write PREFIX.nc (ArviZ InferenceData) and PREFIX.band.csv (predictive band)")
@@ -72,6 +79,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="also write a one-page printable summary (self-contained HTML: key numbers, the "
                         "record with the model and its bands, the parameters)")
     parser.set_defaults(func=run)
+
+
+def add_joint_arguments(parser: argparse.ArgumentParser) -> None:
+    """--shared and --per-record (several records only), shared with ``beam diagnose``."""
+    parser.add_argument("--shared", default=None, metavar="A,B,...",
+                        help="several records: only these physical parameters are shared (default: all of them)")
+    parser.add_argument("--per-record", default=None, metavar="A,B,...",
+                        help="several records: physical parameters calibrated per record, e.g. clamp_stiffness when the "
+                        "strip was re-clamped (the noise sd, the offset and a free response's initial state always are)")
+
+
+def check_joint_arguments(args: argparse.Namespace) -> None:
+    """--shared / --per-record need several records; --save and --report one (BeamInputError)."""
+    from beam.errors import BeamInputError
+
+    several = len(args.data) > 1
+    for flag, value in (("--shared", args.shared), ("--per-record", args.per_record)):
+        if value is not None and not several:
+            raise BeamInputError(f"{flag} needs several records (DATA DATA ...)")
+    for flag in ("save", "report"):
+        if several and getattr(args, flag, None) is not None:
+            raise BeamInputError(f"--{flag} takes one record; a joint calibration writes its summary only (--json)")
 
 
 def spec_of(args: argparse.Namespace) -> CalibrationSpec:
@@ -85,6 +114,10 @@ def run(args: argparse.Namespace) -> int:
         from beam.errors import BeamInputError
 
         raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
+    check_joint_arguments(args)
+    if len(args.data) > 1:
+        return run_joint(args)
+    args.data = args.data[0]
     measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
     from beam.calibration import calibrate
     result = calibrate(measurement, spec_of(args))
@@ -104,6 +137,53 @@ def run(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(format_summary(summary))
     return 0
+
+
+def run_joint(args: argparse.Namespace) -> int:
+    """``beam calibrate A B ...``: the joint calibration (:func:`beam.calibration.joint.joint_calibrate`)."""
+    from beam.cli.record_arguments import measurements_from_args
+
+    measurements = measurements_from_args(args)  # bad files fail before the heavy imports
+    from beam.calibration.joint import joint_calibrate
+
+    result = joint_calibrate(measurements, spec_of(args), per_record=args.per_record, shared=args.shared)
+    return print_joint(args, result.to_json(), format_joint_summary)
+
+
+def print_joint(args: argparse.Namespace, summary: dict, readable) -> int:
+    """Print a joint command's summary: one JSON object with ``--json`` (NaN as null), else
+    ``readable(summary)``; exit status 0."""
+    if args.json:
+        from beam.residuals.common import jsonable
+
+        json.dump(jsonable(summary), sys.stdout, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        sys.stdout.write(readable(summary))
+    return 0
+
+
+def format_joint_summary(summary: dict) -> str:
+    """A readable report of a joint calibration: the shared parameters, then one line per record."""
+    lines = [f"joint calibration of {len(summary['records'])} records, effects: {', '.join(summary['effects']) or 'none'}, "
+             f"likelihood {summary['likelihood']}"
+             + (f", per record: {', '.join(summary['per_record'])}" if summary["per_record"] else ""), "",
+             f"{'shared parameter':32s} {'mean':>12s} {'sd':>11s} {'2.5 %':>12s} {'97.5 %':>12s}"]
+    for name, s in summary["parameters"].items():
+        lines.append(f"{name:32s} {s['mean']:12.5g} {s['sd']:11.3g} {s['q025']:12.5g} {s['q975']:12.5g}")
+    for record in summary["records"]:
+        unit = record.get("output_unit", "m")
+        own = ", ".join(f"{name} {s['mean']:.5g}" for name, s in record["parameters"].items())
+        lines += ["", f"{record['record']}: window {format_window(record['window_s'])}, {record['modes']} modes"
+                  + (f"; {own}" if own else ""),
+                  f"  f (Hz) {', '.join(f'{f:.4g}' for f in record['frequencies_Hz'])}; noise sd "
+                  f"{_in_unit(record['noise_sd']['mean'] if record['noise_sd'] else None, unit)}; RMSE calibration "
+                  f"{_in_unit(record['rmse_calibration'], unit)}, held-out {_in_unit(record['rmse_prediction'], unit)}, "
+                  f"held-out inside the 95 % band {_percent(record['coverage95_prediction'])}"]
+    lines += ["", f"ESS min {_number(summary['ess_min'])}, R-hat max {_number(summary['rhat_max'])}, "
+              f"{'converged' if summary['converged'] else 'NOT converged'}; {summary['seconds']:.2f} s"]
+    lines += [f"warning: {w}" for w in summary["warnings"]]
+    return "\n".join(lines) + "\n"
 
 
 def format_window(window_s) -> str:

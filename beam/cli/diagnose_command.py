@@ -1,4 +1,8 @@
-"""``beam diagnose DATA``: where the model fails, which effect is missing, and the error ladder."""
+"""``beam diagnose DATA [DATA ...]``: where the model fails, which effect is missing, and the error ladder.
+
+Several records of one beam are diagnosed jointly (:func:`beam.discovery.joint.joint_diagnose`): each
+candidate's evidence is the joint one, with each record's own beside it.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,15 @@ import json
 import sys
 
 from beam.cli.arguments import HelpFormatter, effects_epilog, non_negative_int
-from beam.cli.calibrate_command import _in_unit, _percent, add_model_arguments, format_window
+from beam.cli.calibrate_command import (
+    _in_unit,
+    _percent,
+    add_joint_arguments,
+    add_model_arguments,
+    check_joint_arguments,
+    format_window,
+    print_joint,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -26,6 +38,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="effects of the current model (default air_damping,kelvin_voigt; '' for the bare beam)")
     parser.add_argument("--mcmc", action="store_true", help="re-calibrate every ladder step with full MCMC (slower)")
     parser.add_argument("--seed", type=non_negative_int, default=0, metavar="S", help="random seed of the MCMC (default 0)")
+    add_joint_arguments(parser)
     parser.add_argument("--json", action="store_true",
                         help="print the report as one JSON object (SI units; no progress line)")
     parser.add_argument("--report", default=None, metavar="FILE.html",
@@ -74,6 +87,10 @@ def run(args: argparse.Namespace) -> int:
         from beam.errors import BeamInputError
 
         raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
+    check_joint_arguments(args)
+    if len(args.data) > 1:
+        return run_joint(args)
+    args.data = args.data[0]
     measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
     progress = TerminalProgress(sys.stderr) if wants_progress(args) else None
     if progress is not None:
@@ -102,6 +119,37 @@ def run(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(format_report(summary))
     return 0
+
+
+def run_joint(args: argparse.Namespace) -> int:
+    """``beam diagnose A B ...``: the joint diagnosis (:func:`beam.discovery.joint.joint_diagnose`)."""
+    from beam.cli.record_arguments import measurements_from_args
+
+    if args.mcmc:
+        from beam.errors import BeamInputError
+
+        raise BeamInputError("--mcmc takes one record; a joint diagnosis ranks by the joint Laplace evidence")
+    measurements = measurements_from_args(args)  # bad files fail before the heavy imports
+    from beam.discovery.joint import joint_diagnose
+
+    report = joint_diagnose(measurements, window=args.window, modes=args.modes, base=args.base,
+                            per_record=args.per_record, shared=args.shared)
+    return print_joint(args, report.to_json(), format_joint_report)
+
+
+def format_joint_report(summary: dict) -> str:
+    """A readable report of a joint diagnosis: candidates with their joint and per-record evidence."""
+    names = [r["record"] for r in summary["records"]]
+    lines = [f"joint diagnosis of {len(names)} records ({', '.join(names)}), base model: "
+             f"{', '.join(summary['base']) or 'bare beam'}", "",
+             "candidate effects, best first (* materially improves the joint model)",
+             f"  {'effect':18s} {'joint Δ log evidence':>21s}  each record alone"]
+    for c in summary["candidates"]:
+        mark = "*" if c["material"] else " "
+        alone = ", ".join(_nats(v) for v in c["records_delta_log_evidence"]) or c.get("error") or ""
+        lines.append(f"{mark} {c['effect']:18s} {_nats(c['delta_log_evidence']):>21s}  {alone}")
+    lines += ["", summary["verdict"], f"({summary['seconds']:.1f} s)"]
+    return "\n".join(lines) + "\n"
 
 
 def _m(value) -> str:

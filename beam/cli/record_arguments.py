@@ -137,6 +137,20 @@ def measurement_from_args(args: argparse.Namespace, default_sensor_at_tip: bool 
     return read_measurement(args.data, beam=beam, **record_options(args))
 
 
+def measurements_from_args(args: argparse.Namespace) -> list:
+    """Every record ``args.data`` names (a list of paths), each read as :func:`measurement_from_args`
+    reads one (the same reading and beam flags; a record's own sidecar otherwise)."""
+    paths = list(args.data)
+    out = []
+    try:
+        for path in paths:
+            args.data = path
+            out.append(measurement_from_args(args))
+    finally:
+        args.data = paths
+    return out
+
+
 class _Described(dict):
     """A sidecar document with the name to use in messages (``BEAM.toml`` or ``the beam flags``)."""
 
