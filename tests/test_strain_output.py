@@ -167,3 +167,29 @@ def test_a_strain_record_simulated_with_every_mode_is_calibrated_back_to_its_tru
         assert abs(summary["bending_stiffness_Nm2"]["mean"] / EI - 1) < 1e-3
         assert abs(result.rmse_prediction / noise - 1) < 0.05
     assert inside >= 8
+
+
+def test_a_free_strain_decay_profiles_the_bridges_zero_offset():
+    """A plucked strip's gauge record (all modes, from a static tip deflection released at t_0)
+    with a bridge offset of 40 microstrain and 1 % noise: the offset is profiled out like an
+    accelerometer's (within 3 of its sd) and EI comes back inside its 95 % interval."""
+    from beam.calibration import calibration_preview
+
+    geometry = BeamGeometry(LENGTH, DENSITY, None, None, GAUGE, width_m=0.015, thickness_m=THICKNESS)
+    model = BeamModel(geometry, ["air_damping", "kelvin_voigt"], input_kind=None)
+    parameters = {"bending_stiffness_Nm2": EI, **DAMPING}
+    stiffness = model.system_matrices(parameters)["stiffness"][0]
+    q0 = np.linalg.solve(stiffness, 0.02 * model.parts.tip_values)  # the static shape under 20 mN at the tip
+    t = np.arange(3000) / RATE
+    clean = model.free_response_full(parameters, t, q0, output="strain")
+    noise = 0.01 * np.abs(clean).max()
+    offset = 40e-6
+    record = Measurement(name="pluck", title="pluck", geometry=geometry, time_s=t,
+                         strain=clean + offset + np.random.default_rng(5).normal(0.0, noise, t.size),
+                         nominal={"bending_stiffness_Nm2": EI * 0.9})
+    result = calibration_preview(record, window=(0.0, 1.0), modes=4)
+    summary, fit = result.summary(), result.linear_fit()
+    stiffness_summary = summary["bending_stiffness_Nm2"]
+    assert stiffness_summary["q025"] <= EI <= stiffness_summary["q975"], stiffness_summary
+    assert abs(fit["output_offset"] - offset) <= 3 * fit["output_offset_sd"], fit
+    assert result.to_json()["output_unit"] == "1"
