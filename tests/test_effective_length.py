@@ -132,6 +132,14 @@ def test_the_prior_is_centred_on_the_stated_length():
     prior = build_problem(setup).parameter("effective_length_m").prior
     assert prior.kind == "log-normal" and prior.median == STATED and prior.sigma == pytest.approx(0.1)
     assert 0 < prior.lower < 0.365 < STATED < prior.upper
+    # the effect vanishes at the prior's centre: a nested fit's null start and a candidate's
+    # "barely on" start put it exactly at the stated length
+    from beam.calibration.starts.base import barely_on
+    from beam.calibration.starts.null import null_value
+
+    problem = build_problem(setup)
+    assert null_value(problem, "effective_length_m") == pytest.approx(STATED, rel=1e-12)
+    assert barely_on(problem, "effective_length_m") == pytest.approx(STATED, rel=1e-12)
 
 
 def test_a_shorter_free_length_is_calibrated_back_with_its_frequencies():
