@@ -271,11 +271,12 @@ def _table(path, header: str, *columns):
     return path
 
 
-def test_strain_and_an_unknown_unit_are_refused_with_the_way_out(tmp_path):
+def test_microstrain_is_read_as_strain_and_an_unknown_unit_is_refused_with_the_way_out(tmp_path):
     t, axes = _record()
     path = _table(tmp_path / "gauge.csv", "time,strain (microstrain)", t, axes["z"])
-    with pytest.raises(BeamInputError, match="gauge.csv: column 'strain \\(microstrain\\)' is a strain"):
-        read_record(path)
+    record = read_record(path)  # a strain gauge's record (issue 30.3): SI strain, 1e-6 per microstrain
+    assert record.output_column == "strain"
+    np.testing.assert_allclose(record.output, axes["z"] * 1e-6, rtol=1e-12)
     _table(path, "time,signal", t, axes["z"])
     with pytest.raises(BeamInputError, match="column 'signal' has no unit the reader knows; give it with --unit"):
         read_record(path)

@@ -165,7 +165,7 @@ def suggest_modes(measurement: Measurement, window: tuple[float, float] | None =
     linear = [e for e in parse_effects(effects) if e not in LEFT_OUT]
     model = BeamModel(measurement.geometry, linear, input_kind=measurement.input_kind)
     count = int(min(max_modes + 1, model.size))
-    centres = {name: prior_centre(name, measurement.nominal) for name in model.parameter_names_for(count)}
+    centres = {name: prior_centre(name, measurement.prior_nominal) for name in model.parameter_names_for(count)}
     nominal, _ = model.natural_modes(centres, count)
     band = int(np.count_nonzero(nominal < edge))
     if band < nominal.size and nominal[band] <= (1 + CLOSE_FRACTION) * edge:

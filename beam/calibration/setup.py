@@ -57,7 +57,7 @@ from beam.inference import (
 )
 from beam.io.measurement import Measurement
 from beam.physics.basis import DEFAULT_INTERVALS, DEFAULT_KNOTS
-from beam.physics.effects import EFFECTS, PARAMETER_SPECS, parse_effects
+from beam.physics.effects import EFFECTS, FREE_LENGTH_LOG_SD, PARAMETER_SPECS, parse_effects
 from beam.physics.model import BeamModel
 
 #: Fewest samples a calibration window may hold.
@@ -77,6 +77,7 @@ NOMINAL_LOG_SD: dict[str, float] = {
     "tip_cubic_stiffness_N_m3": 1.5,
     "sensor_mass_kg": 1.0,
     "drag_coefficient": 1.0,
+    "effective_length_m": FREE_LENGTH_LOG_SD,
 }
 #: sigma of log x for a damping ratio of the ``modal_damping`` family centred on a nominal value.
 MODAL_DAMPING_LOG_SD = 1.5
@@ -321,7 +322,7 @@ def window_samples(measurement: Measurement, window: tuple[float, float]) -> np.
 
 def _check_window_holds_a_period(setup: BeamCalibrationSetup) -> None:
     """The window must last at least one period of the model's first mode at the prior centres."""
-    nominal = setup.measurement.nominal
+    nominal = setup.measurement.prior_nominal
     centres = {name: prior_centre(name, nominal) for name in setup.physical_names}
     frequencies, _ = setup.model.natural_modes(centres, 1)
     duration = setup.window[1] - setup.window[0]
@@ -343,7 +344,7 @@ def build_problem(setup: BeamCalibrationSetup, initial_guesses=None) -> Problem:
                               and np.array_equal(forward.fit_time_s, measurement.time_s[mask])):
         forward = ProjectedFreeModel(setup.model, setup.modes, measurement.output_kind, measurement.time_s[mask],
                                          data, setup.likelihood)
-    nominal = measurement.nominal
+    nominal = measurement.prior_nominal
     parameters = [
         Parameter(name, parameter_prior(name, nominal, measurement.nominal_spread), PARAMETER_SPECS[name].unit,
                   PARAMETER_SPECS[name].description)

@@ -11,6 +11,10 @@ from beam.errors import BeamInputError
 from beam.io.config import load_config
 
 
+#: Unit of the noise sd in the summary line, by output (a strain is dimensionless).
+NOISE_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s²", "strain": "(strain)"}
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``simulate`` subcommand."""
     parser = subparsers.add_parser(
@@ -51,6 +55,6 @@ def run(args: argparse.Namespace) -> int:
     sys.stdout.write(
         f"wrote {csv_path}, {toml_path} and {truth} ({simulation.time_s.size} samples at "
         f"{config.sampling.rate_Hz:g} Hz, effects: {', '.join(config.effects) or 'none'}, modes: {modes}, "
-        f"noise {simulation.noise_m:g} m)\n"
+        f"noise {simulation.noise_m:g} {NOISE_UNITS[config.output]})\n"
     )
     return 0

@@ -624,6 +624,9 @@ def _name_unseen(result: CalibrationResult, values: dict, comparison: list[dx.Mo
     setup = result.setup
     model, geometry = setup.model, setup.measurement.geometry
     try:
+        if "effective_length_m" in values:  # the shapes live on the strip of that free length
+            model = model.free_length_model(values["effective_length_m"])
+            geometry, values = model.geometry, {k: v for k, v in values.items() if k != "effective_length_m"}
         _, coefficients = model.mode_shapes(values, setup.modes)
         x = np.linspace(0.0, geometry.length_m, 401)
         shapes = model.parts.basis.evaluate(x) @ coefficients

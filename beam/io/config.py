@@ -2,8 +2,18 @@
 
 A config is TOML with
 
-* optional ``title``; ``[beam]``, ``[patch]``, ``[sensor]`` and optional ``[nominal]`` exactly as
-  in a measurement sidecar (:mod:`beam.io.measurement`);
+* optional ``title``; ``[beam]``, ``[patch]``, ``[sensor]`` and optional ``[nominal]`` as in a
+  measurement sidecar (:mod:`beam.io.measurement`), the beam's description included
+  (``[beam] width_m``, ``thickness_m``, ``material`` or ``youngs_modulus_Pa`` and
+  ``density_kg_m3``; ``[sensor] mass_kg``, ``mass_approximate``), derived by the same code
+  (:func:`beam.io.measurement.read_description`): the linear density rho b h where
+  ``linear_density_kg_m`` is not given, the nominal E b h³ / 12 where ``[nominal]`` has no
+  bending stiffness. In a simulation the description is also the truth where
+  ``[parameters]`` is silent: ``bending_stiffness_Nm2`` defaults to E b h³ / 12 and
+  ``[sensor] mass_kg`` is the sensor's point mass (``sensor_mass_kg``, switching on the
+  ``sensor_mass`` effect) — a simulated beam carries its sensor. ``[sensor] output``
+  (``"displacement"``, the default, ``"velocity"``, ``"acceleration"`` or ``"strain"``, which
+  needs ``thickness_m``) is what the simulated sensor measures;
 * ``[parameters]``: values keyed by parameter name (:data:`beam.physics.effects.PARAMETER_SPECS`), all
   positive finite. ``bending_stiffness_Nm2`` and ``patch_coupling_NmV`` are required; a
   parameter of an effect switches that effect on, and then all the effect's required
@@ -12,8 +22,8 @@ A config is TOML with
   ``kind = "file"``, ``file`` is a measurement CSV (relative to the config's folder) whose
   voltage column is replayed;
 * ``[sampling]``: ``rate_Hz``, ``duration_s`` (n = round(rate_Hz duration_s) samples at
-  t_k = k / rate_Hz), optional ``noise_m`` (standard deviation of Gaussian sensor noise, m,
-  default 0) and ``seed`` (integer >= 0, default 0);
+  t_k = k / rate_Hz), optional ``noise_m`` (standard deviation of Gaussian sensor noise in the
+  output's unit: m for a displacement, dimensionless for a strain; default 0) and ``seed`` (integer >= 0, default 0);
 * optional ``[model]``: ``intervals`` (B-spline elements, default
   :data:`beam.physics.basis.DEFAULT_INTERVALS`) and ``knots`` (``"patch"``, the default: double knots at
   the patch ends; or ``"uniform"``: Smith's uniform mesh, see :mod:`beam.physics.basis`).
@@ -37,7 +47,11 @@ import numpy as np
 from beam.errors import BeamInputError
 from beam.io.measurement import (
     GEOMETRY_TABLES,
+    OUTPUT_COLUMNS,
+    SIDECAR_TABLES,
     check_nominal,
+    described_nominal,
+    read_description,
     read_geometry,
     read_measurement_table,
     read_nominal,
@@ -62,8 +76,17 @@ from beam.physics.effects import BASE_PARAMETERS, EFFECTS, effects_switched_on
 from beam.physics.excitation import ALL_EXCITATION_KEYS, EXCITATION_KEYS, Excitation
 from beam.physics.geometry import BeamGeometry
 
+#: Geometry tables of a config and their keys: a sidecar's (no ``[force]``: the patch drives a
+#: simulation; no ``[sensor] range``) plus ``[sensor] output``.
+CONFIG_GEOMETRY_TABLES: dict[str, tuple[str, ...]] = {
+    "beam": SIDECAR_TABLES["beam"],
+    "patch": GEOMETRY_TABLES["patch"],
+    "sensor": ("position_m", "mass_kg", "mass_approximate", "output"),
+}
 #: Top-level tables a config may hold.
-CONFIG_TABLES: tuple[str, ...] = (*GEOMETRY_TABLES, "nominal", "parameters", "excitation", "sampling", "model")
+CONFIG_TABLES: tuple[str, ...] = (*CONFIG_GEOMETRY_TABLES, "nominal", "parameters", "excitation", "sampling", "model")
+#: What a simulated sensor may measure (``[sensor] output``).
+OUTPUT_KINDS: tuple[str, ...] = tuple(OUTPUT_COLUMNS.values())
 
 
 #: Largest number of samples a simulation may ask for.
@@ -150,9 +173,14 @@ class SimulationConfig:
     knots : {"patch", "uniform"}
         Knot layout of the Galerkin model (:mod:`beam.physics.basis`).
     nominal : dict
-        ``[nominal]`` prior centres, copied to a simulated measurement's sidecar.
+        ``[nominal]`` prior centres (with the description's bending stiffness and sensor mass),
+        copied to a simulated measurement's sidecar.
     path : Path or None
         The config file.
+    output : {"displacement", "velocity", "acceleration", "strain"}
+        What the simulated sensor measures (``[sensor] output``).
+    nominal_spread : dict
+        Log standard deviations of the priors the description sets (as a sidecar's).
     """
 
     title: str
@@ -164,9 +192,15 @@ class SimulationConfig:
     knots: str = DEFAULT_KNOTS
     nominal: dict[str, float] = field(default_factory=dict)
     path: Path | None = None
+    output: str = "displacement"
+    nominal_spread: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "parameters", check_parameters(self.parameters, "parameters"))
+        if self.output not in OUTPUT_KINDS:
+            raise BeamInputError(f"output must be one of {', '.join(OUTPUT_KINDS)}, got {short_repr(self.output)}")
+        if self.output == "strain" and self.geometry.thickness_m is None:
+            raise BeamInputError("a strain output needs the strip's thickness: [beam] thickness_m (with width_m)")
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -243,9 +277,19 @@ def load_config(path: str | os.PathLike[str]) -> SimulationConfig:
     reader = TomlReader(load_toml(path, "config"), path)
     reader.check_top_level(tables=CONFIG_TABLES, keys=("title",))
     title = read_title(reader)
-    geometry = read_geometry(reader)
-    nominal = read_nominal(reader)
-    parameters_table = reader.table("parameters")
+    description = read_description(reader, CONFIG_GEOMETRY_TABLES)
+    geometry = read_geometry(reader, tables=CONFIG_GEOMETRY_TABLES, description=description)
+    nominal, spread, _ = described_nominal(read_nominal(reader), description)
+    output = reader.string("sensor", reader.table("sensor"), "output", required=False) or "displacement"
+    if output not in OUTPUT_KINDS:
+        raise reader.fail("[sensor] output", f"unknown output {output!r}; expected one of {', '.join(OUTPUT_KINDS)}")
+    if output == "strain" and geometry.thickness_m is None:
+        raise reader.fail("[beam] thickness_m", "missing key; a strain output needs the strip's thickness (with width_m)")
+    parameters_table = dict(reader.table("parameters"))
+    # the description is the simulated beam's truth where [parameters] is silent (module notes)
+    for name, key in (("bending_stiffness_Nm2", "bending_stiffness_Nm2"), ("sensor_mass_kg", "sensor_mass_kg")):
+        if name not in parameters_table and key in description:
+            parameters_table[name] = description[key]
     parameters = check_parameters(parameters_table, f"{path}: [parameters]")
     excitation = _read_excitation(reader)
     sampling = _read_sampling(reader)
@@ -264,6 +308,7 @@ def load_config(path: str | os.PathLike[str]) -> SimulationConfig:
     return SimulationConfig(
         title=title if title is not None else path.stem, geometry=geometry, parameters=parameters,
         excitation=excitation, sampling=sampling, intervals=intervals, knots=knots, nominal=nominal, path=path,
+        output=output, nominal_spread=spread,
     )
 
 

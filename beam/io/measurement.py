@@ -10,9 +10,11 @@
       point force at ``[force] position_m``); none means a *free response*: nothing drives the
       beam and it is already moving at the first sample;
     * one output column, what the sensor at ``[sensor] position_m`` measures:
-      ``displacement_m``, ``velocity_m_s`` or ``acceleration_m_s2``.
+      ``displacement_m``, ``velocity_m_s``, ``acceleration_m_s2`` or ``strain`` (dimensionless,
+      a gauge on the strip's surface at the sensor: -(h/2) w''(x_obs); needs ``[beam]
+      thickness_m``).
 
-    So ``time_s,voltage_V,displacement_m`` (:data:`CSV_COLUMNS`) is one of nine
+    So ``time_s,voltage_V,displacement_m`` (:data:`CSV_COLUMNS`) is one of twelve
     headers, e.g. ``time_s,force_N,acceleration_m_s2`` or ``time_s,acceleration_m_s2``. A
     column in another unit (``acceleration_g``, ``force_kN``) is refused with the name to use.
     Then one row per sample. Numbers are anything Python's ``float`` reads (``1e-3``,
@@ -110,16 +112,17 @@ INPUT_COLUMNS: dict[str, str] = {"voltage_V": "voltage", "force_N": "force"}
 #: Output columns and the output kind each stands for.
 OUTPUT_COLUMNS: dict[str, str] = {
     "displacement_m": "displacement", "velocity_m_s": "velocity", "acceleration_m_s2": "acceleration",
+    "strain": "strain",
 }
 #: Every column a CSV may hold, in the order a header lists them.
 ALL_COLUMNS: tuple[str, ...] = ("time_s", *INPUT_COLUMNS, *OUTPUT_COLUMNS)
 #: Unit of each column (for labels).
 COLUMN_UNITS: dict[str, str] = {
     "time_s": "s", "voltage_V": "V", "force_N": "N", "displacement_m": "m", "velocity_m_s": "m/s",
-    "acceleration_m_s2": "m/s²",
+    "acceleration_m_s2": "m/s²", "strain": "1",
 }
 #: The header rule, as messages quote it.
-HEADER_RULE = "time_s[,voltage_V|force_N],displacement_m|velocity_m_s|acceleration_m_s2"
+HEADER_RULE = "time_s[,voltage_V|force_N],displacement_m|velocity_m_s|acceleration_m_s2|strain"
 
 #: Largest allowed deviation of a time step from the record's step, as a fraction of the step,
 #: for the record to count as uniform.
@@ -155,6 +158,7 @@ SIDECAR_TABLES: dict[str, tuple[str, ...]] = {
 DESCRIPTION_KEYS: frozenset[tuple[str, str]] = frozenset({
     ("beam", "width_m"), ("beam", "thickness_m"), ("beam", "material"), ("beam", "youngs_modulus_Pa"),
     ("beam", "density_kg_m3"), ("sensor", "range"), ("sensor", "mass_kg"), ("sensor", "mass_approximate"),
+    ("sensor", "output"),
 })
 #: Log standard deviation of the prior of a sensor mass that was weighed (``[sensor] mass_kg``).
 KNOWN_MASS_LOG_SD = 0.02
@@ -199,6 +203,9 @@ class Measurement:
         Point force (N) at ``geometry.force_position_m``, held over each sample interval.
     velocity_m_s, acceleration_m_s2 : numpy.ndarray or None
         Velocity (m/s) or acceleration (m/s²) at the sensor.
+    strain : numpy.ndarray or None
+        Strain (dimensionless, SI: 1e-6 is one microstrain) of a gauge on the strip's surface at
+        the sensor, -(h/2) w''(x_obs); needs the thickness h (``geometry.thickness_m``).
     sensor_range : float or None
         The sensor's full scale in the output's unit (``[sensor] range``), for clipping.
     nominal_spread : dict
@@ -232,6 +239,7 @@ class Measurement:
     force_N: np.ndarray | None = field(default=None, repr=False)
     velocity_m_s: np.ndarray | None = field(default=None, repr=False)
     acceleration_m_s2: np.ndarray | None = field(default=None, repr=False)
+    strain: np.ndarray | None = field(default=None, repr=False)
     sensor_range: float | None = None
     nominal_spread: dict[str, float] = field(default_factory=dict)
     nominal_origin: dict[str, str] = field(default_factory=dict)
@@ -276,6 +284,8 @@ class Measurement:
             raise BeamInputError(f"{where}: a voltage_V input needs the patch (the geometry has none)")
         if inputs == ["force_N"] and self.geometry.force_position_m is None:
             raise BeamInputError(f"{where}: a force_N input needs the force's position (geometry.force_position_m)")
+        if outputs == ["strain"] and self.geometry.thickness_m is None:
+            raise BeamInputError(f"{where}: a strain output needs the strip's thickness: [beam] thickness_m (with width_m)")
         if self.sensor_range is not None:
             number = as_finite_float(self.sensor_range)
             if number is None or number <= 0:
@@ -322,13 +332,19 @@ class Measurement:
         return None if column is None else COLUMN_UNITS[column]
 
     @property
+    def prior_nominal(self) -> dict[str, float]:
+        """Prior centres by parameter name: :attr:`nominal`, plus the stated length as the centre
+        of ``effective_length_m`` (the free length) unless ``[nominal]`` gives one."""
+        return {"effective_length_m": float(self.geometry.length_m), **self.nominal}
+
+    @property
     def output_column(self) -> str:
-        """``"displacement_m"``, ``"velocity_m_s"`` or ``"acceleration_m_s2"``."""
+        """``"displacement_m"``, ``"velocity_m_s"``, ``"acceleration_m_s2"`` or ``"strain"``."""
         return next(c for c in OUTPUT_COLUMNS if getattr(self, c) is not None)
 
     @property
     def output_kind(self) -> str:
-        """``"displacement"``, ``"velocity"`` or ``"acceleration"``."""
+        """``"displacement"``, ``"velocity"``, ``"acceleration"`` or ``"strain"``."""
         return OUTPUT_COLUMNS[self.output_column]
 
     @property
@@ -338,7 +354,7 @@ class Measurement:
 
     @property
     def output_unit(self) -> str:
-        """``"m"``, ``"m/s"`` or ``"m/s²"``."""
+        """``"m"``, ``"m/s"``, ``"m/s²"`` or ``"1"`` (strain)."""
         return COLUMN_UNITS[self.output_column]
 
     @property
@@ -835,7 +851,21 @@ def _sidecar(reader: TomlReader, input_kind: str | None) -> Sidecar:
     geometry = read_geometry(reader, tables=SIDECAR_TABLES, input_kind=input_kind, description=description)
     sensor = reader.table("sensor")
     sensor_range = reader.number("sensor", sensor, "range", required=False)
-    nominal = read_nominal(reader)
+    nominal, spread, origin = described_nominal(read_nominal(reader), description)
+    return Sidecar(title, geometry, nominal, sensor_range, spread, origin)
+
+
+def described_nominal(nominal: Mapping[str, float], description: Mapping[str, Any]
+                      ) -> tuple[dict[str, float], dict[str, float], dict[str, str]]:
+    """``[nominal]`` plus what the beam's description (:func:`read_description`) gives where
+    ``[nominal]`` is silent: the bending stiffness E b h³ / 12 and the sensor's mass, with the
+    log standard deviations of their priors and where they came from.
+
+    Returns
+    -------
+    (nominal, nominal_spread, nominal_origin)
+    """
+    nominal = dict(nominal)
     spread: dict[str, float] = {}
     origin: dict[str, str] = {}
     stiffness = description.get("bending_stiffness_Nm2")
@@ -849,12 +879,15 @@ def _sidecar(reader: TomlReader, input_kind: str | None) -> Sidecar:
         approximate = description["sensor_mass_approximate"]
         spread["sensor_mass_kg"] = APPROXIMATE_MASS_LOG_SD if approximate else KNOWN_MASS_LOG_SD
         origin["sensor_mass_kg"] = "[sensor] mass_kg" + (" (approximate)" if approximate else " (weighed)")
-    return Sidecar(title, geometry, nominal, sensor_range, spread, origin)
+    return nominal, spread, origin
 
 
-def read_description(reader: TomlReader) -> dict[str, Any]:
+def read_description(reader: TomlReader, tables: Mapping[str, tuple[str, ...]] | None = None) -> dict[str, Any]:
     """The beam in a student's words: ``[beam]`` width, thickness, material or E and density;
     ``[sensor]`` mass (:mod:`beam.io.materials`).
+
+    ``tables`` (default :data:`SIDECAR_TABLES`) are the keys ``[beam]`` and ``[sensor]`` may
+    hold (a simulation config's, :data:`beam.io.config.CONFIG_GEOMETRY_TABLES`, add ``[sensor] output``).
 
     Returns
     -------
@@ -880,8 +913,9 @@ def read_description(reader: TomlReader) -> dict[str, Any]:
 
     beam = reader.table("beam", required=False) or {}
     sensor = reader.table("sensor", required=False) or {}
-    reader.check_keys("beam", beam, SIDECAR_TABLES["beam"])
-    reader.check_keys("sensor", sensor, SIDECAR_TABLES["sensor"])
+    tables = SIDECAR_TABLES if tables is None else tables
+    reader.check_keys("beam", beam, tables["beam"])
+    reader.check_keys("sensor", sensor, tables["sensor"])
     out: dict[str, Any] = {}
     width = reader.number("beam", beam, "width_m", required=False)
     thickness = reader.number("beam", beam, "thickness_m", required=False)
@@ -978,7 +1012,7 @@ def read_geometry(
                 derived = (description or {}).get("linear_density_kg_m")
                 if derived is None:
                     raise reader.fail("[beam] linear_density_kg_m", "missing key; give it, or width_m, thickness_m and "
-                                      "material (or density_kg_m3)" if tables is SIDECAR_TABLES else "missing key")
+                                      "material (or density_kg_m3)" if "material" in tables.get("beam", ()) else "missing key")
                 values[(table_name, key)] = derived
                 continue
             values[(table_name, key)] = reader.number(table_name, table, key, positive=table_name == "beam")
@@ -1002,6 +1036,8 @@ def read_geometry(
             force_position_m=values.get(("force", "position_m")),
             width_m=(reader.number("beam", reader.table("beam"), "width_m", required=False)
                      if "width_m" in tables.get("beam", ()) else None),  # for the quadratic drag
+            thickness_m=(reader.number("beam", reader.table("beam"), "thickness_m", required=False)
+                         if "thickness_m" in tables.get("beam", ()) else None),  # for a strain output
         )
     except BeamInputError as exc:  # the patch, force or sensor does not fit on the beam
         message = str(exc)
@@ -1277,6 +1313,9 @@ def sidecar_document(
         document["patch"] = {"start_m": float(geometry.patch_start_m), "end_m": float(geometry.patch_end_m)}
     if geometry.force_position_m is not None:
         document["force"] = {"position_m": float(geometry.force_position_m)}
+    for key in ("width_m", "thickness_m"):
+        if getattr(geometry, key) is not None:
+            document["beam"][key] = float(getattr(geometry, key))
     document["sensor"] = {"position_m": float(geometry.sensor_position_m)}
     if sensor_range is not None:
         document["sensor"]["range"] = float(sensor_range)

@@ -18,7 +18,7 @@ import numpy as np
 
 from beam.errors import BeamInputError
 from beam.io.config import SimulationConfig, check_parameters, read_knots
-from beam.io.measurement import Measurement, measurement_paths, write_measurement
+from beam.io.measurement import OUTPUT_COLUMNS, Measurement, measurement_paths, write_measurement
 from beam.io.text import TomlReader, dump_toml, load_toml
 from beam.physics.effects import parse_effects
 from beam.physics.model import BeamModel
@@ -44,7 +44,8 @@ class Simulation:
     time_s, voltage_V : numpy.ndarray
         Sample times t_k = k / rate_Hz (s) and held voltage (V).
     clean_displacement_m, displacement_m : numpy.ndarray
-        Model displacement at the sensor (m), and the same plus noise.
+        The model's output at the sensor (``config.output``: a displacement in m unless the
+        config asks for another output, e.g. a strain), and the same plus noise.
     """
 
     config: SimulationConfig
@@ -58,9 +59,12 @@ class Simulation:
 
     def measurement(self, name: str = "simulated") -> Measurement:
         """The noisy record as a :class:`Measurement` (title, geometry and nominal of the config)."""
+        column = next(c for c, kind in OUTPUT_COLUMNS.items() if kind == self.config.output)
         return Measurement(
             name=name, title=self.config.title, geometry=self.config.geometry, time_s=self.time_s,
-            voltage_V=self.voltage_V, displacement_m=self.displacement_m, nominal=dict(self.config.nominal),
+            voltage_V=self.voltage_V, nominal=dict(self.config.nominal),
+            nominal_spread={k: v for k, v in self.config.nominal_spread.items() if k in self.config.nominal},
+            **{column: self.displacement_m},
         )
 
     def truth_document(self) -> dict[str, Any]:
@@ -91,7 +95,7 @@ def simulate(
     noise_m: float | None = None,
     seed: int | None = None,
 ) -> Simulation:
-    """Simulate the sensor displacement of a config, with Gaussian sensor noise.
+    """Simulate the sensor's output of a config (``config.output``), with Gaussian sensor noise.
 
     Parameters
     ----------
@@ -100,7 +104,8 @@ def simulate(
     modes : int or None
         Modes kept by :meth:`BeamModel.response`; None keeps all of them.
     noise_m : float, optional
-        Noise standard deviation (m); default ``[sampling] noise_m``.
+        Noise standard deviation in the output's unit (m for a displacement); default
+        ``[sampling] noise_m``.
     seed : int, optional
         Noise seed (``numpy.random.default_rng``); default ``[sampling] seed``.
 
@@ -118,11 +123,11 @@ def simulate(
     time_s = sampling.time_s()
     voltage_V = excitation.voltage(time_s)
     model = BeamModel(config.geometry, config.effects, config.intervals, config.knots)
-    clean = model.response(config.parameters, voltage_V, sampling.sample_interval_s, modes=modes)
+    clean = model.response(config.parameters, voltage_V, sampling.sample_interval_s, modes=modes, output=config.output)
     clean = np.asarray(clean, dtype=float)
     clean = clean.reshape(time_s.size)  # one parameter set: (n,), also if the model returns (1, n)
     if not np.all(np.isfinite(clean)):
-        raise BeamInputError("the simulated displacement is not finite (unstable parameters or time step?)")
+        raise BeamInputError(f"the simulated {config.output} is not finite (unstable parameters or time step?)")
     noise = np.random.default_rng(int(seed)).normal(0.0, float(noise_m), size=time_s.size) if noise_m > 0 else 0.0
     return Simulation(
         config=config, modes=modes, noise_m=float(noise_m), seed=int(seed), time_s=time_s, voltage_V=voltage_V,

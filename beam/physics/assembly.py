@@ -44,6 +44,8 @@ class GalerkinParts:
         without a force position); times F(t) (N).
     tip_values : (n,)  phi_i(L): tip displacement w(L) = tip_values @ q.
     sensor_values : (n,)  phi_i(x_obs): sensor displacement y = sensor_values @ q.
+    sensor_curvatures : (n,)  phi_i''(x_obs) (1/m²): curvature w''(x_obs) = sensor_curvatures @ q;
+        a strain gauge there reads -(h/2) w''(x_obs).
     """
 
     basis: SplineBasis
@@ -58,6 +60,7 @@ class GalerkinParts:
     point_force: np.ndarray
     tip_values: np.ndarray
     sensor_values: np.ndarray
+    sensor_curvatures: np.ndarray
 
     @property
     def size(self) -> int:
@@ -119,4 +122,5 @@ def assemble_parts(geometry: BeamGeometry, intervals: int = DEFAULT_INTERVALS, f
         point_force=point_force,
         tip_values=tip,
         sensor_values=sensor,
+        sensor_curvatures=basis.evaluate([geometry.sensor_position_m], 2)[0],
     )

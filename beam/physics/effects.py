@@ -20,6 +20,7 @@ patch_damping       added strain-rate damping on patch   patch_added_kelvin_voig
 tip_cubic_spring    nonlinear tip force -k3 w(L)^3       tip_cubic_stiffness_N_m3
 quadratic_drag      air drag -½ rho_air C_d b |w_t| w_t  drag_coefficient
 sensor_mass         point mass at the sensor x_obs       sensor_mass_kg
+effective_length    free length L_eff instead of L       effective_length_m
 modal_damping       damping ratio per undamped mode      damping_ratio_mode_1, damping_ratio_mode_2,
                                                          ... (one per retained mode)
 ==================  ===================================  =========================================
@@ -32,6 +33,22 @@ range except the clamp's stiffness (a rigid clamp is k_theta -> infinity).
     A point mass m_s at the sensor's position x_obs, which always comes from the sidecar's
     ``[sensor] position_m`` (the part ``mass_sensor`` is assembled from the geometry): an
     accelerometer glued to the strip loads it where it measures. Translation only.
+``effective_length``
+    The free length L_eff (m) between the clamp's edge and the tip, instead of the sidecar's
+    ``[beam] length_m``: a clamp holds the strip over a jaw of finite depth and a documented
+    419 mm bar can vibrate as if it were shorter. The model is assembled for the length
+    (:meth:`beam.physics.geometry.BeamGeometry.with_free_length`: the tip, the sensor, the
+    patch and the force point stay where they are on the strip, i.e. keep their distance from
+    the tip, and the clamp's edge moves). It adds no term: it changes every part. It vanishes
+    exactly at L_eff = L (``absent_at = "centre"``), the centre of its prior, which the
+    calibration takes from the record's stated length: log-normal around it with
+    sigma = :data:`FREE_LENGTH_LOG_SD` (0.1, i.e. about 10 %, truncated at 4 sigma, so
+    0.67-1.49 L and always positive). 10 % because a jaw's depth is a few cm on strips of a
+    few dm, the issue's own example (419 mm vibrating as 365 mm) is 13 % off, and a
+    frequency, which goes as 1 / L², would pin a much narrower prior against EI's instead of
+    letting the record's amplitude and mode ratios decide. It competes with
+    ``clamp_compliance`` (both lower every frequency) in the missing-effect ranking; a
+    compliant clamp changes the mode ratios, a shorter length does not.
 ``quadratic_drag``
     Air drag on the strip moving broadside, force per unit length -½ rho_air C_d b |w_t| w_t
     (rho_air = :data:`beam.physics.nonlinear.AIR_DENSITY_KG_M3`, b the width from the sidecar's
@@ -96,10 +113,11 @@ class ParameterSpec:
         Default prior range (log-uniform) when a measurement gives no ``[nominal]`` value.
     required : bool
         Optional parameters default to 0 and are calibrated only when asked for.
-    absent_at : {"low", "high"}
+    absent_at : {"low", "high", "centre"}
         The end of the range where the effect vanishes (a rigid clamp is k_theta -> infinity).
         The range reaches far enough that the effect is negligible there, so that a model with
-        the effect nests the model without it.
+        the effect nests the model without it. ``"centre"``: the effect vanishes exactly at its
+        prior's centre, the record's own value (the effective length at the stated length).
     """
 
     name: str
@@ -235,6 +253,8 @@ INPUT_TERMS: dict[str | None, Term | None] = {
 
 #: Most modes a per-mode family (``modal_damping``) declares parameters for.
 MAX_DAMPED_MODES = 20
+#: sigma of log L_eff of the ``effective_length`` prior around the stated length (module notes).
+FREE_LENGTH_LOG_SD = 0.1
 
 
 def base_parameters(input_kind: str | None = "voltage") -> tuple[ParameterSpec, ...]:
@@ -352,6 +372,14 @@ EFFECTS: dict[str, Effect] = {
             (ParameterSpec("sensor_mass_kg", "kg", "m_s", "point mass of the sensor at its position", 1e-7, 0.2),),
             (Term("mass", "mass_sensor", "sensor_mass_kg"),),
             missing_effect_candidate=False,
+        ),
+        Effect(
+            "effective_length",
+            "Effective free length",
+            "the strip vibrates as if its free length were L_eff, not the stated length (the clamp's edge is never exact)",
+            (ParameterSpec("effective_length_m", "m", "L_eff", "free length between the clamp's edge and the tip",
+                           0.01, 100.0, absent_at="centre"),),
+            (),
         ),
         _modal_damping_effect(),
     )

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from beam.errors import BeamInputError
 from beam.io.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M
@@ -29,6 +29,12 @@ class BeamGeometry:
     width_m : float or None
         Width b of the strip (m), the side the air meets as it bends (``[beam] width_m``); only the
         ``quadratic_drag`` effect needs it. None when unknown.
+    thickness_m : float or None
+        Thickness h of the strip (m) (``[beam] thickness_m``): a strain gauge on its surface
+        reads epsilon = -(h/2) w''(x_obs) (the ``"strain"`` output). None when unknown.
+
+    Positions (patch, sensor, force) are measured from the clamp. :meth:`with_free_length`
+    moves the clamp's edge and keeps every position's distance from the free tip.
     """
 
     length_m: float
@@ -38,6 +44,7 @@ class BeamGeometry:
     sensor_position_m: float
     force_position_m: float | None = None
     width_m: float | None = None
+    thickness_m: float | None = None
 
     def __post_init__(self) -> None:
         if (self.patch_start_m is None) != (self.patch_end_m is None):
@@ -45,9 +52,9 @@ class BeamGeometry:
                 f"patch needs both start_m and end_m (or neither, for a beam without a patch), got start_m = "
                 f"{self.patch_start_m}, end_m = {self.patch_end_m}"
             )
-        optional = ("patch_start_m", "patch_end_m", "force_position_m", "width_m")
+        optional = ("patch_start_m", "patch_end_m", "force_position_m", "width_m", "thickness_m")
         for name in ("length_m", "linear_density_kg_m", "patch_start_m", "patch_end_m", "sensor_position_m",
-                     "force_position_m", "width_m"):
+                     "force_position_m", "width_m", "thickness_m"):
             value = getattr(self, name)
             if value is None and name in optional:
                 continue
@@ -62,6 +69,8 @@ class BeamGeometry:
                 raise BeamInputError(f"{name} must lie in [{low:g}, {high:g}] {unit} (where the model is finite), got {value:g}")
         if self.width_m is not None and not 0 < self.width_m <= self.length_m:
             raise BeamInputError(f"width_m must be positive and at most the length {self.length_m} m, got {self.width_m}")
+        if self.thickness_m is not None and not 0 < self.thickness_m <= self.length_m:
+            raise BeamInputError(f"thickness_m must be positive and at most the length {self.length_m} m, got {self.thickness_m}")
         if self.has_patch and not 0 <= self.patch_start_m < self.patch_end_m <= self.length_m:
             raise BeamInputError(
                 f"patch must satisfy 0 <= start_m < end_m <= length_m = {self.length_m}, "
@@ -87,3 +96,41 @@ class BeamGeometry:
     def mass_kg(self) -> float:
         """Mass of the bare beam rho L (kg)."""
         return self.linear_density_kg_m * self.length_m
+
+    def with_free_length(self, length_m: float) -> "BeamGeometry":
+        """The same strip clamped so that ``length_m`` (m) of it is free (the ``effective_length`` effect).
+
+        A clamp's edge is where the uncertainty lies: the free tip, and everything bonded to the
+        strip (patch, sensor, force point), stay where they are on the strip, so every position
+        keeps its distance from the tip and shifts by ``length_m - self.length_m`` from the
+        clamp. A patch reaching into the clamp is cut at its edge (the part held does not bend).
+
+        Raises
+        ------
+        BeamInputError
+            ``length_m`` not a positive finite number; the sensor or the force point (or the
+            whole patch) would lie inside the clamp.
+        """
+        if isinstance(length_m, bool) or not isinstance(length_m, (int, float)) or not math.isfinite(length_m) or length_m <= 0:
+            raise BeamInputError(f"effective_length_m must be a positive finite number, got {length_m!r}")
+        shift = float(length_m) - self.length_m
+        if shift == 0.0:
+            return self
+        if self.sensor_position_m + shift <= 0:
+            raise BeamInputError(f"effective_length_m = {length_m:g} m puts the sensor ({self.length_m - self.sensor_position_m:g} m "
+                                 "from the tip) inside the clamp")
+        if self.force_position_m is not None and self.force_position_m + shift <= 0:
+            raise BeamInputError(f"effective_length_m = {length_m:g} m puts the force point inside the clamp")
+        start = end = None
+        if self.has_patch:
+            end = self.patch_end_m + shift
+            if end <= 0:
+                raise BeamInputError(f"effective_length_m = {length_m:g} m puts the whole patch inside the clamp")
+            start = max(self.patch_start_m + shift, 0.0)
+        return replace(
+            self, length_m=float(length_m), patch_start_m=start, patch_end_m=end,
+            sensor_position_m=self.sensor_position_m + shift,
+            force_position_m=None if self.force_position_m is None else self.force_position_m + shift,
+            width_m=None if self.width_m is None else min(self.width_m, float(length_m)),
+            thickness_m=None if self.thickness_m is None else min(self.thickness_m, float(length_m)),
+        )

@@ -67,6 +67,8 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from collections.abc import Iterable, Mapping
+import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -117,7 +119,46 @@ _STENCIL_MAX_ROWS = 2048
 _UNIT = "unit"
 
 #: Outputs of the sensor and the order of the time derivative of the displacement each is.
-OUTPUT_ORDERS: dict[str, int] = {"displacement": 0, "velocity": 1, "acceleration": 2}
+OUTPUT_ORDERS: dict[str, int] = {"displacement": 0, "velocity": 1, "acceleration": 2, "strain": 0}
+#: The parameter of the ``effective_length`` effect: the free length (m) the model is assembled for.
+FREE_LENGTH = "effective_length_m"
+#: Models of other free lengths kept by a model with ``effective_length`` (one per length seen).
+_LENGTH_CACHE_SIZE = 64
+
+
+def _dispatched(method):
+    """Route a public method taking ``parameters`` first: to the model of the given free length
+    (``effective_length``), and a ``"strain"`` output to the strain twin (:meth:`BeamModel._strain_twin`)."""
+    name = method.__name__
+
+    @functools.wraps(method)
+    def wrapper(self, parameters, *args, **kwargs):
+        if self._free_length:
+            return self._per_free_length(name, parameters, args, kwargs)
+        if kwargs.get("output") == "strain":
+            return getattr(self._strain_twin(), name)(parameters, *args, **{**kwargs, "output": "displacement"})
+        return method(self, parameters, *args, **kwargs)
+
+    return wrapper
+
+
+def _merge(pieces: list, groups: list[np.ndarray], batch: int):
+    """Batched results of parameter groups put back in the batch's order (arrays on axis 0;
+    dicts, tuples and dataclasses of them element by element; anything else from the first)."""
+    first = pieces[0]
+    if isinstance(first, np.ndarray) and first.ndim >= 1:
+        out = np.empty((batch,) + first.shape[1:], dtype=np.result_type(*pieces))
+        for piece, rows in zip(pieces, groups):
+            out[rows] = piece
+        return out
+    if isinstance(first, dict):
+        return {key: _merge([p[key] for p in pieces], groups, batch) for key in first}
+    if isinstance(first, tuple):
+        return tuple(_merge(list(parts), groups, batch) for parts in zip(*pieces))
+    if dataclasses.is_dataclass(first) and not isinstance(first, type):
+        return dataclasses.replace(first, **{f.name: _merge([getattr(p, f.name) for p in pieces], groups, batch)
+                                             for f in dataclasses.fields(first) if f.init})
+    return first
 
 
 @dataclass(frozen=True)
@@ -194,6 +235,90 @@ class BeamModel:
         self._ritz_bases: dict[tuple[tuple[Term, ...], int], modal.RitzBasis] = {}
         self._accepted = frozenset(self.accepted_parameter_names)
         self._required = frozenset(self._names_for(None, per_mode_first=True))
+        #: Output row of the sensor: its displacement, or for the strain twin -(h/2) w''(x_obs).
+        self._sensor_row: np.ndarray = self.parts.sensor_values
+        self._twin: BeamModel | None = None
+        self._free_length = "effective_length" in self.effects
+        self._length_models: OrderedDict[float, BeamModel] = OrderedDict()
+
+    # ------------------------------------------------------------------ strain, free length
+    def _strain_twin(self) -> "BeamModel":
+        """This model with the sensor's output row -(h/2) phi''(x_obs): its displacement output is
+        the strain of a gauge on the strip's surface at the sensor (dimensionless).
+
+        Everything that reads the output row (the retained modes' gains, the discarded modes'
+        static correction c K⁻¹ f - c Phi_r Omega_r⁻² Phi_r^T f, the full state space) then
+        gives the strain: the correction is the curvature of the static residual. Mode shapes
+        do not depend on the output, so the twin shares the parts; it keeps its own caches.
+        """
+        if self._twin is None:
+            thickness = self.geometry.thickness_m
+            if thickness is None:
+                raise BeamInputError("a strain output needs the strip's thickness: [beam] thickness_m in the sidecar")
+            twin = object.__new__(BeamModel)
+            twin.__dict__.update(self.__dict__)
+            twin._sensor_row = -0.5 * thickness * self.parts.sensor_curvatures
+            twin._shape_cache, twin._point_mass_factors = OrderedDict(), OrderedDict()
+            twin._point_mass_plans, twin._layouts, twin._ritz_bases = {}, {}, {}
+            twin._twin = twin
+            self._twin = twin
+        return self._twin
+
+    def free_length_model(self, length_m: float) -> "BeamModel":
+        """The model (without ``effective_length``) of this strip with a free length ``length_m`` (m):
+        :meth:`beam.physics.geometry.BeamGeometry.with_free_length` (positions keep their distance
+        from the tip), the same mesh, knots, input and other effects. Cached per length."""
+        key = float(length_m)
+        model = self._length_models.get(key)
+        if model is None:
+            effects = tuple(e for e in self.effects if e != "effective_length")
+            model = BeamModel(self.geometry.with_free_length(key), effects, self.intervals, self.knots,
+                              input_kind=self.input_kind)
+            self._length_models[key] = model
+            if len(self._length_models) > _LENGTH_CACHE_SIZE:
+                self._length_models.popitem(last=False)
+        else:
+            self._length_models.move_to_end(key)
+        return model
+
+    def _per_free_length(self, name: str, parameters: Mapping[str, float | np.ndarray], args: tuple, kwargs: dict):
+        """Call ``name`` on the model of each free length given (batched: one call per distinct
+        length, the results put back in order; arrays of ndim >= 2 among the other arguments
+        whose first axis is the batch, e.g. initial states, are split with the parameters)."""
+        if FREE_LENGTH not in parameters:
+            raise BeamInputError(f"missing value for parameter {FREE_LENGTH!r}")
+        rest = {key: value for key, value in parameters.items() if key != FREE_LENGTH}
+        lengths = np.asarray(parameters[FREE_LENGTH], dtype=float)
+        if lengths.ndim > 1 or not np.isfinite(lengths).all() or (lengths <= 0).any():
+            raise BeamInputError(f"parameter {FREE_LENGTH!r} must be positive and finite (scalar or 1-d), got {lengths}")
+        if lengths.ndim == 0:
+            out = getattr(self.free_length_model(float(lengths)), name)(rest, *args, **kwargs)
+            if name == "reduced_system":
+                out[1][FREE_LENGTH] = lengths.reshape(1)
+            return out
+        batch = lengths.size
+        try:
+            rest = {key: np.broadcast_to(np.asarray(value, dtype=float), (batch,)) for key, value in rest.items()}
+        except ValueError:
+            raise BeamInputError("parameter arrays must all have the same length") from None
+        unique, inverse = np.unique(lengths, return_inverse=True)
+        groups = [np.flatnonzero(inverse == i) for i in range(unique.size)]
+
+        def part(value, rows):
+            if isinstance(value, np.ndarray) and value.ndim >= 2 and value.shape[0] == batch:
+                return value[rows]
+            return value
+
+        pieces = [
+            getattr(self.free_length_model(float(length)), name)(
+                {key: value[rows] for key, value in rest.items()}, *(part(a, rows) for a in args),
+                **{key: part(value, rows) for key, value in kwargs.items()})
+            for length, rows in zip(unique, groups)
+        ]
+        out = pieces[0] if len(pieces) == 1 else _merge(pieces, groups, batch)
+        if name == "reduced_system":  # (reduced, values by name, batched): the length is a value too
+            out[1][FREE_LENGTH] = lengths
+        return out
 
     # ------------------------------------------------------------------ parameters
     @property
@@ -340,6 +465,7 @@ class BeamModel:
                 total += c.reshape((-1,) + (1,) * part.ndim) * part
         return total
 
+    @_dispatched
     def system_matrices(self, parameters: Mapping[str, float | np.ndarray]) -> dict[str, np.ndarray]:
         """M, C, K (B, n, n) and the force per unit input f (B, n) of the Galerkin model.
 
@@ -510,7 +636,7 @@ class BeamModel:
         kept_t = np.swapaxes(kept, 1, 2)
         projections = np.stack([kept_t @ getattr(self.parts, name) @ kept for name in _DAMPING_PARTS], axis=1)
         force = kept.transpose(0, 2, 1) @ self._input_vector
-        sensor = self.parts.sensor_values @ kept
+        sensor = self._sensor_row @ kept
         tip = self.parts.tip_values @ kept
         return tuple(np.ascontiguousarray(part, dtype=float) for part in (omega2, projections, force, sensor, tip, static))
 
@@ -571,7 +697,7 @@ class BeamModel:
         # modes, sum over them of (c.phi)(phi.f)/omega² (= c K⁻¹ f minus the retained part),
         # for unit rho and EI; summed directly, which stays accurate when K is nearly singular
         dropped = shapes[:, :, n_modes:]
-        outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
+        outputs = np.stack([self._sensor_row, self.parts.tip_values])  # (2, n)
         per_mode = (outputs @ dropped) * ((self._input_vector @ dropped) / values[:, n_modes:])[:, None, :]
         # … and the same for a unit force at the tip (the cubic spring's): its quasi-static share
         # at the sensor and at the tip, m/N at unit EI
@@ -592,7 +718,7 @@ class BeamModel:
         solves), against 1e-4 for a forward difference of dense solves, i.e. < 5e-6 of the
         response's Jacobian (tests/test_physics_ritz.py).
         """
-        outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
+        outputs = np.stack([self._sensor_row, self.parts.tip_values])  # (2, n)
         loads = np.stack([self._input_vector, self.parts.tip_values])  # (2, n)
         inverse = (shapes / values[None, :]) @ shapes.T  # K⁻¹ of the centre
         full = -np.einsum("on,snk,lk->sol", outputs @ inverse, d_stiff, loads @ inverse)  # (S, outputs, loads)
@@ -648,7 +774,7 @@ class BeamModel:
         if np.any(angle > _RITZ_ANGLE):
             return None
         loads = np.stack([self._input_vector, self.parts.tip_values], axis=1)  # (n, 2)
-        outputs = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
+        outputs = np.stack([self._sensor_row, self.parts.tip_values])  # (2, n)
         solved = modal.ritz_static(basis, rows, loads)
         if solved is None:  # (not seen within the trust radius) a dense solve
             _, stiff = self._matrices_of_rows(rows, layout)
@@ -659,6 +785,7 @@ class BeamModel:
         static = np.concatenate([full[:, :, 0] - retained[:, :, 0], full[:, :, 1] - retained[:, :, 1]], axis=1)
         return omega2, shapes, static
 
+    @_dispatched
     def natural_modes(self, parameters: Mapping[str, float], count: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Natural frequencies |lambda|/2pi (Hz) and damping ratios -Re(lambda)/|lambda| of the full model.
 
@@ -726,7 +853,7 @@ class BeamModel:
         kept_t = np.swapaxes(kept, 1, 2)
         reduced_damping = kept_t @ damping @ kept
         reduced_force = np.einsum("bnm,bn->bm", kept, force)
-        sensor = self.parts.sensor_values @ kept
+        sensor = self._sensor_row @ kept
         tip = self.parts.tip_values @ kept
         nodes, weights = drag_quadrature(self.geometry.length_m)
         gauss = self.parts.basis.evaluate(nodes, 0) @ kept  # (B, G, m)
@@ -744,7 +871,7 @@ class BeamModel:
             full = np.linalg.solve(stiffness, loads)  # K⁻¹ [f, tip]
             retained = kept @ ((kept_t @ loads) / omega2[:, :n_modes, None])
             rest = full - retained
-            rows = np.stack([self.parts.sensor_values, self.parts.tip_values])  # (2, n)
+            rows = np.stack([self._sensor_row, self.parts.tip_values])  # (2, n)
             share = rows @ rest  # (B, 2 outputs, 2 loads)
             static = np.concatenate([share[:, :, 0], share[:, :, 1]], axis=1)
         return integrate_general(omega2[:, :n_modes], reduced_damping, reduced_force, sensor, tip, gauss, cubic, drag,
@@ -773,6 +900,7 @@ class BeamModel:
             raise BeamInputError("time_s must be finite and strictly increasing")
         return time
 
+    @_dispatched
     def reduced_system(self, parameters: Mapping[str, float | np.ndarray], modes: int | None = 4):
         """Retained modes in modal coordinates: ``(reduced, values, batched)``.
 
@@ -786,6 +914,7 @@ class BeamModel:
         names, table, batched = self._table(parameters)
         return self._reduced_modes(self._layout(names), table, n_modes), dict(zip(names, table)), batched
 
+    @_dispatched
     def modal_system(self, parameters: Mapping[str, float | np.ndarray], modes: int | None = 4) -> modal.ComplexModes:
         """Retained complex modes (:class:`beam.physics.modal.ComplexModes`).
 
@@ -795,6 +924,7 @@ class BeamModel:
         reduced, _, _ = self.reduced_system(parameters, modes)
         return _complex_modes_of(reduced)
 
+    @_dispatched
     def mode_shapes(self, parameters: Mapping[str, float], modes: int | None = 4) -> tuple[np.ndarray, np.ndarray]:
         """Undamped modes of one parameter set: omega² (m,) (rad²/s²) and shapes (n, m).
 
@@ -810,6 +940,7 @@ class BeamModel:
         shapes = shapes * _shape_signs(self.parts.tip_values @ shapes)[:, None, :]
         return omega2[0, :n_modes], shapes[0, :, :n_modes]
 
+    @_dispatched
     def modal_state(
         self, parameters: Mapping[str, float], displacement: np.ndarray, velocity: np.ndarray | None = None,
         modes: int | None = 4,
@@ -827,6 +958,7 @@ class BeamModel:
         v = np.zeros_like(q) if velocity is None else np.asarray(velocity, dtype=float)
         return shapes.T @ mass @ q, shapes.T @ mass @ v
 
+    @_dispatched
     def response(
         self,
         parameters: Mapping[str, float | np.ndarray],
@@ -898,6 +1030,7 @@ class BeamModel:
             )
         return out if batched else out[0]
 
+    @_dispatched
     def response_at(
         self,
         parameters: Mapping[str, float | np.ndarray],
@@ -950,6 +1083,7 @@ class BeamModel:
             raise BeamInputError("the response is not finite (parameters out of any physical range); check the values")
         return out if batched else out[0]
 
+    @_dispatched
     def free_response_basis(
         self, parameters: Mapping[str, float | np.ndarray], time_s: np.ndarray, modes: int | None = 4
     ) -> np.ndarray:
@@ -994,6 +1128,7 @@ class BeamModel:
         gains = np.einsum("bi,bij->bj", reduced["sensor"], vectors[:, :m, :]) * poles**order
         return poles, vectors, gains
 
+    @_dispatched
     def free_response(
         self,
         parameters: Mapping[str, float | np.ndarray],
@@ -1046,6 +1181,7 @@ class BeamModel:
         out = np.einsum("bj,bkj->bk", gains * coefficients, np.exp(poles[:, None, :] * tau[None, :, None])).real
         return out if batched else out[0]
 
+    @_dispatched
     def free_state_from_amplitudes(
         self, parameters: Mapping[str, float], amplitudes: np.ndarray, modes: int | None = 4, *,
         output: str = "displacement",
@@ -1083,6 +1219,7 @@ class BeamModel:
         state = (vectors @ coefficients).real
         return state[:n_modes], state[n_modes:]
 
+    @_dispatched
     def response_full(
         self, parameters: Mapping[str, float | np.ndarray], input_signal: np.ndarray, sample_interval_s: float, *,
         output: str = "displacement",
@@ -1107,12 +1244,13 @@ class BeamModel:
         for b in range(batch):
             system = _balanced(state_space(
                 matrices["mass"][b], matrices["damping"][b], matrices["stiffness"][b], matrices["force"][b],
-                self.parts.sensor_values, order,
+                self._sensor_row, order,
             ))
             _, y, _ = scipy.signal.lsim(system, voltage, time, interp=False)
             out[b] = y
         return out if batched else out[0]
 
+    @_dispatched
     def free_response_full(
         self, parameters: Mapping[str, float], time_s: np.ndarray, displacement: np.ndarray,
         velocity: np.ndarray | None = None, *, output: str = "displacement",
@@ -1134,7 +1272,7 @@ class BeamModel:
         q = np.asarray(displacement, dtype=float)
         v = np.zeros_like(q) if velocity is None else np.asarray(velocity, dtype=float)
         system, scale = _balanced(state_space(matrices["mass"][0], matrices["damping"][0], matrices["stiffness"][0],
-                                              np.zeros(self.size), self.parts.sensor_values, order), with_scale=True)
+                                              np.zeros(self.size), self._sensor_row, order), with_scale=True)
         x0 = np.concatenate([q, v]) / scale  # the balanced state is diag(scale)⁻¹ x
         _, y, _ = scipy.signal.lsim(system, np.zeros(time.size), time - time[0], X0=x0, interp=False)
         return y

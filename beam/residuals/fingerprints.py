@@ -54,6 +54,7 @@ NAN = float("nan")
 THRESHOLDS: dict[str, float] = {
     "tip_mass": 0.02,  # mode 1 two percent low relative to modes 2–3
     "clamp_compliance": 0.02,  # all modes two percent low
+    "effective_length": 0.02,  # all modes two percent high alike (f ∝ 1 / L²: a shorter free length)
     "patch_stiffening": 0.01,  # mode 2 one percent out of line with modes 1 and 3
     "kelvin_voigt": math.log(1.5),  # zeta_k / zeta_1 grows 1.5 x more than the model's
     "air_damping": math.log(1.5),  # ... or falls 1.5 x more
@@ -225,6 +226,10 @@ def effect_scores(fp: Mapping[str, float]) -> dict[str, float]:
     lowering = max(-nz(_get(fp, "frequency_error_mean")), 0.0)
     share = deficit / lowering if lowering > 1e-4 else 0.0
     uniform = 1.0 / (1.0 + (abs(share) / TIP_SHARE) ** 4)
+    # every mode raised alike: the strip vibrates as if shorter than stated (f ∝ 1 / L²); a lowering
+    # alike is the compliant clamp's (a bar pivoting in the jaw is a longer free length by another name)
+    raising = max(nz(_get(fp, "frequency_error_mean")), 0.0)
+    alike = 1.0 / (1.0 + (abs(deficit / raising if raising > 1e-4 else 0.0) / TIP_SHARE) ** 4)
     growth = _get(fp, "damping_growth_excess")
     log_growth = math.log(growth) if math.isfinite(growth) and growth > 0 else 0.0
     shift = nz(_get(fp, "amplitude_frequency_shift"))
@@ -234,6 +239,7 @@ def effect_scores(fp: Mapping[str, float]) -> dict[str, float]:
         "kelvin_voigt": max(log_growth, 0.0) / THRESHOLDS["kelvin_voigt"],
         "tip_mass": max(deficit, 0.0) / THRESHOLDS["tip_mass"],
         "clamp_compliance": lowering * uniform / THRESHOLDS["clamp_compliance"],
+        "effective_length": raising * alike / THRESHOLDS["effective_length"],
         "patch_stiffening": abs(nz(_get(fp, "mode2_out_of_line"))) / THRESHOLDS["patch_stiffening"],
         "patch_damping": abs(nz(_get(fp, "damping_mode2_out_of_line"))) / THRESHOLDS["patch_damping"],
         "tip_cubic_spring": max(shift, 0.0) / THRESHOLDS["tip_cubic_spring"] if significant else 0.0,
@@ -307,7 +313,15 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
             f"the modes are not lowered alike (measured against the model: {difference_words(100 * mean_error)} on "
             f"average, mode 1 {_low(deficit)} relative to modes 2–3): no sign of a compliant clamp"
         )
+        out["effective_length"] = (
+            f"all modes are high by a similar fraction (measured against the model: {difference_words(100 * mean_error)} "
+            f"on average): a strip shorter than stated (the clamp holding more of it) raises every mode alike, f ∝ 1 / L²"
+            if scores["effective_length"] >= 1 else
+            f"the modes are not raised alike (measured against the model: {difference_words(100 * mean_error)} on "
+            f"average): no sign of a free length shorter than the stated one"
+        )
     else:
+        out["effective_length"] = f"mode 1 and mode 2 or 3 must both be identified to judge the free length ({errors_text})"
         out["tip_mass"] = f"mode 1 and mode 2 or 3 must both be identified to judge a tip mass ({errors_text})"
         out["clamp_compliance"] = (
             f"mode 1 and mode 2 or 3 must both be identified to judge the clamp ({errors_text})"

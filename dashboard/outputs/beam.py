@@ -76,6 +76,7 @@ _UNITS = {
     "displacement": OutputUnits("Displacement", "m", 1e6, "µm", 1e3, "mm"),
     "velocity": OutputUnits("Velocity", "m/s", 1e3, "mm/s", 1e3, "mm/s"),
     "acceleration": OutputUnits("Acceleration", "m/s²", 1.0, "m/s²", 1.0, "m/s²"),
+    "strain": OutputUnits("Strain", "1", 1e6, "µε", 1e6, "µε"),
 }
 
 

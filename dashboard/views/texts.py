@@ -146,7 +146,8 @@ worth. *R-hat*: whether the sampler's chains agree (1.00 is perfect).
 """
 
 #: The output quantities of a record, as words.
-_OUTPUT_WORDS = {"displacement": "displacement", "velocity": "velocity", "acceleration": "acceleration"}
+_OUTPUT_WORDS = {"displacement": "displacement", "velocity": "velocity", "acceleration": "acceleration",
+                 "strain": "surface strain"}
 _INPUT_WORDS = {"voltage": "a piezo patch drives the beam", "force": "a point force drives the beam"}
 
 

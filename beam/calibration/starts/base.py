@@ -69,7 +69,7 @@ DAMPED_AWAY = 0.02
 
 def prior_centres(setup: BeamCalibrationSetup) -> dict[str, float]:
     """Every physical parameter at its prior centre."""
-    return {name: prior_centre(name, setup.measurement.nominal) for name in setup.physical_names}
+    return {name: prior_centre(name, setup.measurement.prior_nominal) for name in setup.physical_names}
 
 
 def clip_inside_prior(problem: Problem, guess: dict[str, float]) -> dict[str, float]:
@@ -95,7 +95,9 @@ def barely_on(problem: Problem, name: str) -> float:
     from beam.physics.effects import parameter_spec
 
     low, high = log_range(problem, name)
-    fraction = BARELY_ON if parameter_spec(name).absent_at == "low" else 1.0 - BARELY_ON
+    fraction = {"low": BARELY_ON, "high": 1.0 - BARELY_ON}.get(parameter_spec(name).absent_at)
+    if fraction is None:  # vanishes at the prior's centre (the effective length at the stated one)
+        return float(problem.parameter(name).prior.from_internal(problem.parameter(name).prior.internal_centre()))
     return float(np.exp(low + fraction * (high - low)))
 
 

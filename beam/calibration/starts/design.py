@@ -88,7 +88,7 @@ def design_points(problem: Problem, setup: BeamCalibrationSetup, points: int = D
             continue
         block = unit[: max(points // 4, 8)].copy()
         for i in own:
-            block[:, i] = BARELY_ON if parameter_spec(names[i]).absent_at == "low" else 1.0 - BARELY_ON
+            block[:, i] = {"low": BARELY_ON, "high": 1.0 - BARELY_ON}.get(parameter_spec(names[i]).absent_at, 0.5)
         blocks.append(block)
     cube = np.vstack(blocks)
     logs = ranges[:, 0] + cube * (ranges[:, 1] - ranges[:, 0])

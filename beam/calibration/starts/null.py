@@ -39,6 +39,8 @@ def null_value(problem: Problem, name: str) -> float:
     from beam.physics.effects import parameter_spec
 
     prior = problem.parameter(name).prior
+    if parameter_spec(name).absent_at == "centre":  # exactly absent there (the stated free length)
+        return float(prior.from_internal(prior.internal_centre()))
     if parameter_spec(name).absent_at == "low":
         return float(prior.lower * (1 + NULL_MARGIN))
     return float(prior.upper * (1 - NULL_MARGIN))

@@ -90,7 +90,7 @@ class Record:
     time_s : numpy.ndarray
         Time stamps (s), strictly increasing, from 0 at the file's first sample.
     output_column : str
-        ``"acceleration_m_s2"``, ``"velocity_m_s"`` or ``"displacement_m"``.
+        ``"acceleration_m_s2"``, ``"velocity_m_s"``, ``"displacement_m"`` or ``"strain"``.
     output : numpy.ndarray
         The signal (SI).
     signal : str
@@ -258,9 +258,6 @@ def choose_signal(record: RawRecord, block: Block, time_s: np.ndarray, *, column
                                  "use --column NAME|INDEX")
         motion = on_axis
     signed = [c for c in motion if not c.meaning.is_total] or motion
-    strains = [c for c in candidates if c.meaning.quantity == "strain"]
-    if not signed and strains:
-        _checked(record, strains[0])
     if not signed:
         listing = "; ".join(_channel_listing(block))
         raise BeamInputError(f"{record.path}: no column measures motion (acceleration, velocity or displacement); "
@@ -281,9 +278,6 @@ def choose_signal(record: RawRecord, block: Block, time_s: np.ndarray, *, column
 
 def _checked(record: RawRecord, column: Column) -> Column:
     meaning = column.meaning
-    if meaning.quantity == "strain":
-        raise BeamInputError(f"{record.path}: column {column.name!r} is a strain; strain records are not calibrated yet "
-                             "(an accelerometer, velocity or displacement record is)")
     if meaning.quantity in INPUT_COLUMN_OF:
         raise BeamInputError(f"{record.path}: column {column.name!r} is a {meaning.quantity} (an input, in "
                              f"{meaning.unit}); if it is the sensor's output give its unit with --unit (g, m/s^2, mm, ...)")

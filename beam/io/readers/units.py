@@ -56,7 +56,8 @@ _add("strain", 1.0, "strain", "m/m", "ε")
 _add("strain", 1e-6, "microstrain", "µε", "με", "ue", "µstrain", "ustrain", "microstrains")
 
 #: Quantities a record's output (what the sensor measures) may be, with the project's CSV column.
-OUTPUT_COLUMN_OF = {"displacement": "displacement_m", "velocity": "velocity_m_s", "acceleration": "acceleration_m_s2"}
+OUTPUT_COLUMN_OF = {"displacement": "displacement_m", "velocity": "velocity_m_s", "acceleration": "acceleration_m_s2",
+                    "strain": "strain"}
 #: Quantities an input (what drives the beam) may be, with the project's CSV column.
 INPUT_COLUMN_OF = {"voltage": "voltage_V", "force": "force_N"}
 
