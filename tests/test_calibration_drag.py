@@ -90,3 +90,47 @@ def test_simulated_drag_decay_recovers_known_truth():
     assert linear.rmse_prediction > 10 * result.rmse_prediction  # the viscous model cannot follow the drag
     assert result.laplace.map.log_posterior >= linear.laplace.map.log_posterior
     assert result.linear_fit()["output_offset"] == pytest.approx(0.4, abs=0.005)
+
+
+def test_the_drag_is_offered_on_free_decays_of_a_strip_of_known_width():
+    """The ranking offers quadratic_drag on a free decay whose sidecar gives the width, and not
+    without the width or on a driven record."""
+    from dataclasses import replace
+
+    from beam.discovery.ranking import candidate_effects
+
+    record = _drag_decay(seed=1, duration_s=1.0)
+    assert "quadratic_drag" in candidate_effects(("modal_damping",), record)
+    narrowless = replace(record, geometry=replace(record.geometry, width_m=None))
+    assert "quadratic_drag" not in candidate_effects(("modal_damping",), narrowless)
+    driven = replace(record, force_N=np.zeros(record.time_s.size),
+                     geometry=replace(record.geometry, force_position_m=0.5))
+    assert "quadratic_drag" not in candidate_effects(("modal_damping",), driven)
+
+
+def _quadratic_envelope(t, zeta_omega=0.01, b=8.0, a0=0.02):
+    """Closed-form amplitude of one mode under viscous + quadratic damping (docs/physics-drag.md)."""
+    decay = np.exp(-zeta_omega * t)
+    return zeta_omega * a0 * decay / (zeta_omega + b * a0 * (1.0 - decay))
+
+
+def test_longer_window_hint_names_the_fall_and_the_window_that_reaches_half():
+    """On a decay under quadratic drag: a window in which the amplitude falls by less than half
+    gets the hint, with the fall inside it and the first whole second where it has halved; a
+    window that reaches half, or a decay whose rate does not change, gets none."""
+    from beam.discovery.window_hint import longer_window_hint
+
+    t = np.linspace(0.0, 20.0, 4001)
+    envelope = _quadratic_envelope(t)
+    half = t[np.argmax(envelope <= 0.5 * envelope[0])]
+    hint = longer_window_hint(t, envelope, (0.0, 2.0), decay_rate_change=-0.6)
+    inside = (t <= 2.0)
+    edge = max(1, np.count_nonzero(inside) // 20)
+    fall = 1 - envelope[inside][-edge:].mean() / envelope[inside][:edge].mean()
+    assert 0.05 < fall < 0.5
+    assert f"falls only {100 * fall:.0f} % inside 0–2 s" in hint
+    assert f"calibrate on 0–{int(np.ceil(half))} s" in hint
+    assert longer_window_hint(t, envelope, (0.0, float(np.ceil(half)) + 1.0), decay_rate_change=-0.6) is None
+    assert longer_window_hint(t, envelope, (0.0, 2.0), decay_rate_change=-0.05) is None  # viscous: nothing to tell
+    short = t <= 2.5  # a record that never falls by half: no longer window would tell
+    assert longer_window_hint(t[short], envelope[short], (0.0, 2.0), decay_rate_change=-0.6) is None
