@@ -49,9 +49,10 @@ from beam.physics.effects import EFFECTS, effect_of_parameter
 __all__ = ["INNER_ITERATIONS", "NonlinearFreeModel", "nonlinear_parameters"]
 
 #: Most Gauss–Newton iterations of the inner solve for the amplitudes (it stops earlier once a
-#: step changes them by less than :data:`INNER_TOLERANCE` of their size).
+#: step would lower the residual sum of squares by less than :data:`INNER_TOLERANCE` of it:
+#: ~1e-4 nats on a window of 20,000 samples).
 INNER_ITERATIONS = 6
-INNER_TOLERANCE = 1e-9
+INNER_TOLERANCE = 1e-8
 #: Forward-difference step of a state direction, relative to the largest modal state.
 STATE_STEP = 1e-6
 #: Most objective evaluations of the joint search, per unknown.
@@ -83,6 +84,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         if not self.nonlinear_names:
             raise BeamInputError("NonlinearFreeModel needs a nonlinear effect; use ProjectedFreeModel")
         self._nl_cache: tuple | None = None
+        self._seeds: dict[bytes, np.ndarray] = {}
 
     # ------------------------------------------------------------------ the response
     def _one(self, values: Mapping[str, np.ndarray], i: int) -> dict[str, float]:
@@ -138,7 +140,8 @@ class NonlinearFreeModel(ProjectedFreeModel):
             else:
                 rows_w, residual_w = rows, residual
             delta, *_ = np.linalg.lstsq(rows_w.T, residual_w, rcond=None)
-            done = float(np.linalg.norm(delta)) <= INNER_TOLERANCE * max(float(np.linalg.norm(a)), 1e-300)
+            gain = float(np.sum((delta @ rows_w) ** 2))  # the decrease of the RSS the step predicts
+            done = gain <= INNER_TOLERANCE * float(np.sum(residual_w**2))
             if done or iteration == INNER_ITERATIONS - 1:
                 break
             a = a + delta
@@ -161,7 +164,8 @@ class NonlinearFreeModel(ProjectedFreeModel):
             if all(one[name] <= 0.0 for name in self.nonlinear_names):
                 states[i] = self.state_matrix(one) @ amplitudes[i, : 2 * self.modes]
                 continue
-            inner = self._inner(one, amplitudes[i], None if rho is None else float(rho[i]))
+            start = self._seeds.get(self._set_key(values, i), amplitudes[i])
+            inner = self._inner(one, start, None if rho is None else float(rho[i]))
             amplitudes[i], fitted[i], gram[i], c[i], states[i] = (inner[n] for n in ("amplitudes", "fitted", "gram",
                                                                                       "c", "state"))
         result = {"poles": linear["poles"], "amplitudes": amplitudes, "fitted": fitted, "gram": gram, "c": c,
@@ -190,27 +194,18 @@ class NonlinearFreeModel(ProjectedFreeModel):
         physical = [n for n in problem.names if n not in problem.noise_names]
         return {name: np.atleast_1d(problem.parameter(name).prior.from_internal(x[..., i])) for i, name in enumerate(physical[:d])}
 
-    def _joint_response(self, problem: Problem, points: np.ndarray, d: int) -> np.ndarray:
-        """f(theta, a) + offset (P, n) at joint points (P, d + k) (internal theta, amplitudes, offset),
-        one batched integration."""
-        m = self.modes
-        values = self._joint_values(problem, points, d)
-        states = np.empty((points.shape[0], 2 * m))
-        for i in range(points.shape[0]):
-            one = {name: float(v[i]) for name, v in values.items()}
-            states[i] = self.state_matrix(one) @ points[i, d : d + 2 * m]
-        out = self.response(values, states, self.fit_time_s)
-        if self.offset:
-            out = out + points[:, -1:]
-        return out
-
     def _whitened(self, rows: np.ndarray, rho: float | None) -> np.ndarray:
         return rows if rho is None else self._whiten(rows, np.full(rows.shape[0], rho))
 
     def map_search(self, problem: Problem, guesses: Sequence[Mapping[str, float]]) -> MapResult:
         """MAP of ``problem`` (whose model is this one) from ``guesses`` by the joint least squares
-        of the module notes; the best guess is kept when the search does not beat it (nested
-        fits are monotone).
+        of the module notes.
+
+        The guesses are screened by the residual of the nonlinear response from the linear
+        profile's amplitudes (one batched integration); the joint least squares runs from the
+        best. A guess with every nonlinear parameter at its null value (the nested start: a
+        sub-model's optimum) is evaluated exactly and kept when the search ends lower, so the
+        MAP is never below it (nested fits are monotone).
 
         Parameters
         ----------
@@ -226,72 +221,93 @@ class NonlinearFreeModel(ProjectedFreeModel):
         """
         from scipy import optimize
 
+        from beam.calibration.fit import internal_starts
+        from beam.calibration.starts.null import null_value
+
         physical = [n for n in problem.names if n not in problem.noise_names]
         d, k = len(physical), self.columns
         lo, hi = problem.internal_bounds
         margin = 1e-9 * np.maximum(hi - lo, 1e-300)
-        starts = [self._complete(problem, g) for g in guesses]
-        scores = [float(problem.log_posterior(z)[0]) for z in starts]
-        order = np.argsort(scores)[::-1]
-        best_z, best_lp = starts[order[0]], scores[order[0]]
+        starts = internal_starts(problem, list(guesses))
+        values = problem.from_internal(starts)
+        linear = ProjectedFreeModel.fit(self, values)
+        screen = self._record_response(problem, np.concatenate([starts[:, :d], linear["amplitudes"]], axis=1), d,
+                                      self.fit_time_s)
+        with np.errstate(all="ignore"):
+            rss = np.sum((self.fit_data - screen) ** 2, axis=1)
+        rss[~np.isfinite(rss)] = np.inf
+        best = int(np.argmin(rss))
+        nulls = [i for i in range(len(starts))
+                 if all(values[n][i] <= null_value(problem, n) * (1 + 1e-6) for n in self.nonlinear_names)]
         quadratic = [problem.parameter(n).prior.internal_quadratic() for n in physical]
-        rho_index = problem.names.index(AR1_COEFFICIENT) if AR1_COEFFICIENT in problem.names else None
+        rho = (float(values[AR1_COEFFICIENT][best]) if AR1_COEFFICIENT in values and np.isfinite(values[AR1_COEFFICIENT][best])
+               else (0.0 if self.likelihood == "ar1" else None))
         y = self.fit_data
-        iterations = 0
-        kept = [i for i in order if np.isfinite(scores[i])][:2]
-        for index in kept:
-            z0 = starts[index]
-            values0 = problem.from_internal(z0)
-            fit0 = self.fit(values0)
-            sd = float(values0[NOISE_SD][0]) if np.ndim(values0[NOISE_SD]) else float(values0[NOISE_SD])
-            rho = None if rho_index is None else float(problem.from_internal(z0)[AR1_COEFFICIENT][0])
-            x0 = np.concatenate([z0[:d], fit0["amplitudes"][0]])
-            lower = np.concatenate([lo[:d] + margin[:d], np.full(k, -np.inf)])
-            upper = np.concatenate([hi[:d] - margin[:d], np.full(k, np.inf)])
+        sd = max(math.sqrt(rss[best] / y.size), 1e-300) if np.isfinite(rss[best]) else 1.0
+        x0 = np.concatenate([starts[best, :d], linear["amplitudes"][best]])
+        lower = np.concatenate([lo[:d] + margin[:d], np.full(k, -np.inf)])
+        upper = np.concatenate([hi[:d] - margin[:d], np.full(k, np.inf)])
 
-            def residuals(x, sd=sd, rho=rho):
-                f = self._joint_response(problem, x[None, :], d)[0]
-                data = self._whitened((y - f)[None, :], rho)[0] / sd
-                return np.concatenate([data, self._prior_residuals(x[:d], quadratic)])
+        def residuals(x):
+            f = self._record_response(problem, x[None, :], d, self.fit_time_s)[0]
+            data = self._whitened((y - f)[None, :], rho)[0] / sd
+            return np.concatenate([data, self._prior_residuals(x[:d], quadratic)])
 
-            def jacobian(x, sd=sd, rho=rho):
-                steps = np.concatenate([np.full(d, 1e-6), np.full(k, 0.0)])
-                scale = max(float(np.max(np.abs(x[d : d + 2 * self.modes]))), 1e-300)
-                steps[d : d + 2 * self.modes] = STATE_STEP * scale
-                points = np.tile(x, (1 + d + 2 * self.modes, 1))
-                for j in range(d + 2 * self.modes):
-                    points[1 + j, j] += steps[j]
-                f = self._joint_response(problem, points, d)
-                columns = (f[1:] - f[0]) / steps[: d + 2 * self.modes, None]
-                if self.offset:
-                    columns = np.vstack([columns, np.ones(y.size)])
-                data = -self._whitened(columns, rho) / sd
-                prior = np.zeros((d, x.size))
-                for j, (_, _, sigma) in enumerate(quadratic):
-                    if math.isfinite(sigma):
-                        prior[j, j] = 1.0 / sigma
-                return np.vstack([data.T, prior])
+        def jacobian(x):
+            data = -self._whitened(self._joint_columns(problem, x, d, self.fit_time_s)[1], rho) / sd
+            prior = np.zeros((d, x.size))
+            for j, (_, _, sigma) in enumerate(quadratic):
+                if math.isfinite(sigma):
+                    prior[j, j] = 1.0 / sigma
+            return np.vstack([data.T, prior])
 
-            x0 = np.clip(x0, lower, upper)
-            solution = optimize.least_squares(residuals, x0, jac=jacobian, bounds=(lower, upper), x_scale="jac",
-                                              method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-10,
-                                              max_nfev=JOINT_MAX_NFEV_PER_UNKNOWN * x0.size)
-            iterations += int(solution.nfev)
-            z = self._noise_at(problem, np.concatenate([solution.x[:d], z0[d:]]))
-            lp = float(problem.log_posterior(z)[0])
-            if lp > best_lp:
-                best_z, best_lp = z, lp
-        best_z = self._noise_at(problem, best_z)
-        best_lp = float(problem.log_posterior(best_z)[0])
+        solution = optimize.least_squares(residuals, np.clip(x0, lower, upper), jac=jacobian, bounds=(lower, upper),
+                                          x_scale="jac", method="trf",
+                                          max_nfev=JOINT_MAX_NFEV_PER_UNKNOWN * x0.size)
+        found = np.concatenate([solution.x[:d], starts[best, d:]])
+        self._seed(problem.from_internal(found), solution.x[d:])  # the inner solve starts where the search ended
+        candidates = [self._noise_at(problem, found)] + [self._noise_at(problem, starts[i]) for i in nulls]
+        scores = [float(problem.log_posterior(z)[0]) for z in candidates]
+        chosen = int(np.argmax(scores))
+        best_z, best_lp = candidates[chosen], scores[chosen]
         hessian = self._laplace_hessian(problem, best_z, d, quadratic)
         values = {n: float(v[0]) for n, v in problem.from_internal(best_z).items()}
         scale = np.array([p.prior.internal_scale for p in problem.parameters])
         at_bound = tuple(n for i, n in enumerate(problem.names)
                          if best_z[i] <= lo[i] + 1e-6 * scale[i] or best_z[i] >= hi[i] - 1e-6 * scale[i])
+        message = ("joint least squares of the nonlinear free decay" if chosen == 0 else
+                   "the nested start (a sub-model's optimum) kept: the joint least squares ended lower")
         return MapResult(z=best_z, values=values, log_posterior=best_lp, gradient=np.zeros(problem.ndim),
-                         hessian=hessian, hessian_point=best_z.copy(), converged=True,
-                         message="joint least squares of the nonlinear free decay", n_starts=len(starts),
-                         start_log_posteriors=scores, at_bound=at_bound, n_iterations=iterations)
+                         hessian=hessian, hessian_point=best_z.copy(), converged=bool(solution.status > 0),
+                         message=message, n_starts=len(starts), start_log_posteriors=scores,
+                         at_bound=at_bound, n_iterations=int(solution.nfev))
+
+    def _joint_columns(self, problem: Problem, x: np.ndarray, d: int, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The response at a joint point ``x`` (internal theta, amplitudes, offset) at ``time_s``
+        (n,) and its derivative (d + k, n) by forward differences (one batched integration of
+        1 + d + 2m sets; the offset's row exact)."""
+        m2 = 2 * self.modes
+        steps = np.concatenate([np.full(d, 1e-6), np.full(m2, STATE_STEP * max(float(np.max(np.abs(x[d:d + m2]))),
+                                                                             1e-300))])
+        points = np.tile(x, (1 + d + m2, 1))
+        for j in range(d + m2):
+            points[1 + j, j] += steps[j]
+        f = self._record_response(problem, points, d, time_s)
+        columns = (f[1:] - f[0]) / steps[:, None]
+        if self.offset:
+            columns = np.vstack([columns, np.ones(f.shape[1])])
+        return f[0], columns
+
+    def _seed(self, values: Mapping[str, np.ndarray], amplitudes: np.ndarray) -> None:
+        """Start the inner solve of the parameter set ``values`` (one) at ``amplitudes`` (it
+        converges to the same optimum as from the linear profile, in fewer iterations)."""
+        self._seeds[self._set_key(values, 0)] = np.array(amplitudes, dtype=float)
+
+    def _set_key(self, values: Mapping[str, np.ndarray], i: int) -> bytes:
+        one = self._one(values, i)
+        rho = (float(np.atleast_1d(values[AR1_COEFFICIENT])[i if np.size(values[AR1_COEFFICIENT]) > 1 else 0])
+               if self.likelihood == "ar1" else 0.0)
+        return np.array([one[n] for n in self.names] + [rho]).tobytes()
 
     @staticmethod
     def _prior_residuals(z: np.ndarray, quadratic) -> np.ndarray:
@@ -336,16 +352,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         fit = self.fit(values)
         sd = float(np.atleast_1d(values[NOISE_SD])[0])
         rho = float(np.atleast_1d(values[AR1_COEFFICIENT])[0]) if AR1_COEFFICIENT in values else None
-        x = np.concatenate([z[:d], fit["amplitudes"][0]])
-        m2 = 2 * self.modes
-        steps = np.concatenate([np.full(d, 1e-6), np.full(m2, STATE_STEP * max(float(np.max(np.abs(x[d:d + m2]))), 1e-300))])
-        points = np.tile(x, (1 + d + m2, 1))
-        for j in range(d + m2):
-            points[1 + j, j] += steps[j]
-        f = self._joint_response(problem, points, d)
-        columns = (f[1:] - f[0]) / steps[:, None]
-        if self.offset:
-            columns = np.vstack([columns, np.ones(f.shape[1])])
+        _, columns = self._joint_columns(problem, np.concatenate([z[:d], fit["amplitudes"][0]]), d, self.fit_time_s)
         white = self._whitened(columns, rho) / sd
         info = white @ white.T
         for j, (_, _, sigma) in enumerate(quadratic):
@@ -376,22 +383,17 @@ class NonlinearFreeModel(ProjectedFreeModel):
         problem = laplace_result.problem
         z = laplace_result.mean
         physical = [n for n in problem.names if n not in problem.noise_names]
-        d, m2 = len(physical), 2 * self.modes
+        d = len(physical)
         values = problem.from_internal(z)
         fit = self.fit(values)
         x = np.concatenate([z[:d], fit["amplitudes"][0]])
-        steps = np.concatenate([np.full(d, 1e-6), np.full(m2, STATE_STEP * max(float(np.max(np.abs(x[d:d + m2]))), 1e-300))])
-        points = np.tile(x, (1 + d + m2, 1))
-        for j in range(d + m2):
-            points[1 + j, j] += steps[j]
         times = np.asarray(time_s, dtype=float)
-        window = self._joint_response(problem, points, d)
-        record = self._record_response(problem, points, d, times)
-        window_columns = (window[1:] - window[0]) / steps[:, None]
-        record_columns = (record[1:] - record[0]) / steps[:, None]
-        if self.offset:
-            window_columns = np.vstack([window_columns, np.ones(window.shape[1])])
-            record_columns = np.vstack([record_columns, np.ones(times.size)])
+        mean, record_columns = self._joint_columns(problem, x, d, times)
+        where = np.clip(np.searchsorted(times, self.fit_time_s), 0, times.size - 1)
+        if np.array_equal(times[where], self.fit_time_s):  # the window's samples are among the band's times
+            window_columns = record_columns[:, where]
+        else:
+            _, window_columns = self._joint_columns(problem, x, d, self.fit_time_s)
         theta_w, nuisance_w = window_columns[:d], window_columns[d:]
         sensitivity, *_ = np.linalg.lstsq(nuisance_w.T, theta_w.T, rcond=None)  # d a / d theta = -sensitivity
         derivative = record_columns[:d] - sensitivity.T @ record_columns[d:]
@@ -399,19 +401,23 @@ class NonlinearFreeModel(ProjectedFreeModel):
         model_sd = np.sqrt(np.maximum(np.einsum("it,ij,jt->t", derivative, cov, derivative), 0.0))
         noise_sd = float(np.atleast_1d(values[NOISE_SD])[0])
         quantile = float(stats.norm.ppf(0.5 + 0.5 * level))
-        mean = record[0]
         spread = np.sqrt(model_sd**2 + noise_sd**2)
         return PredictiveBands(time_s=times, mean=mean, credible_lower=mean - quantile * model_sd,
                                credible_upper=mean + quantile * model_sd, prediction_lower=mean - quantile * spread,
                                prediction_upper=mean + quantile * spread, level=float(level), n_draws=0)
 
     def _record_response(self, problem: Problem, points: np.ndarray, d: int, time_s: np.ndarray) -> np.ndarray:
+        """f(theta, a) + offset (P, n) at ``time_s`` of joint points (P, d + k) (internal theta,
+        amplitudes, offset), one batched integration."""
         m = self.modes
         values = self._joint_values(problem, points, d)
         states = np.empty((points.shape[0], 2 * m))
+        transforms: dict[bytes, np.ndarray] = {}  # the points of a Jacobian share their theta along the state
         for i in range(points.shape[0]):
-            one = {name: float(v[i]) for name, v in values.items()}
-            states[i] = self.state_matrix(one) @ points[i, d : d + 2 * m]
+            key = points[i, :d].tobytes()
+            if key not in transforms:
+                transforms[key] = self.state_matrix({name: float(v[i]) for name, v in values.items()})
+            states[i] = transforms[key] @ points[i, d : d + 2 * m]
         out = self.response(values, states, time_s)
         return out + points[:, -1:] if self.offset else out
 

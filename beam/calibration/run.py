@@ -62,6 +62,10 @@ from beam.io.limits import MAX_CALIBRATION_SAMPLES
 from beam.io.measurement import Measurement
 from beam.io.text import atomic_write_texts
 
+#: The warning of a nonlinear free decay's calibration, which ends at its Laplace approximation.
+LAPLACE_ONLY = ("a free decay with a nonlinear effect is not sampled: the posterior is the Laplace approximation "
+                "at the MAP and the bands are linearised (one evaluation integrates the decay and refits its "
+                "initial state)")
 #: Posterior draws pushed through the model for the predictive bands.
 BAND_DRAWS = 400
 #: Header of the predictive band CSV written by ``--save``.
@@ -630,15 +634,19 @@ def calibration_stream(
     setup, problem = prepare(measurement, spec, start=start, search=False, engine=engine)
     recalled = _recalled_laplace(engine, problem, setup, cold=start is None)  # this model's MAP, found before
     laplace_result = _first_stage(engine, problem, setup, cold=False) if recalled is None else recalled
-    yield CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, setup, seed),
-                            time.perf_counter() - t0)
+    preview = CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, setup, seed),
+                                time.perf_counter() - t0)
+    yield preview
     if recalled is None:
         # ... then the searched design (0.5-1.5 s with a mode-changing effect), from which the MAP
         # search continues together with the preview's MAP: the sampler starts in the best basin found
         laplace_result = _searched_laplace(engine, problem, setup, laplace_result)
         _remember(engine, setup, laplace_result.map, cold=start is None)
-    if setup.is_free and setup.model.is_nonlinear:
-        return  # a nonlinear free decay: the Laplace posterior (sampling it: beam.calibration.free_nonlinear)
+    if setup.is_free and setup.model.is_nonlinear:  # the Laplace posterior: see beam.calibration.free_nonlinear
+        laplace_result.warnings.append(LAPLACE_ONLY)
+        bands = preview.bands if laplace_result is preview.laplace else preview_bands(laplace_result, setup, seed)
+        yield CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0)
+        return
     if walkers is not None and walkers < 2 * problem.ndim:
         raise BeamInputError(f"walkers must be at least 2 x {problem.ndim} parameters = {2 * problem.ndim}, got {walkers}")
     run = EnsembleRun(problem, laplace_result, n_walkers=walkers or default_walkers(problem.ndim), seed=seed)

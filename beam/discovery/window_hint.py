@@ -51,7 +51,7 @@ def longer_window_hint(time_s: np.ndarray, envelope: np.ndarray, window: tuple[f
     inside = (t >= window[0]) & (t <= window[1]) & np.isfinite(a) & (a > 0)
     if np.count_nonzero(inside) < 4:
         return None
-    values, times = a[inside], t[inside]
+    values = a[inside]
     edge = max(1, values.size // 20)
     start, end = float(np.mean(values[:edge])), float(np.mean(values[-edge:]))
     fall = 1.0 - end / start
