@@ -159,3 +159,22 @@ def test_a_real_strip_run_calibrated_on_five_seconds_predicts_the_rest_better_wi
     assert drag.laplace.map.log_posterior >= base.laplace.map.log_posterior
     assert 2.0 <= drag.laplace.map.values["drag_coefficient"] <= 20.0
     assert drag.laplace.map.values["damping_ratio_mode_1"] < base.laplace.map.values["damping_ratio_mode_1"]
+
+
+@pytest.mark.slow
+def test_the_residual_report_of_a_short_window_on_a_real_strip_run_asks_for_a_longer_one():
+    """On the bundled strip run, whose mode-1 decay slows as it dies out: calibrated on 0-2 s the
+    report says how little the swing falls there and names a longer window; on 0-5 s (where it
+    falls by half) it does not."""
+    from pathlib import Path
+
+    from beam.discovery.report import residual_report
+    from beam.io.measurement import read_measurement
+
+    record = read_measurement(Path(__file__).resolve().parent.parent / "assets" / "real" / "adxl_50cm_114655.csv")
+    short = residual_report(calibration_preview(record, window=(0.0, 2.0), effects="modal_damping,sensor_mass"))
+    assert short.fingerprints["decay_rate_change"] < -0.25
+    hints = [note for note in short.notes if note.startswith("the swing falls only")]
+    assert len(hints) == 1 and "inside 0–2 s" in hints[0] and "calibrate on 0–" in hints[0]
+    longer = residual_report(calibration_preview(record, window=(0.0, 5.0), effects="modal_damping,sensor_mass"))
+    assert not [note for note in longer.notes if note.startswith("the swing falls only")]

@@ -55,7 +55,7 @@ def main() -> None:
         gain = base.rmse_prediction / drag.rmse_prediction
         gains.append(gain)
         values, base_values = drag.laplace.map.values, base.laplace.map.values
-        release = float(record.time_s[drag.setup.free_start_indices[1]])
+        release = float(drag.setup.free_start_s)  # the free response's start, on the record as calibrated
         interval = drag.summary()["drag_coefficient"]
         print(f"{path.stem}  {release:.3f}  {base.rmse_prediction:.4f}  {drag.rmse_prediction:.4f}  {gain:.2f}  "
               f"{values['drag_coefficient']:.1f}  {interval['q025']:.1f}-{interval['q975']:.1f}  "
