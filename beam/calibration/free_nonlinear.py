@@ -41,7 +41,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from beam.calibration.free import OFFSET_NAME, ProjectedFreeModel
+from beam.calibration.free import ProjectedFreeModel
 from beam.errors import BeamInputError
 from beam.inference import AR1_COEFFICIENT, NOISE_SD, MapResult, PredictiveBands, Problem
 from beam.physics.effects import EFFECTS, effect_of_parameter
@@ -420,21 +420,3 @@ class NonlinearFreeModel(ProjectedFreeModel):
             states[i] = transforms[key] @ points[i, d : d + 2 * m]
         out = self.response(values, states, time_s)
         return out + points[:, -1:] if self.offset else out
-
-    def linear_fit(self, values: Mapping[str, float]) -> dict[str, object]:
-        """As :meth:`ProjectedFreeModel.linear_fit` (the refined amplitudes; the offset's sd from
-        the Gauss–Newton Gram matrix)."""
-        one = {name: np.atleast_1d(float(np.asarray(values[name]).ravel()[0])) for name in self.names}
-        if self.likelihood == "ar1":
-            one[AR1_COEFFICIENT] = np.atleast_1d(float(np.asarray(values[AR1_COEFFICIENT]).ravel()[0]))
-        fit = self.fit(one)
-        amplitudes = fit["amplitudes"][0]
-        out: dict[str, object] = {"amplitudes": amplitudes[: 2 * self.modes].tolist(), OFFSET_NAME: 0.0,
-                                  f"{OFFSET_NAME}_sd": 0.0}
-        if self.offset:
-            out[OFFSET_NAME] = float(amplitudes[-1])
-            if NOISE_SD in values:
-                sd = float(np.asarray(values[NOISE_SD]).ravel()[0])
-                gram = fit["gram"][0] + np.eye(self.columns) * (sd / self.prior_sd) ** 2
-                out[f"{OFFSET_NAME}_sd"] = float(sd * math.sqrt(max(np.linalg.inv(gram)[-1, -1], 0.0)))
-        return out
