@@ -178,3 +178,14 @@ def test_the_residual_report_of_a_short_window_on_a_real_strip_run_asks_for_a_lo
     assert len(hints) == 1 and "inside 0–2 s" in hints[0] and "calibrate on 0–" in hints[0]
     longer = residual_report(calibration_preview(record, window=(0.0, 5.0), effects="modal_damping,sensor_mass"))
     assert not [note for note in longer.notes if note.startswith("the swing falls only")]
+
+
+def test_the_drag_without_a_width_is_refused_at_once():
+    """A record whose beam has no width cannot be calibrated with the drag: one error naming the
+    keys, before any fit."""
+    from dataclasses import replace
+
+    record = _drag_decay(seed=1, duration_s=1.0)
+    record = replace(record, geometry=replace(record.geometry, width_m=None))
+    with pytest.raises(BeamInputError, match=r"width_m and thickness_m .* --width and --thickness"):
+        make_setup(record, window=(0.0, 1.0), effects="modal_damping,quadratic_drag", modes=2)

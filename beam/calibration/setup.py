@@ -292,6 +292,9 @@ def make_setup(
     model = BeamModel(measurement.geometry, effects, intervals, knots, input_kind=measurement.input_kind)
     if isinstance(modes, bool) or int(modes) != modes or not 1 <= modes <= model.size:
         raise BeamInputError(f"modes must be between 1 and {model.size} (the mesh holds {model.size} modes), got {modes}")
+    if "quadratic_drag" in effects and measurement.geometry.width_m is None:
+        raise BeamInputError("quadratic_drag needs the strip's width: [beam] width_m and thickness_m in the sidecar, "
+                             "or --width and --thickness")
     nonlinear = ", ".join(e for e in effects if EFFECTS[e].nonlinear)
     if model.is_nonlinear and not measurement.is_free and (not measurement.uniform or measurement.output_kind != "displacement"):
         raise BeamInputError(
