@@ -33,7 +33,7 @@ import numpy as np
 
 from beam.calibration.bands import fast_predictive_bands
 from beam.calibration.fit import fast_map
-from beam.calibration.free_starts import projected_starting_points
+from beam.calibration.free_starts import nonlinear_free_starts, projected_starting_points
 from beam.calibration.records import decimate_measurement
 from beam.calibration.spec import CalibrationSpec
 from beam.calibration.setup import (
@@ -62,6 +62,10 @@ from beam.io.limits import MAX_CALIBRATION_SAMPLES
 from beam.io.measurement import Measurement
 from beam.io.text import atomic_write_texts
 
+#: The warning of a nonlinear free decay's calibration, which ends at its Laplace approximation.
+LAPLACE_ONLY = ("a free decay with a nonlinear effect is not sampled: the posterior is the Laplace approximation "
+                "at the MAP and the bands are linearised (one evaluation integrates the decay and refits its "
+                "initial state)")
 #: Posterior draws pushed through the model for the predictive bands.
 BAND_DRAWS = 400
 #: Header of the predictive band CSV written by ``--save``.
@@ -309,6 +313,8 @@ def prepare(
         warm_start = None if warm is None else clip_to_prior(problem, warm)
         if "patch_coupling_NmV" in setup.physical_names:
             chosen = engine.starting_points(problem, setup, warm_start, search=search)
+        elif setup.is_free and setup.model.is_nonlinear:  # the linear sub-model's optimum, nested
+            chosen = nonlinear_free_starts(problem, setup, engine, warm_start)
         else:  # free response (initial state profiled out) or point force: no coupling to solve for
             chosen = projected_starting_points(problem, setup, warm_start) + null_starts(problem, setup, engine)
         return chosen + (best_guesses(problem, extra) if extra else [])
@@ -547,6 +553,9 @@ def preview_bands(laplace_result: LaplaceResult, setup: BeamCalibrationSetup, se
     The same draws and bands as ``laplace_result.predict(time_s, n_draws=BAND_DRAWS, seed=seed)``
     (to the tolerance of the prediction band's edges), by :func:`fast_predictive_bands`.
     """
+    linearised = getattr(laplace_result.problem.model, "linearised_bands", None)
+    if linearised is not None:  # a nonlinear free decay: the delta method (beam.calibration.free_nonlinear)
+        return _lead_nan(setup, linearised(laplace_result, setup.measurement.time_s[setup.free_start_indices[1]:]))
     return record_bands(laplace_result.problem, setup, laplace_result.draws(BAND_DRAWS, seed))
 
 
@@ -558,7 +567,13 @@ def record_bands(problem: Problem, setup: BeamCalibrationSetup, draws: Mapping[s
     grow without bound (adxl_50cm_114759, released at 0.33 s: 1e22 m/s² at t = 0)."""
     time_s = setup.measurement.time_s
     first = setup.free_start_indices[1] if setup.is_free else 0
-    bands = fast_predictive_bands(problem, draws, time_s[first:])
+    return _lead_nan(setup, fast_predictive_bands(problem, draws, time_s[first:]))
+
+
+def _lead_nan(setup: BeamCalibrationSetup, bands: PredictiveBands) -> PredictiveBands:
+    """``bands`` from a free response's start on, extended back over the whole record with NaN."""
+    time_s = setup.measurement.time_s
+    first = time_s.size - bands.time_s.size
     if first == 0:
         return bands
     lead = np.full(first, np.nan)
@@ -573,7 +588,7 @@ def calibrate(measurement: Measurement, spec: CalibrationSpec | None = None, **o
     """
     final = None
     for event in calibration_stream(measurement, spec, **options):
-        if isinstance(event, CalibrationResult) and not event.is_preview:
+        if isinstance(event, CalibrationResult) and (final is None or final.is_preview):
             final = event
     return final
 
@@ -628,13 +643,19 @@ def calibration_stream(
     setup, problem = prepare(measurement, spec, start=start, search=False, engine=engine)
     recalled = _recalled_laplace(engine, problem, setup, cold=start is None)  # this model's MAP, found before
     laplace_result = _first_stage(engine, problem, setup, cold=False) if recalled is None else recalled
-    yield CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, setup, seed),
-                            time.perf_counter() - t0)
+    preview = CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, setup, seed),
+                                time.perf_counter() - t0)
+    yield preview
     if recalled is None:
         # ... then the searched design (0.5-1.5 s with a mode-changing effect), from which the MAP
         # search continues together with the preview's MAP: the sampler starts in the best basin found
         laplace_result = _searched_laplace(engine, problem, setup, laplace_result)
         _remember(engine, setup, laplace_result.map, cold=start is None)
+    if setup.is_free and setup.model.is_nonlinear:  # the Laplace posterior: see beam.calibration.free_nonlinear
+        laplace_result.warnings.append(LAPLACE_ONLY)
+        bands = preview.bands if laplace_result is preview.laplace else preview_bands(laplace_result, setup, seed)
+        yield CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0)
+        return
     if walkers is not None and walkers < 2 * problem.ndim:
         raise BeamInputError(f"walkers must be at least 2 x {problem.ndim} parameters = {2 * problem.ndim}, got {walkers}")
     run = EnsembleRun(problem, laplace_result, n_walkers=walkers or default_walkers(problem.ndim), seed=seed)

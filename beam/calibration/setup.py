@@ -23,7 +23,9 @@ time stamps (:meth:`beam.physics.model.BeamModel.response` or
 :meth:`~beam.physics.model.BeamModel.response_at`). Clipped samples
 (:attr:`beam.io.measurement.Measurement.clipped`) are left out of the likelihood (and of the
 RMSE). A free response (no input) is fitted by variable projection: its unknown initial state
-and the sensor's offset are linear and profiled out (:mod:`beam.calibration.free`).
+and the sensor's offset are linear and profiled out (:mod:`beam.calibration.free`); with a
+nonlinear effect (the drag, the tip spring) refined by Gauss–Newton from that linear profile
+(:mod:`beam.calibration.free_nonlinear`), the window starting at the free response's start.
 """
 
 from __future__ import annotations
@@ -291,10 +293,14 @@ def make_setup(
     model = BeamModel(measurement.geometry, effects, intervals, knots, input_kind=measurement.input_kind)
     if isinstance(modes, bool) or int(modes) != modes or not 1 <= modes <= model.size:
         raise BeamInputError(f"modes must be between 1 and {model.size} (the mesh holds {model.size} modes), got {modes}")
-    if model.is_nonlinear and (measurement.is_free or not measurement.uniform or measurement.output_kind != "displacement"):
+    if "quadratic_drag" in effects and measurement.geometry.width_m is None:
+        raise BeamInputError("quadratic_drag needs the strip's width: [beam] width_m and thickness_m in the sidecar, "
+                             "or --width and --thickness")
+    nonlinear = ", ".join(e for e in effects if EFFECTS[e].nonlinear)
+    if model.is_nonlinear and not measurement.is_free and (not measurement.uniform or measurement.output_kind != "displacement"):
         raise BeamInputError(
-            f"{', '.join(e for e in effects if EFFECTS[e].nonlinear)} is calibrated on a driven record with uniform "
-            "time stamps and a displacement output only"
+            f"{nonlinear} is calibrated on a free decay, or on a driven record with uniform time stamps and a "
+            "displacement output"
         )
     if measurement.is_free:
         released = measurement.time_s >= measurement.time_s[free_start_indices(measurement, int(modes))[1]]
@@ -305,13 +311,29 @@ def make_setup(
                 f"the start of the free response at {measurement.time_s[np.argmax(released)]:g} s (the release of the beam and its "
                 f"transient left out)"
             )
-        forward = ProjectedFreeModel(model, int(modes), measurement.output_kind, measurement.time_s[mask],
-                                     measurement.output[mask], likelihood)
+        if model.is_nonlinear and np.any(released & ~measurement.clipped & (measurement.time_s < measurement.time_s[mask][0])):
+            raise BeamInputError(
+                f"{nonlinear} on a free decay is integrated forward from the window's first sample: start the window "
+                f"at the start of the free response ({measurement.time_s[np.argmax(released)]:g} s) or earlier"
+            )
+        forward = free_model_class(model)(model, int(modes), measurement.output_kind, measurement.time_s[mask],
+                                          measurement.output[mask], likelihood)
     else:
         forward = BeamForwardModel(model, measurement, int(modes))
     setup = BeamCalibrationSetup(measurement, window, effects, int(modes), likelihood, model, forward)
     _check_window_holds_a_period(setup)
     return setup
+
+
+def free_model_class(model: BeamModel) -> type:
+    """The free-response forward model of ``model``: :class:`ProjectedFreeModel` (the initial
+    state profiled exactly), or for a nonlinear effect
+    :class:`~beam.calibration.free_nonlinear.NonlinearFreeModel` (refined by Gauss–Newton)."""
+    if model.is_nonlinear:
+        from beam.calibration.free_nonlinear import NonlinearFreeModel
+
+        return NonlinearFreeModel
+    return ProjectedFreeModel
 
 
 def window_samples(measurement: Measurement, window: tuple[float, float]) -> np.ndarray:
@@ -342,8 +364,8 @@ def build_problem(setup: BeamCalibrationSetup, initial_guesses=None) -> Problem:
     forward = setup.forward
     if setup.is_free and not (forward.fit_time_s.size == data.size
                               and np.array_equal(forward.fit_time_s, measurement.time_s[mask])):
-        forward = ProjectedFreeModel(setup.model, setup.modes, measurement.output_kind, measurement.time_s[mask],
-                                         data, setup.likelihood)
+        forward = free_model_class(setup.model)(setup.model, setup.modes, measurement.output_kind,
+                                                measurement.time_s[mask], data, setup.likelihood)
     nominal = measurement.prior_nominal
     parameters = [
         Parameter(name, parameter_prior(name, nominal, measurement.nominal_spread), PARAMETER_SPECS[name].unit,

@@ -158,6 +158,10 @@ def record_features(measurement: Measurement) -> frozenset[str]:
         features.add("uniform")
     if measurement.output_kind == "displacement":
         features.add("displacement")
+    if measurement.geometry.width_m is not None:
+        features.add("width")
+    if measurement.is_free:
+        features.add("free")
     return frozenset(features)
 
 

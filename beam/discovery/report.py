@@ -36,6 +36,7 @@ from beam.discovery.ranking import (
     rank_candidates,
     window_only,
 )
+from beam.discovery.window_hint import window_hint_notes
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 
@@ -608,6 +609,7 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
             notes.append(f"the amplitude-frequency relation of mode 1 is unknown: {mode1.backbone.unreliable}")
     elif identified is not None and len(identified.frequency_Hz):
         notes.append("no identified mode matches the model's mode 1: its amplitude-frequency relation is unknown")
+    notes.extend(window_hint_notes(result, mode1))  # too short a window to tell the damping laws apart
     fingerprints = dx.fingerprints(
         comparison, backbone=mode1.backbone if mode1 else None, decay=mode1.decay if mode1 else None,
         spectrum=spectrum, whiteness=whiteness,

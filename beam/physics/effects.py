@@ -81,10 +81,8 @@ range except the clamp's stiffness (a rigid clamp is k_theta -> infinity).
 Effects flagged ``missing_effect_candidate=False`` are left out of the missing-effect ranking
 (:data:`CANDIDATE_EFFECTS`): ``modal_damping`` replaces a damping law rather than adding physics,
 and ``sensor_mass`` matters for a contact sensor (an accelerometer), which a displacement record
-from a laser does not have; the diagnosis decides when to offer them. ``quadratic_drag`` needs the
-strip's width and, on the free decays where it shows, a calibration of a nonlinear free response
-(the calibration profiles a free response's initial state as linear coefficients): it is left
-out of the ranking until the calibration offers that.
+from a laser does not have; the diagnosis decides when to offer them. ``quadratic_drag`` is
+offered on free decays of a strip whose width the sidecar gives (:data:`EFFECT_NEEDS`).
 """
 
 from __future__ import annotations
@@ -363,7 +361,6 @@ EFFECTS: dict[str, Effect] = {
             (ParameterSpec("drag_coefficient", "1", "C_d", "drag coefficient of the strip in oscillating flow", 0.01, 50.0),),
             (Term("quadratic_drag", "mass_beam", "drag_coefficient"),),
             nonlinear=True,
-            missing_effect_candidate=False,
         ),
         Effect(
             "sensor_mass",
@@ -395,6 +392,8 @@ RECORD_FEATURES: dict[str, str] = {
     "contact_sensor": "the output comes from a contact sensor (an accelerometer), whose mass loads the beam",
     "uniform": "the time stamps are a uniform grid",
     "displacement": "the output is a displacement",
+    "width": "the sidecar gives the strip's width ([beam] width_m)",
+    "free": "the record has no input: a free decay",
 }
 
 #: Features each effect needs beyond what :func:`effect_needs` derives from the effect itself
@@ -404,8 +403,9 @@ EFFECT_NEEDS: dict[str, frozenset[str]] = {
     "patch_damping": frozenset({"patch"}),
     "sensor_mass": frozenset({"contact_sensor"}),
     "tip_cubic_spring": frozenset({"input", "uniform", "displacement"}),
-    # the same solver gate today (a free decay's nonlinear fit is not in the calibration yet)
-    "quadratic_drag": frozenset({"input", "uniform", "displacement"}),
+    # offered on free decays, where a damping that grows with the amplitude shows (the calibration
+    # fits them: beam.calibration.free_nonlinear), of a strip whose width is known
+    "quadratic_drag": frozenset({"width", "free"}),
 }
 
 

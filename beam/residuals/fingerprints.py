@@ -27,6 +27,8 @@ What each effect leaves behind (e_k = f_data,k / f_model,k − 1, frequency erro
   with frequency faster than the model's.
 * ``air_damping`` — velocity damping gives zeta ∝ 1 / omega: the measured ratio falls faster.
 * ``tip_cubic_spring`` — the frequency of mode 1 rises with amplitude (hardening backbone).
+* ``quadratic_drag`` — a damping that grows with the amplitude: the decay of mode 1 slows as it
+  dies out, its log-envelope bends (the decay law's ``decay_rate_change`` < 0).
 
 The damping law zeta = a / omega + b omega (Rayleigh: a = alpha / 2, b = beta / 2) is also fitted to
 the identified and to the model modes (non-negative least squares).
@@ -60,6 +62,7 @@ THRESHOLDS: dict[str, float] = {
     "air_damping": math.log(1.5),  # ... or falls 1.5 x more
     "patch_damping": math.log(1.3),  # zeta_2 30 % out of line with modes 1 and 3
     "tip_cubic_spring": 0.005,  # mode-1 frequency 0.5 % higher at the largest amplitude
+    "quadratic_drag": 0.25,  # mode-1 decay rate 25 % lower at the end of the decay than at its start
 }
 #: r / |ē| at which a lowering of the modes counts half as uniform (clamp), half as mode-1 (tip mass).
 TIP_SHARE = 0.2
@@ -243,6 +246,7 @@ def effect_scores(fp: Mapping[str, float]) -> dict[str, float]:
         "patch_stiffening": abs(nz(_get(fp, "mode2_out_of_line"))) / THRESHOLDS["patch_stiffening"],
         "patch_damping": abs(nz(_get(fp, "damping_mode2_out_of_line"))) / THRESHOLDS["patch_damping"],
         "tip_cubic_spring": max(shift, 0.0) / THRESHOLDS["tip_cubic_spring"] if significant else 0.0,
+        "quadratic_drag": max(-nz(_get(fp, "decay_rate_change")), 0.0) / THRESHOLDS["quadratic_drag"],
     }
     return {effect_id: float(scores[effect_id]) for effect_id in CANDIDATE_EFFECTS}
 
@@ -363,4 +367,15 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
         )
     else:
         out["tip_cubic_spring"] = "no backbone of the free decay was measured, or none the record's spectrum confirms: a hardening spring cannot be judged"
+    change = _get(fp, "decay_rate_change")
+    if math.isfinite(change):
+        out["quadratic_drag"] = (
+            f"the decay of mode 1 slows as it dies out (its decay rate {_pct(-change, False)} lower at the end "
+            "than at the start): a damping that grows with the amplitude, such as air drag"
+            if scores["quadratic_drag"] >= 1 else
+            f"the decay rate of mode 1 barely depends on its amplitude ({_pct(change)} over the decay): "
+            "no sign of a damping that grows with the amplitude"
+        )
+    else:
+        out["quadratic_drag"] = "no decay law of mode 1 was measured: a damping that grows with the amplitude cannot be judged"
     return {effect_id: out[effect_id] for effect_id in CANDIDATE_EFFECTS}
