@@ -7,7 +7,7 @@ import json
 import sys
 
 from beam.cli.arguments import HelpFormatter, effects_epilog, non_negative_int
-from beam.cli.calibrate_command import _in_unit, _percent, add_model_arguments, format_window
+from beam.cli.calibrate_command import add_model_arguments, format_window, in_unit as _in_unit, percent as _percent
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
