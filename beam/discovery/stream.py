@@ -276,7 +276,7 @@ class _Fits:
 
 
 def _rungs(fits: _Fits, ranking: Ranking, max_steps: int = 3) -> Generator[Any, Any, list]:
-    """The error ladder (:func:`beam.discovery.ranking.error_ladder`): base, then the materially
+    """The error ladder (:func:`error_ladder`): base, then the materially
     improving candidates one at a time, best first, while each improves on the rung below."""
     base = ranking.base
     if fits.mcmc:
@@ -307,7 +307,7 @@ def error_ladder(measurement: Measurement, ranking: Ranking, *, mcmc: bool = Fal
                  max_steps: int = 3, engine: Engine | None = None) -> list:
     """base -> + best -> + next best ...: the materially improving candidates of ``ranking`` added
     one at a time (at most ``max_steps``), each while it improves on the rung below; the rungs'
-    fits here, one after the other (:func:`beam.discovery.ranking.error_ladder`)."""
+    fits here, one after the other."""
     engine = default_engine() if engine is None else engine
     fits = _Fits(engine, measurement, CalibrationSpec.of_setup(ranking.base.setup), mcmc=mcmc, seed=seed)
     fits.base_effects = tuple(ranking.base.setup.effects)
