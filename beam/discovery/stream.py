@@ -198,9 +198,13 @@ class Step:
 
 def run_request(request: Request, measurement: Measurement, engine: Engine | None = None) -> Done:
     """Run ``request`` here (on ``engine``, default the process's) and time its process CPU; a fit's
-    MAP natural frequencies are computed here too (what the verdict compares)."""
+    MAP natural frequencies are computed here too (what the verdict compares). An exception is the
+    value: the stream raises it where the diagnosis cannot go on without it."""
     t0 = time.process_time()
-    value = request.run(measurement, engine)
+    try:
+        value = request.run(measurement, engine)
+    except Exception as exc:  # noqa: BLE001 - handed to the stream (a failed fit is ranked last)
+        value = exc
     frequencies = None
     if isinstance(request, FitRequest) and isinstance(value, CalibrationResult):
         try:
@@ -232,8 +236,12 @@ class _Fits:
     def receive(self, done: Done) -> None:
         if not isinstance(done, Done):
             done = Done(*done)
-        self.done[done.request] = done
         value = done.value
+        if isinstance(value, BaseException) and not (isinstance(done.request, FitRequest)
+                                                     and isinstance(value, FIT_ERRORS)):
+            if not isinstance(done.request, CheckRequest):
+                raise value  # the base fit, or a fit that failed for another reason than its model
+        self.done[done.request] = done
         if isinstance(done.request, BaseRequest):
             value = value[0]
         if isinstance(value, CalibrationResult):
@@ -376,6 +384,7 @@ def _climb(fits: _Fits, result: CalibrationResult, remaining, floor) -> Generato
             step = _raised(step)
         climbed.append((best.effect, step))
         (remaining,) = yield from fits.wait([CheckRequest.of(step, floor)])
+        remaining = _raised(remaining)
         last = step
     return climbed, remaining
 

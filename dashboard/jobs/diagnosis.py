@@ -138,12 +138,10 @@ class DiagnosisFits:
             self.submit(request)
 
     def next(self) -> tuple:
-        """``(request, Done)`` of the next request to end; a process that failed on a fit gives the
-        fit's exception (ranked last), on anything else raises."""
+        """``(request, Done)`` of the next request to end (a process that failed: its exception as the
+        value, which the stream ranks last for a fit and raises for anything else)."""
         request, value = self.queue.next()
         if isinstance(value, BaseException):
-            if not isinstance(request, FitRequest):
-                raise value
             value = Done(request, value)
         return request, value
 
