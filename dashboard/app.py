@@ -82,7 +82,8 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
         # Panel rewrites its components' stylesheets (named by CDN address) to the server's copy
         # using the document's ``dist_url``, which it sets only when the page is rendered; a model
         # made before (the staged build runs on the next ticks) kept the CDN address, and the page
-        # asked cdn.holoviz.org for loading.css and dataframe.css. Set it now, as Panel will.
+        # asked cdn.holoviz.org for loading.css and dataframe.css. Set it now, as Panel will (Panel 1.9.4 has no
+        # public way to set a document's template variables before the page is rendered: a Panel internal).
         doc._template_variables.setdefault("dist_url", f"{pn.state.rel_path}/{LOCAL_DIST}" if pn.state.rel_path
                                            else LOCAL_DIST)
     views = {title: view(session=session) for title, view in VIEWS}
@@ -142,7 +143,7 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
                                              design=ClassroomDesign, raw_css=[ROOT_CSS])
     template.session_state = session  # for tests and debugging
     template.views = views
-    template.tab_titles = list(tabs._names)  # the titles as the tabs show them (for tests)
+    template.tab_titles = list(views)  # the titles the tabs show (for tests)
     return template
 
 

@@ -251,5 +251,8 @@ def _percent(fraction) -> str:
     return "n/a" if _missing(fraction) else f"{100 * fraction:.1f} %"
 
 
+in_unit, percent = _in_unit, _percent  # public: the diagnosis's report prints its figures so too
+
+
 def _number(value) -> str:
     return "n/a" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{value:.4g}"

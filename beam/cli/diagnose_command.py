@@ -12,12 +12,12 @@ import sys
 
 from beam.cli.arguments import HelpFormatter, effects_epilog, non_negative_int
 from beam.cli.calibrate_command import (
-    _in_unit,
-    _percent,
     add_joint_arguments,
     add_model_arguments,
     check_joint_arguments,
     format_window,
+    in_unit as _in_unit,
+    percent as _percent,
     print_joint,
 )
 

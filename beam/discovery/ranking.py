@@ -18,7 +18,7 @@ A candidate *materially improves* the model when delta_log_evidence >= 5 nats (o
 20 %. The best such candidate is reported as missing; when none qualifies, nothing in the catalogue
 is missing.
 
-The error ladder adds the materially improving candidates one at a time, best first, as long as
+The error ladder (:func:`beam.discovery.stream.error_ladder`) adds the materially improving candidates one at a time, best first, as long as
 each materially improves on the rung below (effects can explain the same misfit: once the best
 is in, the next may no longer help), re-calibrating at each step with the one calibration engine and start strategy of
 :mod:`beam.calibration` (the same MAP as ``beam calibrate`` with that effect set; the steps a user takes in the dashboard are re-calibrated with full
@@ -39,7 +39,6 @@ from beam.calibration import (
     AUTO_MODES,
     DEFAULT_EFFECTS,
     CalibrationResult,
-    calibrate,
     calibration_preview,
 )
 from beam.errors import BeamInputError
@@ -317,38 +316,6 @@ def window_only(candidate: Candidate, base: CalibrationResult) -> bool:
     return bool(candidate.delta_log_evidence >= MATERIAL_LOG_EVIDENCE and contradicted(candidate, base))
 
 
-def error_ladder(
-    measurement: Measurement,
-    ranking: Ranking,
-    *,
-    mcmc: bool = False,
-    seed: int = 0,
-    max_steps: int = 3,
-) -> list[LadderStep]:
-    """base -> + best -> + next best ...: the materially improving candidates added one at a time."""
-    base = ranking.base
-    setup = base.setup
-    steps = [_step(base, None, mcmc=False)]
-    if mcmc:
-        steps[0] = _step(calibrate(measurement, window=setup.window, effects=setup.effects, modes=setup.modes, seed=seed), None, True)
-    effects = list(setup.effects)
-    previous = base
-    for candidate in [c for c in ranking.candidates if c.material][:max_steps]:
-        chosen = tuple(e for e in EFFECTS if e in set(effects) | {candidate.effect})
-        if mcmc:
-            result = calibrate(measurement, window=setup.window, effects=chosen, modes=setup.modes, seed=seed)
-        elif len(effects) == len(setup.effects):
-            result = ranking.results[candidate.effect]
-        else:
-            result = calibration_preview(measurement, window=setup.window, effects=chosen, modes=setup.modes)
-        if len(effects) > len(setup.effects) and not improves(previous, result):
-            break  # on top of the rungs below, this effect no longer helps: the climb ends here
-        effects.append(candidate.effect)
-        steps.append(_step(result, candidate.effect, mcmc))
-        previous = result
-    return steps
-
-
 def improves(current: CalibrationResult, candidate: CalibrationResult) -> bool:
     """Whether ``candidate`` materially improves on ``current`` (evidence and held-out error).
 
@@ -367,7 +334,9 @@ def improves(current: CalibrationResult, candidate: CalibrationResult) -> bool:
     return bool(delta >= MATERIAL_LOG_EVIDENCE and after <= (1 - MATERIAL_RMSE_FALL) * before)
 
 
-def _step(result: CalibrationResult, added: str | None, mcmc: bool) -> LadderStep:
+def ladder_step(result: CalibrationResult, added: str | None, mcmc: bool) -> LadderStep:
+    """The :class:`LadderStep` of ``result`` (``added``: the effect it adds to the rung below, None
+    for the base; ``mcmc``: whether it is a full calibration)."""
     return LadderStep(result.setup.effects, added, result.rmse_calibration, result.rmse_prediction,
                       result.coverage95_prediction, float(result.laplace.log_evidence), mcmc, result)
 

@@ -103,7 +103,7 @@ class LaplaceResult:
         z = np.concatenate(out)[:n]
         if z.shape[0] < n:  # rejection fails where many parameters sit on their bounds: Gibbs
             z = np.concatenate([z, truncated_gaussian_gibbs(self.mean, self.draw_covariance() * scale**2,
-                                                             self.problem._lower, self.problem._upper,
+                                                             *self.problem.internal_bounds,
                                                              n - z.shape[0], rng)])
         return z
 

@@ -1290,3 +1290,6 @@ def perturbed_modes(
     weights[rows, rows] = 0.0
     change = shapes @ (coupling * weights[None, :, :]) - 0.5 * kept[None, :, :] * mass[:, rows, rows][:, None, :]
     return new_lam, kept[None, :, :] + change
+
+
+collapse_pairs = _collapse  # the public name of the pole collapse (beam.physics.nonlinear steps with it too)

@@ -31,7 +31,7 @@ import numba
 import numpy as np
 
 from beam.physics import modal
-from beam.physics.modal import ComplexModes, _collapse, zoh_factor
+from beam.physics.modal import ComplexModes, collapse_pairs as _collapse, zoh_factor
 
 #: Largest (modal frequency x substep) the integrator allows.
 STEP_RESOLUTION = 0.4

@@ -41,7 +41,7 @@ def _import_engine() -> str:
     """Import the calibration engine and ArviZ in a worker (before its first cell, not during it);
     returns the worker's :func:`~beam.study.cells.code_version`."""
     from beam.calibration import calibrate  # noqa: F401
-    from beam.inference._arviz import import_arviz
+    from beam.inference import import_arviz
 
     import_arviz()
     return code_version()

@@ -160,7 +160,7 @@ def posterior_dataset(entries: list[dict]):
     """
     import xarray as xr
 
-    from beam.inference._arviz import import_arviz
+    from beam.inference import import_arviz
 
     names = sorted({name for e in entries for name in e["draws"]})
     n = len(entries)

@@ -10,7 +10,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from beam.errors import BeamInputError
-from beam.inference._arviz import import_arviz
+from beam.inference import import_arviz
 from beam.inference.laplace import LaplaceResult, preview
 from beam.inference.likelihood import NOISE_SD
 from beam.inference.predictive import PredictiveBands

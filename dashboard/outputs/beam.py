@@ -25,7 +25,7 @@ from beam.physics.effects import EFFECTS, parameter_spec
 from beam.discovery.ranking import contradicted
 from beam.discovery.report import remaining_words
 from beam.residuals.noise import record_noise_floor
-from dashboard.outputs.exports import _jsonable
+from dashboard.outputs.exports import jsonable
 
 __all__ = [
     "OutputUnits",
@@ -243,7 +243,7 @@ def summary_json(result) -> io.BytesIO | None:
     """:meth:`CalibrationResult.to_json` as UTF-8 JSON (non-finite numbers as null)."""
     if result is None:
         return None
-    text = json.dumps(_jsonable(result.to_json()), indent=1, allow_nan=False)
+    text = json.dumps(jsonable(result.to_json()), indent=1, allow_nan=False)
     return io.BytesIO(text.encode("utf-8"))
 
 
@@ -497,22 +497,19 @@ def verdict_text(diagnosis) -> str:
         return f"Ranking the candidate effects: {len(diagnosis.pending)} to go…"
     u = output_units(diagnosis)
     white = diagnosis.residuals.whiteness
-    missing = diagnosis.missing
-    remaining = getattr(diagnosis, "remaining", None)
+    parts = diagnosis.verdict_parts(effect_title)  # the library's verdict (the command line's sentence), in words here
+    missing, remaining = parts.missing, parts.remaining
     tail = ""
     if remaining is not None:  # the library's words (one wording with the command line's verdict)
         words = remaining_words(remaining, floor_text=f"{fmt_value(u.scale * remaining.noise_floor.sd)} {u.unit}")
         tail = f" {words[0].upper()}{words[1:]}."
-    notes = "".join(f" {w[0].upper()}{w[1:]}." for w in diagnosis.window_notes_named(effect_title)) \
-        if hasattr(diagnosis, "window_notes_named") else ""
-    tail += notes
+    tail += "".join(f" {w[0].upper()}{w[1:]}." for w in parts.window_notes)
     if missing is not None:
         best = diagnosis.candidates[0]
-        climbed = list(getattr(diagnosis, "climbed", []))
+        climbed = list(parts.then)
         free = diagnosis.base.setup.is_free
         what = "the error in the calibration window" if free else "the held-out error"
-        before = u.scale * diagnosis.errors(diagnosis.base)
-        after = u.scale * (diagnosis.climbed_rmse if climbed else (best.rmse_calibration if free else best.rmse_prediction))
+        before, after = u.scale * parts.before, u.scale * parts.after
         names = ", then ".join(effect_title(e) for e in [missing, *climbed])
         text = (f"**Missing: {names}.** With {'them' if climbed else 'it'} {what} is {fmt_value(after)} {u.unit} instead "
                 f"of {fmt_value(before)} {u.unit} ({change_words(after, before)}); evidence "
@@ -520,11 +517,11 @@ def verdict_text(diagnosis) -> str:
         if climbed:
             text += (f" ({effect_title(climbed[0])} shows only once {effect_title(missing)} is in the model: "
                      "the diagnosis ranked the candidates again on top of it.)")
-        alternatives = diagnosis.indistinguishable
+        alternatives = parts.alternatives
         if alternatives:
             text += (f" The data cannot tell it from {' or '.join(effect_title(e) for e in alternatives)}: the same "
                      "frequencies of the modes the record shows, the same repair by another cause.")
-        for effect, count in diagnosis.partly_indistinguishable:
+        for effect, count in parts.partly:
             text += f" {effect_title(effect)} places modes 1–{count} as well; only mode {count + 1} tells them apart."
         return text + tail
     if remaining is not None and (remaining.outside_catalogue or remaining.truncated):

@@ -15,7 +15,7 @@ import tempfile
 
 import numpy as np
 
-__all__ = ["CSV_COLUMNS", "bands_csv", "filename", "posterior_netcdf", "summary_html", "summary_json"]
+__all__ = ["CSV_COLUMNS", "bands_csv", "filename", "jsonable", "posterior_netcdf", "summary_html", "summary_json"]
 
 #: Columns of the band CSV (units in the names; du = data unit).
 CSV_COLUMNS = (
@@ -24,12 +24,12 @@ CSV_COLUMNS = (
 )
 
 
-def _jsonable(obj):
+def jsonable(obj):
     """Plain JSON types; non-finite floats become None."""
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, (np.floating, float)):
         value = float(obj)
         return value if math.isfinite(value) else None
@@ -38,7 +38,7 @@ def _jsonable(obj):
     if isinstance(obj, np.bool_):
         return bool(obj)
     if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
+        return jsonable(obj.tolist())
     return obj
 
 
@@ -54,7 +54,7 @@ def summary_json(result) -> io.BytesIO | None:
         return None
     report = result.to_json()
     report["stage"] = result.extra.get("stage", "final")
-    text = json.dumps(_jsonable(report), indent=1, allow_nan=False)
+    text = json.dumps(jsonable(report), indent=1, allow_nan=False)
     return io.BytesIO(text.encode("utf-8"))
 
 

@@ -145,6 +145,7 @@ class LocalStylesheets:
     Falling back to the current document, whose ``dist_url`` is this server's, keeps them local.
     """
 
+    # Panel 1.9 internal (Panel has no public hook for a pane's stylesheets without a document)
     def _get_properties(self, doc):
         return super()._get_properties(doc if doc is not None else pn.state.curdoc)
 
@@ -160,6 +161,7 @@ class DataFrame(LocalStylesheets, pn.pane.DataFrame):
 class Markdown(LocalStylesheets, pn.pane.Markdown):
     """:class:`panel.pane.Markdown` with the HTML of each text cached (LRU, process-wide)."""
 
+    # Panel 1.9 internal (Panel has no public hook to cache a pane's rendered HTML)
     def _transform_object(self, obj) -> dict:
         if not isinstance(obj, str):
             return super()._transform_object(obj)

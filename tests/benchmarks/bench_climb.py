@@ -26,7 +26,6 @@ sys.path.insert(0, str(ROOT))
 
 from beam.calibration.engine import forget_maps  # noqa: E402
 from beam.discovery import report  # noqa: E402
-from beam.discovery.ranking import thread_fitter  # noqa: E402
 from beam.io.config import load_config  # noqa: E402
 from beam.io.measurement import read_measurement  # noqa: E402
 from beam.io.simulation import simulate, write_simulation  # noqa: E402
@@ -53,21 +52,12 @@ def pair_record(folder: Path, name: str, run: str, extra: dict[str, float]) -> P
 
 
 def ladder_of(measurement, window, full_climb: bool) -> tuple[list, float]:
-    """The ladder of :func:`beam.discovery.report.diagnose` and its process CPU (s), from nothing remembered."""
-    screened_climb = report.climb_on
-
-    def climb(measurement_, result, remaining, floor, **kw):
-        kw["screen"] = thread_fitter(measurement_, result.setup.window, result.setup.modes, search=True)
-        return screened_climb(measurement_, result, remaining, floor, **kw)
-
+    """The ladder of :func:`beam.discovery.report.diagnose` and its process CPU (s), from nothing
+    remembered; ``full_climb``: the climb's candidates fitted by both stages (``screen=False``)."""
     forget_maps()
-    report.climb_on = climb if full_climb else screened_climb
-    try:
-        t0 = time.process_time()
-        diagnosis = report.diagnose(measurement, window=window)
-        cpu = time.process_time() - t0
-    finally:
-        report.climb_on = screened_climb
+    t0 = time.process_time()
+    diagnosis = report.diagnose(measurement, window=window, screen=not full_climb)
+    cpu = time.process_time() - t0
     return [(s.added, round(s.rmse_prediction * 1e6, 2), round(s.log_evidence, 2)) for s in diagnosis.ladder], cpu
 
 

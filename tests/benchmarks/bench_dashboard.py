@@ -25,6 +25,10 @@ the status says ``final`` for the latest request) at an animation frame, plus on
 Every move goes to a window not seen before, so no cached result is involved. Also prints the
 server-side time from request to final (the status text).
 
+* ``--sessions N``: the server's answer time to a small HTTP request sent every 0.2 s while N
+  sessions open, calibrate and each moves its window by i steps (the event loop's responsiveness;
+  target: every answer within 1 s for 8 sessions). Run alone (it skips the rest).
+
 Options: ``--moves N`` (default 8) toy moves, ``--beam-moves N`` (default 5) beam moves,
 ``--no-teacher`` skips the teacher's script, ``--teacher-only`` runs only it. The machine's load
 average (1 min) is printed before and after: the server shares its 2 cores with anything else.
@@ -213,6 +217,46 @@ def bench_beam(page, moves: int) -> tuple[list[float], list[float]]:
     return previews, finals
 
 
+def bench_sessions(context, url: str, count: int) -> list[float]:
+    """Answer times (s, sorted) of a static file asked for every 0.2 s while ``count`` sessions open,
+    show their first result, move their window by i steps and show the new final result."""
+    import threading
+    import urllib.request
+
+    static = url.rsplit("/", 1)[0] + "/static/extensions/panel/css/loading.css"
+    urllib.request.urlopen(static, timeout=30).read()
+    times: list[float] = []
+    stop = threading.Event()
+
+    def probe() -> None:
+        while not stop.is_set():
+            start = time.perf_counter()
+            with urllib.request.urlopen(static, timeout=30) as response:
+                response.read()
+            times.append(time.perf_counter() - start)
+            stop.wait(0.2)
+
+    thread = threading.Thread(target=probe, daemon=True)
+    thread.start()
+    try:
+        pages = []
+        for _ in range(count):
+            page = context.new_page()
+            page.goto(url)
+            pages.append(page)
+        first = [settle(page, timeout_ms=180000) for page in pages]
+        for steps, page in enumerate(pages):
+            window_handle(page).focus()
+            for _ in range(steps):
+                page.keyboard.press("ArrowRight")
+        for i, page in enumerate(pages):
+            settle(page, after_request=first[i]["requested"] if i else 0, timeout_ms=180000)
+    finally:
+        stop.set()
+        thread.join(35)
+    return sorted(times)
+
+
 def _status_seconds(page, css: str = "beam-status") -> float | None:
     text = page.evaluate("""(css) => { for (const m of Bokeh.documents[0].all_models)
         if (typeof m.text === 'string' && m.text.includes(css)) return m.text; return ''; }""", css)
@@ -226,6 +270,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--beam-moves", type=int, default=5, help="beam window moves to time (each +0.05 s)")
     parser.add_argument("--no-teacher", action="store_true", help="skip the teacher's script")
     parser.add_argument("--teacher-only", action="store_true", help="run only the teacher's script")
+    parser.add_argument("--sessions", type=int, default=0, help="run only the N-session responsiveness probe")
     args = parser.parse_args(argv)
     if not 1 <= args.moves <= 19:
         parser.error("--moves must be between 1 and 19 (the window slider goes from 5 s to 15 s)")
@@ -235,6 +280,14 @@ def main(argv: list[str] | None = None) -> int:
     load_before = os.getloadavg()[0]
     with serve_app() as url, sync_playwright() as p:
         context = launch(p, tempfile.mkdtemp(prefix="bench-chromium-"))
+        if args.sessions:
+            times = bench_sessions(context, url, args.sessions)
+            context.close()
+            within = sum(t <= 1.0 for t in times) / len(times)
+            print(f"{args.sessions} sessions: {len(times)} answers, median {times[len(times) // 2]:.3f} s, 90 % "
+                  f"{times[int(0.9 * len(times))]:.3f} s, max {times[-1]:.2f} s (target 1 s), {within:.1%} within 1 s; "
+                  f"load average {load_before:.1f} before")
+            return 0
         page = context.new_page()
         if args.teacher_only:
             page.goto(url)

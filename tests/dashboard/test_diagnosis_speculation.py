@@ -9,6 +9,7 @@ import pytest
 import recorder
 
 from beam.calibration import calibration_preview
+from beam.discovery import FitRequest
 from dashboard.jobs import diagnosis as jobs
 from dashboard.jobs.beam import CalibrationKey, load_bundled
 from dashboard.runtime import scheduler as sch
@@ -29,20 +30,23 @@ def test_the_climb_starts_before_the_ranking_ends_and_keeps_its_answer(proc_pool
     (README, "Diagnosing missing physics"). Five candidates on two processes: when the fourth
     ends, one process has nothing left to rank and takes a climb fit on top of the leader."""
     asked: list[tuple[tuple[str, ...], int]] = []  # (effects, candidates' fits ended when asked)
-    ended: list[tuple] = []
-    fit, next_ = jobs.DiagnosisFits.fit, jobs.DiagnosisFits.next
+    ended: list = []
+    submit, next_ = jobs.DiagnosisFits.submit, jobs.DiagnosisFits.next
 
-    def recording_fit(self, effects, **kw):
-        if not self.asked(effects, **{k: v for k, v in kw.items() if k == "screen"}):
-            asked.append((tuple(effects), sum(1 for k in ended if k[0] == "fit" and len(k[1]) == len(BASE) + 1)))
-        return fit(self, effects, **kw)
+    def candidate(request) -> bool:
+        return isinstance(request, FitRequest) and request.search and len(request.effects) == len(BASE) + 1
+
+    def recording_submit(self, request, **kw):
+        if isinstance(request, FitRequest) and not self.asked(request):
+            asked.append((tuple(request.effects), sum(1 for r in ended if candidate(r))))
+        return submit(self, request, **kw)
 
     def recording_next(self):
-        key, value = next_(self)
-        ended.append(key)
-        return key, value
+        request, value = next_(self)
+        ended.append(request)
+        return request, value
 
-    monkeypatch.setattr(jobs.DiagnosisFits, "fit", recording_fit)
+    monkeypatch.setattr(jobs.DiagnosisFits, "submit", recording_submit)
     monkeypatch.setattr(jobs.DiagnosisFits, "next", recording_next)
     measurement = load_bundled("lab_run_1")
     key = CalibrationKey("lab_run_1", (0.0, 1.05), BASE, 7, "iid")
