@@ -100,9 +100,10 @@ def test_a_batch_of_lengths_equals_one_call_per_length():
         np.testing.assert_allclose(out[b], free.free_response(one, t, states[b]), rtol=1e-12)
 
 
-def test_the_effect_is_a_candidate_everywhere_and_a_uniform_raising_points_to_it():
+def test_the_effect_is_a_candidate_without_a_patch_and_a_uniform_raising_points_to_it():
     assert "effective_length" in CANDIDATE_EFFECTS and EFFECTS["effective_length"].parameter_names == ("effective_length_m",)
-    assert applicable("effective_length", frozenset())  # any clamped record
+    assert applicable("effective_length", frozenset({"no_patch"}))  # any clamped strip without a patch
+    assert not applicable("effective_length", frozenset({"patch", "input"}))  # the patch would move into the clamp
     raised = effect_scores({"frequency_error_mean": 0.04, "mode1_deficit": 0.0})
     lowered = effect_scores({"frequency_error_mean": -0.04, "mode1_deficit": 0.0})
     assert raised["effective_length"] == pytest.approx(2.0) and raised["clamp_compliance"] == 0.0

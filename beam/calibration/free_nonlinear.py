@@ -222,7 +222,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         from scipy import optimize
 
         from beam.calibration.fit import internal_starts
-        from beam.calibration.starts.null import null_value
+        from beam.calibration.nulls import null_value
 
         physical = [n for n in problem.names if n not in problem.noise_names]
         d, k = len(physical), self.columns

@@ -212,23 +212,19 @@ def damped_away_starts(problem, start: Mapping[str, float]) -> list[dict[str, fl
 NONLINEAR_FRACTIONS = (0.6, 0.8, 0.9)
 
 
-def nonlinear_free_starts(problem, setup, engine, warm: Mapping[str, float] | None = None) -> list[dict[str, float]]:
+def nonlinear_free_starts(problem, setup, linear_optimum: Mapping[str, float],
+                          warm: Mapping[str, float] | None = None) -> list[dict[str, float]]:
     """Starting points for a free decay with a nonlinear effect
     (:class:`beam.calibration.free_nonlinear.NonlinearFreeModel`): a caller's ``warm`` start,
-    then the optimum of the model without its nonlinear effects (``engine``'s, found by a
-    preview when not remembered) with the nonlinear parameters at their null values — the
+    then ``linear_optimum`` (the MAP values of the model without its nonlinear effects, from
+    :func:`beam.calibration.run.calibration_preview`) with the nonlinear parameters at their null values — the
     nested start, which makes the fit no worse than that sub-model's — and at
     :data:`NONLINEAR_FRACTIONS` of their log prior ranges (natural units, physical parameters).
     """
     from beam.calibration.free_nonlinear import nonlinear_parameters
-    from beam.calibration.run import calibration_preview
-    from beam.calibration.starts.null import null_value
-    from beam.physics.effects import EFFECTS
+    from beam.calibration.nulls import null_value
 
-    linear_effects = tuple(e for e in setup.effects if not EFFECTS[e].nonlinear)
-    sub = calibration_preview(setup.measurement, window=setup.window, effects=linear_effects, modes=setup.modes,
-                              likelihood=setup.likelihood, engine=engine)
-    base = {name: float(v) for name, v in sub.laplace.map.values.items() if name in setup.physical_names}
+    base = {name: float(v) for name, v in linear_optimum.items() if name in setup.physical_names}
     names = nonlinear_parameters(setup.physical_names)
     starts = [dict(base, **{name: null_value(problem, name) for name in names})]
     for fraction in NONLINEAR_FRACTIONS:

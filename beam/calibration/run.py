@@ -60,6 +60,7 @@ from beam.inference.summaries import summarize_draws
 from beam.io.anchor import mode_order_warnings
 from beam.io.limits import MAX_CALIBRATION_SAMPLES
 from beam.io.measurement import Measurement
+from beam.physics.effects import EFFECTS
 from beam.io.text import atomic_write_texts
 
 #: The warning of a nonlinear free decay's calibration, which ends at its Laplace approximation.
@@ -314,7 +315,10 @@ def prepare(
         if "patch_coupling_NmV" in setup.physical_names:
             chosen = engine.starting_points(problem, setup, warm_start, search=search)
         elif setup.is_free and setup.model.is_nonlinear:  # the linear sub-model's optimum, nested
-            chosen = nonlinear_free_starts(problem, setup, engine, warm_start)
+            linear_effects = tuple(e for e in setup.effects if not EFFECTS[e].nonlinear)
+            sub = calibration_preview(setup.measurement, window=setup.window, effects=linear_effects,
+                                      modes=setup.modes, likelihood=setup.likelihood, engine=engine)  # remembered by the engine
+            chosen = nonlinear_free_starts(problem, setup, sub.laplace.map.values, warm_start)
         else:  # free response (initial state profiled out) or point force: no coupling to solve for
             chosen = projected_starting_points(problem, setup, warm_start) + null_starts(problem, setup, engine)
         return chosen + (best_guesses(problem, extra) if extra else [])

@@ -147,8 +147,7 @@ Explainer = Callable[[str, CalibrationResult, CalibrationResult], str]
 def record_features(measurement: Measurement) -> frozenset[str]:
     """The features of a record that effects can need (:data:`beam.physics.effects.RECORD_FEATURES`)."""
     features = set()
-    if measurement.geometry.has_patch:
-        features.add("patch")
+    features.add("patch" if measurement.geometry.has_patch else "no_patch")
     if not measurement.is_free:
         features.add("input")
     if measurement.output_kind == "acceleration":

@@ -394,6 +394,7 @@ RECORD_FEATURES: dict[str, str] = {
     "displacement": "the output is a displacement",
     "width": "the sidecar gives the strip's width ([beam] width_m)",
     "free": "the record has no input: a free decay",
+    "no_patch": "the sidecar places no patch: the clamp's edge can move without carrying a bonded patch into the clamp",
 }
 
 #: Features each effect needs beyond what :func:`effect_needs` derives from the effect itself
@@ -406,6 +407,9 @@ EFFECT_NEEDS: dict[str, frozenset[str]] = {
     # offered on free decays, where a damping that grows with the amplitude shows (the calibration
     # fits them: beam.calibration.free_nonlinear), of a strip whose width is known
     "quadratic_drag": frozenset({"width", "free"}),
+    # a strip's free length is uncertain where it is clamped by hand; on a patch beam the prior's
+    # range of lengths would move the bonded patch into the clamp (the fit then fails)
+    "effective_length": frozenset({"no_patch"}),
 }
 
 

@@ -18,32 +18,17 @@ from __future__ import annotations
 import numpy as np
 
 from beam.calibration.setup import BeamCalibrationSetup
+from beam.calibration.nulls import NULL_MARGIN, null_value
 from beam.calibration.starts.base import StartStrategy
 from beam.inference import MapResult, Problem
 
 __all__ = ["NULL_MARGIN", "NULL_STARTS_KEPT", "NullStarts", "kept_nested", "null_starts", "null_value"]
 
-#: Relative distance of a null value inside its prior's bound (the bound itself is not in the support).
-NULL_MARGIN = 1e-9
 #: Null starts kept (the best by log posterior in the larger model).
 NULL_STARTS_KEPT = 2
 #: Relative log posterior gain by which an embedded sub-model's optimum must beat the search's end
 #: for :func:`kept_nested` to search again from it.
 KEPT_TOLERANCE = 1e-9
-
-
-def null_value(problem: Problem, name: str) -> float:
-    """The value (natural units) at which ``name``'s effect vanishes, within its prior's support:
-    the bound at its :attr:`~beam.physics.effects.ParameterSpec.absent_at` end, :data:`NULL_MARGIN`
-    inside."""
-    from beam.physics.effects import parameter_spec
-
-    prior = problem.parameter(name).prior
-    if parameter_spec(name).absent_at == "centre":  # exactly absent there (the stated free length)
-        return float(prior.from_internal(prior.internal_centre()))
-    if parameter_spec(name).absent_at == "low":
-        return float(prior.lower * (1 + NULL_MARGIN))
-    return float(prior.upper * (1 - NULL_MARGIN))
 
 
 def _embedded(problem: Problem, found: MapResult, names) -> dict[str, float]:
