@@ -126,7 +126,9 @@ def _assert_one_line_error(call, path: Path, fragments: list[str]) -> str:
 finite_floats = st.floats(allow_nan=False, allow_infinity=False)
 
 #: A sidecar every kind of record reads with: a patch (voltage_V) and a force position (force_N).
-SIDECAR_ANY_INPUT = SIDECAR + "[force]\nposition_m = 0.3\n"
+#: The sidecar of the generated records: any input, and the strip's section (a strain output needs it).
+SIDECAR_ANY_INPUT = (SIDECAR.replace("linear_density_kg_m = 0.093\n", "linear_density_kg_m = 0.093\nwidth_m = 0.03\nthickness_m = 0.002\n")
+                     + "[force]\nposition_m = 0.3\n")
 
 
 @dataclass
@@ -965,7 +967,7 @@ def test_a_fifo_or_device_is_refused_without_blocking(tmp_path):
 
 
 @st.composite
-def geometries(draw, patch: bool = True, force: bool = False) -> BeamGeometry:
+def geometries(draw, patch: bool = True, force: bool = False, strain: bool = False) -> BeamGeometry:
     length = draw(st.floats(*LENGTH_RANGE_M))
     density = draw(st.floats(*LINEAR_DENSITY_RANGE_KG_M))
     a, b = sorted(draw(st.lists(st.floats(0.0, 1.0), min_size=2, max_size=2, unique=True)))
@@ -973,6 +975,9 @@ def geometries(draw, patch: bool = True, force: bool = False) -> BeamGeometry:
     sensor = draw(st.floats(1e-6, 1.0))
     start, end = (a * length, b * length) if patch else (None, None)
     force_position = draw(st.floats(1e-6, 1.0)) * length if force else None
+    if strain:  # a strain gauge reads -(h/2) w'': the strip's section is part of the record
+        return BeamGeometry(length, density, start, end, sensor * length, force_position,
+                            width_m=draw(st.floats(1e-3, 0.2)), thickness_m=draw(st.floats(1e-4, 0.02)))
     return BeamGeometry(length, density, start, end, sensor * length, force_position)
 
 
@@ -989,7 +994,7 @@ nominal_values = st.dictionaries(
 def test_valid_files_round_trip_bit_exact(tmp_path, table, data, title, nominal, sensor_range):
     needs_patch, needs_force = "voltage_V" in table.names, "force_N" in table.names
     geometry = data.draw(geometries(patch=needs_patch or data.draw(st.booleans()),
-                                    force=needs_force or data.draw(st.booleans())))
+                                    force=needs_force or data.draw(st.booleans()), strain="strain" in table.names))
     output = table.arrays[-1]
     if sensor_range is not None:  # keep clipping by the range below half of the record
         assume(2 * np.count_nonzero(np.abs(output) >= (1 - 1e-3) * sensor_range) <= output.size)

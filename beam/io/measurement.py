@@ -1124,7 +1124,7 @@ def _table_from_lines(path: Path, lines: list[str], sensor_range: float | None) 
 
 
 _QUANTITIES = {"time": "time_s", "voltage": "voltage_V", "force": "force_N", "displacement": "displacement_m",
-               "velocity": "velocity_m_s", "acceleration": "acceleration_m_s2"}
+               "velocity": "velocity_m_s", "acceleration": "acceleration_m_s2", "strain": "strain"}
 
 
 def _check_header(path: Path, header: str) -> tuple[str, ...]:
@@ -1151,7 +1151,8 @@ def _header_problem(header: str, names: list[str]) -> str | None:
         quantity = name.split("_", 1)[0].lower()
         if quantity in _QUANTITIES and name != _QUANTITIES[quantity]:
             right = _QUANTITIES[quantity]
-            return f"unexpected column {name!r}: {quantity} is read in {COLUMN_UNITS[right]} as {right}"
+            unit = "m/m (dimensionless)" if COLUMN_UNITS[right] == "1" else COLUMN_UNITS[right]
+            return f"unexpected column {name!r}: {quantity} is read in {unit} as {right}"
     if unknown:
         listed = ", ".join(repr(e) for e in unknown)
         return f"unexpected column {listed}{did_you_mean(unknown[0], ALL_COLUMNS)}"

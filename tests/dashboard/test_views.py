@@ -221,7 +221,9 @@ def test_diagnosis_view_shows_candidates_with_add_buttons(beam_session):
     view.activate()
     assert session.wait(60)
     names = [b.label for b in view.candidates.select(pn.widgets.Button)]
-    expected = {f"Add {EFFECTS[e].title}" for e in candidate_effects(session.beam.effects)}
+    record = session.beam.measurement  # the candidates that apply to this record (a driven patch beam)
+    assert record is not None
+    expected = {f"Add {EFFECTS[e].title}" for e in candidate_effects(session.beam.effects, record)}
     assert names[0] == "Add Patch stiffening" and set(names) == expected  # effect titles, not ids
     assert len(view.plots.data["residual"]["r"]) == session.beam.measurement.time_s.size
     assert len(view.plots.data["ladder"]) == 1
