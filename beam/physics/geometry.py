@@ -33,6 +33,8 @@ class BeamGeometry:
         Thickness h of the strip (m) (``[beam] thickness_m``): a strain gauge on its surface
         reads epsilon = -(h/2) w''(x_obs) (the ``"strain"`` output). None when unknown.
 
+    Notes
+    -----
     Positions (patch, sensor, force) are measured from the clamp. :meth:`with_free_length`
     moves the clamp's edge and keeps every position's distance from the free tip.
     """
