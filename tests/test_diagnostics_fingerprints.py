@@ -145,3 +145,13 @@ def test_missing_inputs_give_nan_and_sentences_that_say_so():
     assert "cannot be judged" in sentences["kelvin_voigt"] and "must" in sentences["tip_mass"]
     assert "no backbone" in sentences["tip_cubic_spring"]
     assert jsonable(fp)["mode1_deficit"] is None
+
+
+def test_a_driven_record_is_not_told_its_free_decay_was_missing():
+    """A backbone is read from a free decay: on a driven record the spring's sentence says the record
+    has none, not that one failed to be measured."""
+    driven = explain(fingerprints([], free_decay=False))["tip_cubic_spring"]
+    assert "driven record" in driven and "no backbone" not in driven
+    free = explain(fingerprints([], free_decay=True))["tip_cubic_spring"]
+    assert "no backbone of the free decay" in free
+    assert fingerprints([], free_decay=True)["free_decay"] == 1.0

@@ -666,7 +666,7 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
     notes.extend(window_hint_notes(result, mode1))  # too short a window to tell the damping laws apart
     fingerprints = dx.fingerprints(
         comparison, backbone=mode1.backbone if mode1 else None, decay=mode1.decay if mode1 else None,
-        spectrum=spectrum, whiteness=whiteness,
+        spectrum=spectrum, whiteness=whiteness, free_decay=measurement.is_free,
     )
     return ResidualReport(band, spectrum, whiteness, identified, comparison, mode1, frequencies, ratios,
                           fingerprints, dx.explain(fingerprints), notes)

@@ -101,6 +101,7 @@ def fingerprints(
     spectrum: ResidualSpectrum | None = None,
     whiteness: Whiteness | None = None,
     modes: int = 3,
+    free_decay: bool | None = None,
 ) -> dict[str, float]:
     """Dimensionless fingerprints of missing physics (NaN where an input is missing).
 
@@ -116,6 +117,9 @@ def fingerprints(
         From :func:`beam.residuals.residual_whiteness`.
     modes : int
         Modes used for the patterns (the first ``modes`` model modes, default 3).
+    free_decay : bool, optional
+        Whether the record is a free decay (a backbone can only be read from one); None: not
+        known.
 
     Returns
     -------
@@ -135,7 +139,7 @@ def fingerprints(
         ``decay_rate_change``, ``decay_r_squared``, ``decay_rms_log_residual``;
         ``residual_power_fraction``, ``residual_to_data_power_mode{k}``,
         ``residual_peak_mode``, ``residual_peak_offset``; ``ljung_box_p_value``,
-        ``acf_fraction_outside``.
+        ``acf_fraction_outside``; ``free_decay`` (1 or 0, NaN when not known).
     """
     rows = [row for row in comparison if row.mode <= modes]
     fp: dict[str, float] = {}
@@ -207,6 +211,7 @@ def fingerprints(
     fp["residual_peak_offset"] = top.offset_from_mode if top is not None else NAN
     fp["ljung_box_p_value"] = whiteness.p_value if whiteness is not None else NAN
     fp["acf_fraction_outside"] = whiteness.fraction_outside if whiteness is not None else NAN
+    fp["free_decay"] = NAN if free_decay is None else float(bool(free_decay))
     return {key: float(value) for key, value in fp.items()}
 
 
@@ -365,8 +370,16 @@ def explain(fp: Mapping[str, float]) -> dict[str, str]:
             f"the mode-1 frequency barely depends on amplitude ({_pct(shift)} over the decay): "
             "no sign of a hardening spring"
         )
+    elif _get(fp, "free_decay") == 0.0:
+        out["tip_cubic_spring"] = (
+            "a driven record has no free decay whose frequency could be followed as the swing dies: "
+            "a hardening spring is judged here by the calibration's evidence alone"
+        )
     else:
-        out["tip_cubic_spring"] = "no backbone of the free decay was measured, or none the record's spectrum confirms: a hardening spring cannot be judged"
+        out["tip_cubic_spring"] = (
+            "no backbone of the free decay was measured, or none the record's spectrum confirms: "
+            "a hardening spring cannot be judged"
+        )
     change = _get(fp, "decay_rate_change")
     if math.isfinite(change):
         out["quadratic_drag"] = (
