@@ -25,8 +25,13 @@ lock-step search with its finite-difference Newton polish evaluates 150-500 para
 (plus 1 + 2 d² per polish iteration): minutes for one preview. :meth:`NonlinearFreeModel.map_search`
 instead runs one trust-region least squares (:func:`scipy.optimize.least_squares`) over the
 physical parameters (internal coordinates), the amplitudes and the offset together, from the
-linear sub-model's optimum (the nested start: C_d at its null value, and at a few values across
-its plausible range), each Jacobian one batched integration of 1 + d + 2m sets; the Laplace
+best of the linear sub-model's optimum (the nested start: C_d at its null value, and at a few
+values across its plausible range) and its equivalent starts (the slow-flow approximation: the
+drag's cycle-averaged viscous share taken out of the modal damping ratios,
+:meth:`NonlinearFreeModel.equivalent_starts`), each Jacobian one batched integration of
+1 + d + 2m sets, until its Gauss–Newton step is shorter than :data:`JOINT_STOP_SD` posterior
+sd (in the posterior's own metric: the trust-region search otherwise spends its last iterations
+on moves far below the posterior's width); the Laplace
 Hessian over the physical parameters is the Gauss–Newton matrix of that fit with the amplitudes
 and offset eliminated (Schur complement: their Laplace marginalisation), the noise sd's
 curvature from the profile. The predictive bands are linearised (:meth:`NonlinearFreeModel.linearised_bands`)
@@ -216,8 +221,10 @@ class NonlinearFreeModel(ProjectedFreeModel):
         of the module notes.
 
         The guesses are screened by the residual of the nonlinear response from the linear
-        profile's amplitudes (one batched integration); the joint least squares runs from the
-        best. A guess with every nonlinear parameter at its null value (the nested start: a
+        profile's amplitudes (one batched integration); each guess at its nulls adds its
+        equivalent starts (:meth:`equivalent_starts`), which keep its initial modal state and are
+        screened by their refined profile (the inner solve). The joint least squares runs from
+        the best. A guess with every nonlinear parameter at its null value (the nested start: a
         sub-model's optimum) is evaluated exactly and kept when the search ends lower, so the
         MAP is never below it (nested fits are monotone).
 
