@@ -252,13 +252,14 @@ class NonlinearFreeModel(ProjectedFreeModel):
         starts = internal_starts(problem, list(guesses))
         values = problem.from_internal(starts)
         # a start at its nulls (within the clipping margin of internal_starts): a sub-model's optimum
-        null_z = {n: float(problem.parameter(n).prior.to_internal(null_value(problem, n))) for n in self.nonlinear_names}
+        null_z = {n: (problem.names.index(n), float(problem.parameter(n).prior.to_internal(null_value(problem, n))),
+                      2e-6 * problem.parameter(n).prior.internal_scale) for n in self.nonlinear_names}
         nulls = [i for i in range(len(starts))
-                 if all(abs(starts[i, problem.names.index(n)] - null_z[n]) <= 2e-6 * problem.parameter(n).prior.internal_scale
-                        for n in self.nonlinear_names)]
+                 if all(abs(starts[i, j] - z) <= within for j, z, within in null_z.values())]
         sources, derived = [], []
         for i in nulls:
-            more = self.equivalent_starts({n: float(values[n][i]) for n in values if n in self.names or n == AR1_COEFFICIENT})
+            sub = {n: float(values[n][i]) for n in values if n in self.names or n == AR1_COEFFICIENT}
+            more = self.equivalent_starts(sub)
             sources += [i] * len(more)
             derived += more
         if derived:
@@ -321,8 +322,8 @@ class NonlinearFreeModel(ProjectedFreeModel):
                 return
             jac, r = last["J"], intermediate_result.fun
             gradient = jac.T @ r
-            held = (((intermediate_result.x - lower) < tolerance) & (gradient > 0)) | (((upper - intermediate_result.x) < tolerance)
-                                                                                 & (gradient < 0))
+            x = intermediate_result.x
+            held = (((x - lower) < tolerance) & (gradient > 0)) | (((upper - x) < tolerance) & (gradient < 0))
             step, *_ = np.linalg.lstsq(jac[:, ~held], -r, rcond=None)
             noise_ratio = math.sqrt(y.size / max(float(np.sum(r[: y.size] ** 2)), 1e-300))  # sd of the start / now
             if float(np.linalg.norm(jac[:, ~held] @ step)) * noise_ratio < JOINT_STOP_SD:
