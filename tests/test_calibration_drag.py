@@ -67,6 +67,29 @@ def test_with_the_drag_the_profile_beats_the_linear_one():
     assert rms == pytest.approx(0.05, rel=0.05)
 
 
+@pytest.mark.parametrize("end", [2.0, 4.0])
+def test_the_equivalent_starts_put_the_viscous_fit_on_the_drag_models_valley(end):
+    """Slow-flow check of the equivalent starts: the linear model fitted to a decay under the drag
+    sees one viscous ratio zeta_lin; averaged over a cycle and over the window's envelope the drag
+    acts as C_d e_1 of it, so the truth must satisfy zeta_1 + C_d e_1 = zeta_lin (within 10 %:
+    the mean amplitude of an exponential envelope stands for the true one), and the starts lie on
+    that line, C_d spanning the truth."""
+    record = _drag_decay(seed=8)
+    linear = calibration_preview(record, window=(0.0, end), effects="modal_damping", modes=2)
+    mask = record.time_s <= end
+    drag = NonlinearFreeModel(BeamModel(STRIP, ("modal_damping", "quadratic_drag"), input_kind=None), 2,
+                              "acceleration", record.time_s[mask], record.output[mask])
+    sub = {k: v for k, v in linear.laplace.map.values.items() if k in drag.names} | {"drag_coefficient": 0.01}
+    starts = drag.equivalent_starts(sub)
+    zeta_lin = sub["damping_ratio_mode_1"]
+    per_unit = [(zeta_lin - s["damping_ratio_mode_1"]) / s["drag_coefficient"] for s in starts]
+    np.testing.assert_allclose(per_unit, per_unit[0], rtol=1e-9)  # one line
+    on_line = TRUTH["damping_ratio_mode_1"] + TRUTH["drag_coefficient"] * per_unit[0]
+    assert on_line == pytest.approx(zeta_lin, rel=0.1)
+    drags = [s["drag_coefficient"] for s in starts]
+    assert min(drags) < TRUTH["drag_coefficient"] < max(drags)
+
+
 def test_the_window_starts_at_the_free_response():
     """A nonlinear free decay is integrated forward from the window's first sample: a window that
     leaves released samples before it is refused."""

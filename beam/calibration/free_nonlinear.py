@@ -25,8 +25,13 @@ lock-step search with its finite-difference Newton polish evaluates 150-500 para
 (plus 1 + 2 d² per polish iteration): minutes for one preview. :meth:`NonlinearFreeModel.map_search`
 instead runs one trust-region least squares (:func:`scipy.optimize.least_squares`) over the
 physical parameters (internal coordinates), the amplitudes and the offset together, from the
-linear sub-model's optimum (the nested start: C_d at its null value, and at a few values across
-its plausible range), each Jacobian one batched integration of 1 + d + 2m sets; the Laplace
+best of the linear sub-model's optimum (the nested start: C_d at its null value, and at a few
+values across its plausible range) and its equivalent starts (the slow-flow approximation: the
+drag's cycle-averaged viscous share taken out of the modal damping ratios,
+:meth:`NonlinearFreeModel.equivalent_starts`), each Jacobian one batched integration of
+1 + d + 2m sets, until its Gauss–Newton step is shorter than :data:`JOINT_STOP_SD` posterior
+sd (in the posterior's own metric: the trust-region search otherwise spends its last iterations
+on moves far below the posterior's width); the Laplace
 Hessian over the physical parameters is the Gauss–Newton matrix of that fit with the amplitudes
 and offset eliminated (Schur complement: their Laplace marginalisation), the noise sd's
 curvature from the profile. The predictive bands are linearised (:meth:`NonlinearFreeModel.linearised_bands`)
@@ -57,6 +62,16 @@ INNER_TOLERANCE = 1e-8
 STATE_STEP = 1e-6
 #: Most objective evaluations of the joint search, per unknown.
 JOINT_MAX_NFEV_PER_UNKNOWN = 12
+#: The joint search stops once its Gauss–Newton step (free coordinates) is shorter than this in
+#: the posterior's own metric (Mahalanobis length, posterior sd): no coordinate would move by
+#: more than 0.01 of its marginal sd, and the log posterior would gain at most 5e-5 nats.
+JOINT_STOP_SD = 0.01
+#: A coordinate within this fraction of its prior's internal range from a bound, the gradient
+#: pushing out, is held at the bound by the stopping rule (the search's own bound handling).
+JOINT_BOUND_FRACTION = 1e-4
+#: Fractions of the sub-model's mode-1 damping ratio that the drag's equivalent viscous damping
+#: takes over in the equivalent starts (:meth:`NonlinearFreeModel.equivalent_starts`).
+EQUIVALENT_FRACTIONS = (0.5, 0.7, 0.85)
 
 
 def nonlinear_parameters(names: Sequence[str]) -> tuple[str, ...]:
@@ -159,13 +174,17 @@ class NonlinearFreeModel(ProjectedFreeModel):
         states = np.zeros((batch, 2 * self.modes))
         amplitudes, fitted = linear["amplitudes"].copy(), linear["fitted"].copy()
         gram, c = linear["gram"].copy(), linear["c"].copy()
+        solved: dict[bytes, dict[str, np.ndarray]] = {}  # sets that differ only in the noise: one inner solve
         for i in range(batch):
             one = self._one(values, i)
             if all(one[name] <= 0.0 for name in self.nonlinear_names):
                 states[i] = self.state_matrix(one) @ amplitudes[i, : 2 * self.modes]
                 continue
-            start = self._seeds.get(self._set_key(values, i), amplitudes[i])
-            inner = self._inner(one, start, None if rho is None else float(rho[i]))
+            set_key = self._set_key(values, i)
+            if set_key not in solved:
+                start = self._seeds.get(set_key, amplitudes[i])
+                solved[set_key] = self._inner(one, start, None if rho is None else float(rho[i]))
+            inner = solved[set_key]
             amplitudes[i], fitted[i], gram[i], c[i], states[i] = (inner[n] for n in ("amplitudes", "fitted", "gram",
                                                                                       "c", "state"))
         result = {"poles": linear["poles"], "amplitudes": amplitudes, "fitted": fitted, "gram": gram, "c": c,
@@ -202,8 +221,10 @@ class NonlinearFreeModel(ProjectedFreeModel):
         of the module notes.
 
         The guesses are screened by the residual of the nonlinear response from the linear
-        profile's amplitudes (one batched integration); the joint least squares runs from the
-        best. A guess with every nonlinear parameter at its null value (the nested start: a
+        profile's amplitudes (one batched integration); each guess at its nulls adds its
+        equivalent starts (:meth:`equivalent_starts`), which keep its initial modal state and are
+        screened by their refined profile (the inner solve). The joint least squares runs from
+        the best. A guess with every nonlinear parameter at its null value (the nested start: a
         sub-model's optimum) is evaluated exactly and kept when the search ends lower, so the
         MAP is never below it (nested fits are monotone).
 
@@ -230,21 +251,49 @@ class NonlinearFreeModel(ProjectedFreeModel):
         margin = 1e-9 * np.maximum(hi - lo, 1e-300)
         starts = internal_starts(problem, list(guesses))
         values = problem.from_internal(starts)
+        # a start at its nulls (within the clipping margin of internal_starts): a sub-model's optimum
+        null_z = {n: (problem.names.index(n), float(problem.parameter(n).prior.to_internal(null_value(problem, n))),
+                      2e-6 * problem.parameter(n).prior.internal_scale) for n in self.nonlinear_names}
+        nulls = [i for i in range(len(starts))
+                 if all(abs(starts[i, j] - z) <= within for j, z, within in null_z.values())]
+        sources, derived = [], []
+        for i in nulls:
+            sub = {n: float(values[n][i]) for n in values if n in self.names or n == AR1_COEFFICIENT}
+            more = self.equivalent_starts(sub)
+            sources += [i] * len(more)
+            derived += more
+        if derived:
+            starts = np.vstack([starts, internal_starts(problem, derived)])
+            values = problem.from_internal(starts)
         linear = ProjectedFreeModel.fit(self, values)
-        screen = self._record_response(problem, np.concatenate([starts[:, :d], linear["amplitudes"]], axis=1), d,
+        amplitudes = linear["amplitudes"].copy()
+        m2 = 2 * self.modes
+        for row, source in enumerate(sources, start=len(starts) - len(sources)):
+            # an equivalent start keeps its sub-model's initial modal state (the same swing at the
+            # window's start), not the linear profile at its lowered damping
+            state = self.state_matrix(self._one(values, source)) @ amplitudes[source, :m2]
+            amplitudes[row, :m2] = np.linalg.solve(self.state_matrix(self._one(values, row)), state)
+            amplitudes[row, m2:] = amplitudes[source, m2:]
+        screen = self._record_response(problem, np.concatenate([starts[:, :d], amplitudes], axis=1), d,
                                       self.fit_time_s)
         with np.errstate(all="ignore"):
             rss = np.sum((self.fit_data - screen) ** 2, axis=1)
         rss[~np.isfinite(rss)] = np.inf
+        ar1 = AR1_COEFFICIENT in values
+        for row in range(len(starts) - len(sources), len(starts)):
+            # an equivalent start's amplitudes refined on its own response (its swing is the
+            # sub-model's, its decay is not): screened by its profile, as the nested start is
+            refined = self._inner(self._one(values, row), amplitudes[row], float(values[AR1_COEFFICIENT][row]) if ar1
+                                  else (0.0 if self.likelihood == "ar1" else None))
+            amplitudes[row] = refined["amplitudes"]
+            rss[row] = float(np.sum((self.fit_data - refined["fitted"]) ** 2))
         best = int(np.argmin(rss))
-        nulls = [i for i in range(len(starts))
-                 if all(values[n][i] <= null_value(problem, n) * (1 + 1e-6) for n in self.nonlinear_names)]
         quadratic = [problem.parameter(n).prior.internal_quadratic() for n in physical]
-        rho = (float(values[AR1_COEFFICIENT][best]) if AR1_COEFFICIENT in values and np.isfinite(values[AR1_COEFFICIENT][best])
+        rho = (float(values[AR1_COEFFICIENT][best]) if ar1 and np.isfinite(values[AR1_COEFFICIENT][best])
                else (0.0 if self.likelihood == "ar1" else None))
         y = self.fit_data
         sd = max(math.sqrt(rss[best] / y.size), 1e-300) if np.isfinite(rss[best]) else 1.0
-        x0 = np.concatenate([starts[best, :d], linear["amplitudes"][best]])
+        x0 = np.concatenate([starts[best, :d], amplitudes[best]])
         lower = np.concatenate([lo[:d] + margin[:d], np.full(k, -np.inf)])
         upper = np.concatenate([hi[:d] - margin[:d], np.full(k, np.inf)])
 
@@ -253,16 +302,36 @@ class NonlinearFreeModel(ProjectedFreeModel):
             data = self._whitened((y - f)[None, :], rho)[0] / sd
             return np.concatenate([data, self._prior_residuals(x[:d], quadratic)])
 
+        last: dict[str, np.ndarray] = {}
+
         def jacobian(x):
             data = -self._whitened(self._joint_columns(problem, x, d, self.fit_time_s)[1], rho) / sd
             prior = np.zeros((d, x.size))
             for j, (_, _, sigma) in enumerate(quadratic):
                 if math.isfinite(sigma):
                     prior[j, j] = 1.0 / sigma
-            return np.vstack([data.T, prior])
+            last["x"], last["J"] = x.copy(), np.vstack([data.T, prior])
+            return last["J"]
+
+        tolerance = JOINT_BOUND_FRACTION * np.concatenate([(hi - lo)[:d], np.full(k, np.inf)])
+        settled = {"at": False}
+
+        def stop_when_settled(intermediate_result):
+            # the Gauss–Newton step at the accepted point, the coordinates held at a bound left out
+            if "x" not in last or not np.array_equal(intermediate_result.x, last["x"]):
+                return
+            jac, r = last["J"], intermediate_result.fun
+            gradient = jac.T @ r
+            x = intermediate_result.x
+            held = (((x - lower) < tolerance) & (gradient > 0)) | (((upper - x) < tolerance) & (gradient < 0))
+            step, *_ = np.linalg.lstsq(jac[:, ~held], -r, rcond=None)
+            noise_ratio = math.sqrt(y.size / max(float(np.sum(r[: y.size] ** 2)), 1e-300))  # sd of the start / now
+            if float(np.linalg.norm(jac[:, ~held] @ step)) * noise_ratio < JOINT_STOP_SD:
+                settled["at"] = True
+                raise StopIteration
 
         solution = optimize.least_squares(residuals, np.clip(x0, lower, upper), jac=jacobian, bounds=(lower, upper),
-                                          x_scale="jac", method="trf",
+                                          x_scale="jac", method="trf", callback=stop_when_settled,
                                           max_nfev=JOINT_MAX_NFEV_PER_UNKNOWN * x0.size)
         found = np.concatenate([solution.x[:d], starts[best, d:]])
         self._seed(problem.from_internal(found), solution.x[d:])  # the inner solve starts where the search ended
@@ -278,9 +347,58 @@ class NonlinearFreeModel(ProjectedFreeModel):
         message = ("joint least squares of the nonlinear free decay" if chosen == 0 else
                    "the nested start (a sub-model's optimum) kept: the joint least squares ended lower")
         return MapResult(z=best_z, values=values, log_posterior=best_lp, gradient=np.zeros(problem.ndim),
-                         hessian=hessian, hessian_point=best_z.copy(), converged=bool(solution.status > 0),
+                         hessian=hessian, hessian_point=best_z.copy(), converged=bool(solution.status > 0 or settled["at"]),
                          message=message, n_starts=len(starts), start_log_posteriors=scores,
                          at_bound=at_bound, n_iterations=int(solution.nfev))
+
+    def equivalent_starts(self, one: Mapping[str, float]) -> list[dict[str, float]]:
+        """Starts with the drag on, from a sub-model's optimum ``one`` (natural units, the drag at
+        its null value), by the slow-flow (averaging) approximation of each mode.
+
+        Averaged over a cycle, the drag on mode k of amplitude A_k (modal coordinate) acts as a
+        viscous damping ratio zeta_eq,k = (4 / 3 pi) kappa_k A_k, kappa_k = ½ rho_air C_d b
+        ∫ |psi_k|³ dx (``docs/physics-drag.md``). For each fraction f of
+        :data:`EQUIVALENT_FRACTIONS`, C_d is chosen so that the drag takes over f of the mode-1
+        damping ratio at its mean amplitude over the window (the sub-model's exponential
+        envelope from its fitted initial state), and every modal damping ratio is lowered by the
+        drag's equivalent share at its own mean amplitude (to no less than a tenth of it): a
+        start near the valley of the posterior where the two damping laws trade off, instead of
+        the drag switched on over an unchanged viscous damping.
+
+        Returns
+        -------
+        list of dict
+            Natural-unit starts; empty when the model has no drag or no modal damping ratios.
+        """
+        from beam.physics.nonlinear import AIR_DENSITY_KG_M3, drag_quadrature
+
+        m = self.modes
+        ratios = [f"damping_ratio_mode_{j + 1}" for j in range(m)]
+        width = self.model.geometry.width_m
+        if "drag_coefficient" not in one or ratios[0] not in one or not width:
+            return []
+        omega2, shapes = self.model.mode_shapes({n: one[n] for n in self.names}, m)
+        omega = np.sqrt(np.maximum(omega2, 1e-300))
+        nodes, weights = drag_quadrature(self.model.geometry.length_m)
+        psi = self.model.parts.basis.evaluate(nodes, 0) @ shapes  # (G, m)
+        kappa = 0.5 * AIR_DENSITY_KG_M3 * width * (weights @ np.abs(psi) ** 3)  # per unit C_d
+        amplitudes = ProjectedFreeModel.fit(self, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
+        state = self.state_matrix(one) @ amplitudes[: 2 * m]
+        start_amplitude = np.hypot(state[:m], state[m:] / omega)
+        decay = np.array([one.get(r, 0.0) for r in ratios]) * omega * (self.fit_time_s[-1] - self.reference_s)
+        mean = start_amplitude * np.where(decay > 1e-9, -np.expm1(-decay) / np.maximum(decay, 1e-300), 1.0)
+        per_unit = 4.0 / (3.0 * math.pi) * kappa * mean  # zeta_eq per unit C_d
+        if not (np.isfinite(per_unit).all() and per_unit[0] > 0.0):
+            return []
+        starts = []
+        for fraction in EQUIVALENT_FRACTIONS:
+            drag = fraction * one[ratios[0]] / per_unit[0]
+            start = dict(one, drag_coefficient=float(drag))
+            for j, name in enumerate(ratios):
+                if name in one:
+                    start[name] = float(max(one[name] - drag * per_unit[j], 0.1 * one[name]))
+            starts.append(start)
+        return starts
 
     def _joint_columns(self, problem: Problem, x: np.ndarray, d: int, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The response at a joint point ``x`` (internal theta, amplitudes, offset) at ``time_s``
