@@ -27,7 +27,7 @@ from scipy.stats import gaussian_kde
 from beam.calibration.joint import _modes_of, profile_interval
 from beam.calibration.run import prepare
 from beam.calibration.spec import CalibrationSpec
-from beam.discovery.joint import joint_diagnose
+from beam.discovery.joint import PAIR_WORDS, joint_diagnose
 from beam.physics.model import BeamModel
 from tests.test_joint_calibration import free_strip
 
@@ -100,6 +100,23 @@ def test_three_lengths_together_separate_sensor_mass_from_tip_mass(truth, other)
     # is identified, three frequencies for EI, the mass and the clamp) and is the missing effect
     assert by_effect[truth].delta_log_evidence - by_effect[other].delta_log_evidence >= 10.0
     assert diagnosis.missing == truth
+    # the verdict says so, with each record's f1 under the two joint MAP models
+    assert (truth, other) in diagnosis.separated
+    pair = next(p for p in diagnosis.separation() if (p["better"], p["worse"]) == (truth, other))
+    verdict = diagnosis.verdict()
+    assert PAIR_WORDS[(truth, other)] in verdict.lower()
+    for k, (record, row) in enumerate(zip(records(truth), pair["records"])):
+        assert row["length_m"] == pytest.approx(record.geometry.length_m)
+        f = {}
+        for effect in (truth, other):  # the fit's MAP on the record's strip: the full eigenproblem
+            fit = diagnosis.fits[effect]
+            names = fit.problem.record_names(k)
+            values = {n: fit.laplace.map.values[names[n]] for n in fit.records[k].setup.physical_names}
+            model = BeamModel(record.geometry, (effect, "clamp_compliance", "modal_damping"), input_kind=None)
+            f[effect] = model.natural_modes(values, 1)[0][0]
+        assert row["f1_difference_pct"] == pytest.approx(100 * abs(f[truth] - f[other]) / f[other], rel=1e-6)
+    top = sorted(pair["records"], key=lambda r: -r["f1_difference_pct"])[:2]
+    assert all(f"{100 * r['length_m']:.0f} cm" in verdict and f"{r['f1_difference_pct']:.2g} %" in verdict for r in top)
     # the mass within its 95 % profile interval (the joint posterior is a thin curved ridge: the
     # profile follows it where a Gaussian at the MAP does not, docs/joint-calibration.md)
     interval = profile_interval(diagnosis.fits[truth], f"{truth}_kg", span=0.5, points=25)

@@ -137,6 +137,37 @@ def measurement_from_args(args: argparse.Namespace, default_sensor_at_tip: bool 
     return read_measurement(args.data, beam=beam, **record_options(args))
 
 
+def check_joint_arguments(args: argparse.Namespace) -> None:
+    """--shared / --per-record need several records; --save and --report one (BeamInputError)."""
+    from beam.errors import BeamInputError
+
+    several = len(args.data) > 1
+    for flag, value in (("--shared", args.shared), ("--per-record", args.per_record)):
+        if value is not None and not several:
+            raise BeamInputError(f"{flag} needs several records (DATA DATA ...)")
+    for flag in ("save", "report"):
+        if several and getattr(args, flag, None) is not None:
+            raise BeamInputError(f"--{flag} takes one record; a joint calibration writes its summary only (--json)")
+
+
+def several_records(args: argparse.Namespace) -> bool:
+    """The checks a command of one or several records (``beam calibrate``, ``beam diagnose``)
+    starts with: ``--report`` names an .html file, and :func:`check_joint_arguments`.
+
+    Returns True for several records (``args.data`` stays the list of paths); for one record,
+    ``args.data`` becomes its path and False.
+    """
+    if getattr(args, "report", None) is not None and not str(args.report).lower().endswith((".html", ".htm")):
+        from beam.errors import BeamInputError
+
+        raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
+    check_joint_arguments(args)
+    if len(args.data) > 1:
+        return True
+    args.data = args.data[0]
+    return False
+
+
 def measurements_from_args(args: argparse.Namespace) -> list:
     """Every record ``args.data`` names (a list of paths), each read as :func:`measurement_from_args`
     reads one (the same reading and beam flags; a record's own sidecar otherwise)."""

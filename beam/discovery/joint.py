@@ -77,7 +77,9 @@ class JointCandidate:
     def to_json(self) -> dict:
         return {"effect": self.effect, "delta_log_evidence": self.delta_log_evidence, "material": self.material,
                 "records_delta_log_evidence": self.records_delta_log_evidence,
-                "records_delta_log_likelihood": self.records_delta_log_likelihood, "error": self.error}
+                "records_delta_log_likelihood": self.records_delta_log_likelihood,
+                "records_max_log_likelihood": self.records_max_log_likelihood,
+                "records_laplace_ok": self.records_laplace_ok, "error": self.error}
 
 
 @dataclass
