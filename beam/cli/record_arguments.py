@@ -9,6 +9,9 @@ The beam (a sidecar's keys, :mod:`beam.io.measurement`): ``--beam BEAM.toml`` an
 clamp), ``--sensor-mass KG`` (``~KG`` for an approximate mass), ``--sensor-range``. Flags
 override the same keys of ``--beam``; any of them makes the record be read by
 :mod:`beam.io.readers` with that description instead of a sidecar next to it.
+
+``beam calibrate`` and ``beam diagnose`` take one record or several (a joint run):
+:func:`several_records` makes the checks they start with and tells the two apart.
 """
 
 from __future__ import annotations
