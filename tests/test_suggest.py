@@ -83,7 +83,38 @@ def test_the_frequencies_are_the_models_and_the_ranges_are_checked():
         f = BeamModel(geometry, (effect, BASE), input_kind=None).natural_modes(values, 2)[0]
         assert (setting.f1_Hz[k], setting.f2_Hz[k]) == pytest.approx(tuple(f[:2]), rel=1e-6)
     assert setting.resolution_Hz == pytest.approx(1.0 / (first.time_s[-1] - first.time_s[0]))
+    # two fits that predict alike everywhere: no setting separates them, and the words say so
+    same = suggest_record([fits[0], fits[0]], EFFECTS, 0.0, length_range=(0.3, 0.6), points=3)
+    assert same.best.f1_difference_pct == 0.0 and same.words().startswith("no setting within the ranges")
     with pytest.raises(BeamInputError, match="past the tip"):
         suggest_record(fits, EFFECTS, 0.0, position_range=(0.2, 0.7), lengths=False)
     with pytest.raises(BeamInputError, match="0 < A < B"):
         suggest_record(fits, EFFECTS, 0.0, length_range=(0.6, 0.3))
+
+
+def test_from_a_joint_set_of_one_mode_records():
+    """Two one-mode records (40 and 50 cm, 5 g at the sensor, compliant clamp; the strips of
+    tests/test_joint_separation.py) leave sensor_mass and tip_mass within 3 nats jointly; the
+    record the joint fits suggest, simulated and added, separates them."""
+    from tests.test_joint_separation import BASE as ONE_MODE_BASE
+    from tests.test_joint_separation import records, truth_of as one_mode_truth
+
+    options = dict(window=(0.0, 2.0), modes=1, base=ONE_MODE_BASE, candidates=EFFECTS)
+    pair = records("sensor_mass")[1:]
+    jointly = joint_diagnose(pair, **options)
+    assert abs(gap(jointly, "sensor_mass", "tip_mass")) < SEPARATING_NATS
+    suggestion = suggest_record([jointly.fits[e] for e in EFFECTS], EFFECTS, gap(jointly, *EFFECTS),
+                                length_range=(0.25, 0.6))
+    best = suggestion.best
+    geometry = BeamGeometry(length_m=best.length_m, linear_density_kg_m=0.27, patch_start_m=None, patch_end_m=None,
+                            sensor_position_m=best.sensor_position_m)
+    model = BeamModel(geometry, ("sensor_mass", "clamp_compliance", "modal_damping"), input_kind=None)
+    t = np.arange(750) / 250.0
+    clean = model.free_response(one_mode_truth("sensor_mass"), t, [6.4e-4, 0.0], [0.0, 0.0], modes=2,
+                                output="acceleration")
+    new = Measurement("suggested", "simulated strip", geometry, t,
+                      acceleration_m_s2=clean + 0.43 + 0.05 * np.random.default_rng(7).standard_normal(t.size),
+                      nominal={"bending_stiffness_Nm2": 2.333})
+    together = joint_diagnose(pair + [new], **options)
+    assert gap(together, "sensor_mass", "tip_mass") >= 10.0
+    assert together.missing == "sensor_mass"

@@ -129,13 +129,20 @@ class Suggestion:
 
     def words(self) -> str:
         """One sentence, e.g. "clamp it at 35 cm: sensor_mass and tip_mass predict f1 4.3 % apart,
-        40x what a 20 s record resolves"."""
+        40x what a 20 s record resolves"; when the best setting's f1 difference is below the
+        resolution 1/T, that no setting within the ranges separates them."""
         a, b = self.effects
         best = self.best
         where = (f"clamp it at {100.0 * best.length_m:.0f} cm (sensor {100.0 * best.sensor_position_m:.0f} cm "
                  f"from the clamp)" if best.kind == "length"
                  else f"move the sensor to {100.0 * best.sensor_position_m:.0f} cm from the clamp "
                       f"(free length {100.0 * best.length_m:.0f} cm)")
+        if best.f1_difference_resolutions < 1.0:
+            return (f"no setting within the ranges separates {a} from {b} as calibrated: at best ({where}) they "
+                    f"predict f1 {best.f1_difference_pct:.2g} % apart, {best.f1_difference_resolutions:.2g}x what a "
+                    f"{best.duration_s:.3g} s record resolves ({best.resolution_Hz:.2g} Hz). Two fits that both left "
+                    f"their effect out (a mass near zero) predict alike everywhere: then widen the ranges or measure "
+                    f"another mode.")
         return (f"{where}: {a} and {b} predict f1 {best.f1_difference_pct:.2g} % apart "
                 f"({best.f1_Hz[0]:.4g} against {best.f1_Hz[1]:.4g} Hz), {best.f1_difference_resolutions:.2g}x what a "
                 f"{best.duration_s:.3g} s record resolves ({best.resolution_Hz:.2g} Hz), and f2 "
