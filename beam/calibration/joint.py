@@ -711,7 +711,14 @@ def _prior_residuals(problem: JointProblem, z: np.ndarray, columns: np.ndarray) 
 def _modes_of(setup, values: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Natural frequencies (Hz) and damping ratios, each (B, modes), of the retained modes of
     ``setup``'s model at ``values`` (arrays of B): the poles of its reduced system."""
-    reduced, _, _ = setup.model.reduced_system(values, setup.modes)
+    return model_modes(setup.model, values, setup.modes)
+
+
+def model_modes(model, values: Mapping[str, np.ndarray], modes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Natural frequencies (Hz) and damping ratios, each (B, modes), of the lowest ``modes`` modes
+    of a :class:`~beam.physics.model.BeamModel` at ``values`` (arrays of B), batched: the poles
+    of its reduced system."""
+    reduced, _, _ = model.reduced_system(values, modes)
     poles, _ = modal.modal_decomposition(reduced["omega2"], reduced["damping"])
     upper = poles[:, ::2]  # conjugate pairs adjacent, Im > 0 first
     magnitude = np.abs(upper)

@@ -23,7 +23,7 @@ from beam.cli.arguments import (
 )
 from beam.calibration.defaults import AUTO_MODES
 from beam.calibration.spec import CalibrationSpec
-from beam.cli.record_arguments import add_record_arguments, measurement_from_args
+from beam.cli.record_arguments import add_record_arguments, measurement_from_args, several_records
 
 LIKELIHOOD_CHOICES = ("iid", "ar1")
 
@@ -90,19 +90,6 @@ def add_joint_arguments(parser: argparse.ArgumentParser) -> None:
                         "strip was re-clamped (the noise sd, the offset and a free response's initial state always are)")
 
 
-def check_joint_arguments(args: argparse.Namespace) -> None:
-    """--shared / --per-record need several records; --save and --report one (BeamInputError)."""
-    from beam.errors import BeamInputError
-
-    several = len(args.data) > 1
-    for flag, value in (("--shared", args.shared), ("--per-record", args.per_record)):
-        if value is not None and not several:
-            raise BeamInputError(f"{flag} needs several records (DATA DATA ...)")
-    for flag in ("save", "report"):
-        if several and getattr(args, flag, None) is not None:
-            raise BeamInputError(f"--{flag} takes one record; a joint calibration writes its summary only (--json)")
-
-
 def spec_of(args: argparse.Namespace) -> CalibrationSpec:
     """The :class:`~beam.calibration.spec.CalibrationSpec` of the parsed arguments."""
     return CalibrationSpec(window=args.window, effects=args.effects, modes=args.modes, likelihood=args.likelihood,
@@ -110,14 +97,8 @@ def spec_of(args: argparse.Namespace) -> CalibrationSpec:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.report is not None and not str(args.report).lower().endswith((".html", ".htm")):
-        from beam.errors import BeamInputError
-
-        raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
-    check_joint_arguments(args)
-    if len(args.data) > 1:
+    if several_records(args):
         return run_joint(args)
-    args.data = args.data[0]
     measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
     from beam.calibration import calibrate
     result = calibrate(measurement, spec_of(args))

@@ -14,7 +14,6 @@ from beam.cli.arguments import HelpFormatter, effects_epilog, non_negative_int
 from beam.cli.calibrate_command import (
     add_joint_arguments,
     add_model_arguments,
-    check_joint_arguments,
     format_window,
     in_unit as _in_unit,
     percent as _percent,
@@ -39,12 +38,62 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--mcmc", action="store_true", help="re-calibrate every ladder step with full MCMC (slower)")
     parser.add_argument("--seed", type=non_negative_int, default=0, metavar="S", help="random seed of the MCMC (default 0)")
     add_joint_arguments(parser)
+    which = parser.add_argument_group("which record to take next (--suggest)")
+    which.add_argument("--suggest", action="store_true",
+                       help="when the top two explanations are not separated (Δ log evidence < 3 nats), say where a new "
+                       "record would separate them most: a free length or a sensor position, with the predicted f1 "
+                       "difference against the frequency resolution 1/T of a record as long as the first")
+    which.add_argument("--length-range", type=metre_range, default=None, metavar="A:B",
+                       help="free lengths the rig allows, m (default 0.6 to 1.2 times the first record's length)")
+    which.add_argument("--position-range", type=metre_range, default=None, metavar="A:B",
+                       help="sensor positions the rig allows, m from the clamp (default 0.4 times the length to the tip)")
     parser.add_argument("--json", action="store_true",
                         help="print the report as one JSON object (SI units; no progress line)")
     parser.add_argument("--report", default=None, metavar="FILE.html",
                         help="also write a one-page printable summary (self-contained HTML: the error ladder, the "
                         "residual plots, the ranked candidates, the modes)")
     parser.set_defaults(func=run)
+
+
+def metre_range(text: str) -> tuple[float, float]:
+    """``A:B`` in metres, 0 < A < B."""
+    from beam.cli.arguments import finite_float
+
+    parts = text.split(":")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"expected A:B in metres, got {text!r}")
+    lo, hi = (finite_float(p) for p in parts)
+    if not 0.0 < lo < hi:
+        raise argparse.ArgumentTypeError(f"expected 0 < A < B (m), got {text!r}")
+    return lo, hi
+
+
+def check_suggest_arguments(args: argparse.Namespace) -> None:
+    """--length-range and --position-range need --suggest (BeamInputError)."""
+    for flag, value in (("--length-range", args.length_range), ("--position-range", args.position_range)):
+        if value is not None and not args.suggest:
+            from beam.errors import BeamInputError
+
+            raise BeamInputError(f"{flag} needs --suggest")
+
+
+def suggestion_of(args: argparse.Namespace, ranked: list[tuple[str, float]], fits_of) -> dict:
+    """The ``suggestion`` of ``--suggest``: ``ranked`` the candidates (effect, Δ log evidence) best
+    first, ``fits_of(a, b)`` their two joint fits. When the top two are separated already
+    (:data:`beam.discovery.joint.SEPARATING_NATS`): ``{"needed": False, ...}`` with the words."""
+    from beam.discovery.joint import SEPARATING_NATS
+    from beam.discovery.suggest import suggest_record
+
+    ranked = [(e, d) for e, d in ranked if d is not None]
+    if len(ranked) < 2:
+        return {"needed": False, "words": "fewer than two explanations were fitted: nothing to separate."}
+    (a, da), (b, db) = ranked[:2]
+    if da - db >= SEPARATING_NATS:
+        return {"needed": False, "effects": [a, b], "delta_log_evidence": da - db,
+                "words": f"{a} and {b} are separated already ({da - db:.1f} nats): no further record needed."}
+    suggestion = suggest_record(fits_of(a, b), (a, b), da - db, length_range=args.length_range,
+                                position_range=args.position_range)
+    return {"needed": True, **suggestion.to_json()}
 
 
 class TerminalProgress:
@@ -81,16 +130,11 @@ def wants_progress(args: argparse.Namespace) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.cli.record_arguments import measurement_from_args
+    from beam.cli.record_arguments import measurement_from_args, several_records
 
-    if args.report is not None and not str(args.report).lower().endswith((".html", ".htm")):
-        from beam.errors import BeamInputError
-
-        raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
-    check_joint_arguments(args)
-    if len(args.data) > 1:
+    check_suggest_arguments(args)
+    if several_records(args):
         return run_joint(args)
-    args.data = args.data[0]
     measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
     progress = TerminalProgress(sys.stderr) if wants_progress(args) else None
     if progress is not None:
@@ -113,6 +157,11 @@ def run(args: argparse.Namespace) -> int:
     summary = report.to_json()
     if args.report:
         summary["report"] = written
+    if args.suggest:
+        summary["suggestion"] = suggestion_of(
+            args, sorted(((c["effect"], c["delta_log_evidence"]) for c in summary["candidates"]),
+                         key=lambda c: -float("inf") if c[1] is None else -c[1]),
+            lambda a, b: _single_fits(measurement, summary, a, b))
     if args.json:
         json.dump(summary, sys.stdout, allow_nan=False)
         sys.stdout.write("\n")
@@ -134,7 +183,27 @@ def run_joint(args: argparse.Namespace) -> int:
 
     report = joint_diagnose(measurements, window=args.window, modes=args.modes, base=args.base,
                             per_record=args.per_record, shared=args.shared)
-    return print_joint(args, report.to_json(), format_joint_report)
+    summary = report.to_json()
+    if args.suggest:
+        summary["suggestion"] = suggestion_of(args, [(c.effect, c.delta_log_evidence) for c in report.candidates],
+                                              lambda a, b: [report.fits[a], report.fits[b]])
+    return print_joint(args, summary, format_joint_report)
+
+
+def _single_fits(measurement, summary: dict, a: str, b: str) -> list:
+    """The one-record joint fits (the single calibrations, :func:`beam.calibration.joint.joint_preview`)
+    of the diagnosis's base model plus ``a`` and plus ``b``, on its window and modes."""
+    from beam.calibration.joint import joint_preview
+    from beam.discovery.ranking import with_effect
+
+    window = tuple(summary["window_s"])
+    return [joint_preview([measurement], window=window, modes=summary["modes"], effects=with_effect(summary["base"], e))
+            for e in (a, b)]
+
+
+def format_suggestion(suggestion: dict) -> list[str]:
+    """The lines of ``--suggest`` in a readable report."""
+    return ["", "which record to take next: " + suggestion["words"]]
 
 
 def format_joint_report(summary: dict) -> str:
@@ -148,7 +217,9 @@ def format_joint_report(summary: dict) -> str:
         mark = "*" if c["material"] else " "
         alone = ", ".join(_nats(v) for v in c["records_delta_log_evidence"]) or c.get("error") or ""
         lines.append(f"{mark} {c['effect']:18s} {_nats(c['delta_log_evidence']):>21s}  {alone}")
-    lines += ["", summary["verdict"], f"({summary['seconds']:.1f} s)"]
+    lines += ["", summary["verdict"]]
+    lines += format_suggestion(summary["suggestion"]) if "suggestion" in summary else []
+    lines.append(f"({summary['seconds']:.1f} s)")
     return "\n".join(lines) + "\n"
 
 
@@ -194,5 +265,6 @@ def format_report(summary: dict) -> str:
                      f"{_percent(step['coverage95_prediction'])}")
     lines += ["", summary["verdict"]] + [f"note: {n}" for n in summary["notes"]]
     lines += [f"written: {summary['report']}"] if "report" in summary else []
+    lines += format_suggestion(summary["suggestion"]) if "suggestion" in summary else []
     lines.append(f"({summary['seconds']:.1f} s)")
     return "\n".join(lines) + "\n"

@@ -9,6 +9,9 @@ The beam (a sidecar's keys, :mod:`beam.io.measurement`): ``--beam BEAM.toml`` an
 clamp), ``--sensor-mass KG`` (``~KG`` for an approximate mass), ``--sensor-range``. Flags
 override the same keys of ``--beam``; any of them makes the record be read by
 :mod:`beam.io.readers` with that description instead of a sidecar next to it.
+
+``beam calibrate`` and ``beam diagnose`` take one record or several (a joint run):
+:func:`several_records` makes the checks they start with and tells the two apart.
 """
 
 from __future__ import annotations
@@ -135,6 +138,37 @@ def measurement_from_args(args: argparse.Namespace, default_sensor_at_tip: bool 
     if document is not None:
         beam = _Described(document, where)
     return read_measurement(args.data, beam=beam, **record_options(args))
+
+
+def check_joint_arguments(args: argparse.Namespace) -> None:
+    """--shared / --per-record need several records; --save and --report one (BeamInputError)."""
+    from beam.errors import BeamInputError
+
+    several = len(args.data) > 1
+    for flag, value in (("--shared", args.shared), ("--per-record", args.per_record)):
+        if value is not None and not several:
+            raise BeamInputError(f"{flag} needs several records (DATA DATA ...)")
+    for flag in ("save", "report"):
+        if several and getattr(args, flag, None) is not None:
+            raise BeamInputError(f"--{flag} takes one record; a joint calibration writes its summary only (--json)")
+
+
+def several_records(args: argparse.Namespace) -> bool:
+    """The checks a command of one or several records (``beam calibrate``, ``beam diagnose``)
+    starts with: ``--report`` names an .html file, and :func:`check_joint_arguments`.
+
+    Returns True for several records (``args.data`` stays the list of paths); for one record,
+    ``args.data`` becomes its path and False.
+    """
+    if getattr(args, "report", None) is not None and not str(args.report).lower().endswith((".html", ".htm")):
+        from beam.errors import BeamInputError
+
+        raise BeamInputError(f"--report must name an .html file, got {args.report!r}")
+    check_joint_arguments(args)
+    if len(args.data) > 1:
+        return True
+    args.data = args.data[0]
+    return False
 
 
 def measurements_from_args(args: argparse.Namespace) -> list:

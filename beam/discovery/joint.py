@@ -30,7 +30,7 @@ from beam.calibration.spec import CalibrationSpec
 from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, candidate_effects, with_effect
 from beam.errors import BeamInputError
 
-__all__ = ["JointCandidate", "JointDiagnosis", "SEPARATING_NATS", "joint_diagnose"]
+__all__ = ["JointCandidate", "JointDiagnosis", "SEPARATING_NATS", "alone_separation", "joint_diagnose", "separation_words"]
 
 #: Evidence difference (nats) above which two effects are told apart, below which (|Δ| < 3: odds
 #: under 20:1) a record is said not to separate them.
@@ -51,6 +51,12 @@ class JointCandidate:
         Each record's Δ log evidence alone (nats).
     records_delta_log_likelihood : list of float
         Each record's log-likelihood change between the joint MAPs (nats).
+    records_max_log_likelihood : list of float
+        Each record's highest log likelihood alone (its own MAP under base + effect, nats).
+    records_laplace_ok : list of bool
+        Whether the record's own Laplace approximations (base and base + effect) are sound (a
+        positive-definite Hessian, the MAP inside the prior): where not, the record's posterior
+        is a flat ridge and its Laplace Occam factor depends on where the search stopped on it.
     error : str or None
         Why the joint fit failed.
     """
@@ -59,6 +65,8 @@ class JointCandidate:
     delta_log_evidence: float | None
     records_delta_log_evidence: list[float] = field(default_factory=list)
     records_delta_log_likelihood: list[float] = field(default_factory=list)
+    records_max_log_likelihood: list[float] = field(default_factory=list)
+    records_laplace_ok: list[bool] = field(default_factory=list)
     error: str | None = None
 
     @property
@@ -69,7 +77,9 @@ class JointCandidate:
     def to_json(self) -> dict:
         return {"effect": self.effect, "delta_log_evidence": self.delta_log_evidence, "material": self.material,
                 "records_delta_log_evidence": self.records_delta_log_evidence,
-                "records_delta_log_likelihood": self.records_delta_log_likelihood, "error": self.error}
+                "records_delta_log_likelihood": self.records_delta_log_likelihood,
+                "records_max_log_likelihood": self.records_max_log_likelihood,
+                "records_laplace_ok": self.records_laplace_ok, "error": self.error}
 
 
 @dataclass
@@ -94,16 +104,40 @@ class JointDiagnosis:
     @property
     def separated(self) -> list[tuple[str, str]]:
         """Pairs (better, worse): a material candidate and one ranked below it that every record
-        alone leaves within :data:`SEPARATING_NATS` of it but the records together separate by more."""
+        alone leaves within :data:`SEPARATING_NATS` of it (:func:`alone_separation`) but the
+        records together separate by more."""
         out = []
         ranked = [c for c in self.candidates if c.delta_log_evidence is not None]
         for i, a in enumerate(ranked):
             if not a.material:
                 continue
             for b in ranked[i + 1:]:
-                alone = np.abs(np.subtract(a.records_delta_log_evidence, b.records_delta_log_evidence))
+                alone = np.abs(alone_separation(a, b))
                 if np.all(alone < SEPARATING_NATS) and a.delta_log_evidence - b.delta_log_evidence >= SEPARATING_NATS:
                     out.append((a.effect, b.effect))
+        return out
+
+    def separation(self) -> list[dict]:
+        """For each pair of :attr:`separated`: ``better``, ``worse``, the joint
+        ``delta_log_evidence`` between them (nats), ``alone`` (each record's own separation,
+        :func:`alone_separation`) and ``records``: per record its ``length_m`` and
+        ``sensor_position_m`` and the first natural frequency of the two joint MAP models
+        (``f1_better_Hz``, ``f1_worse_Hz``) and their difference ``f1_difference_pct``
+        (100 |f_better - f_worse| / f_worse)."""
+        out = []
+        by_effect = {c.effect: c for c in self.candidates}
+        for better, worse in self.separated:
+            a, b = self.f1_Hz(better), self.f1_Hz(worse)
+            records = []
+            for view, fa, fb in zip(self.base.record_results(), a, b):
+                geometry = view.setup.measurement.geometry
+                records.append({"record": view.setup.measurement.name, "length_m": float(geometry.length_m),
+                                "sensor_position_m": float(geometry.sensor_position_m),
+                                "f1_better_Hz": fa, "f1_worse_Hz": fb, "f1_difference_pct": 100.0 * abs(fa - fb) / fb})
+            out.append({"better": better, "worse": worse,
+                        "delta_log_evidence": self._delta(better) - self._delta(worse),
+                        "alone": [float(v) for v in alone_separation(by_effect[better], by_effect[worse])],
+                        "records": records})
         return out
 
     def f1_Hz(self, effect: str | None) -> list[float]:
@@ -125,14 +159,8 @@ class JointDiagnosis:
         top = self.candidates[0]
         words = [f"Jointly on {len(self.names)} records the model misses {top.effect} "
                  f"(Δ log evidence {top.delta_log_evidence:+.1f} nats)."]
-        for better, worse in self.separated:
-            a, b = self.f1_Hz(better), self.f1_Hz(worse)
-            gap = [100.0 * abs(x - y) / y for x, y in zip(a, b)]
-            where = int(np.argmax(gap))
-            gain = self._delta(better) - self._delta(worse)
-            words.append(f"{better} rather than {worse}: no record alone separates them (|Δ| < {SEPARATING_NATS:g} "
-                         f"nats each), together they do by {gain:.1f} nats; their joint fits predict f1 of "
-                         f"{self.names[where]} {gap[where]:.2g} % apart.")
+        for pair in self.separation():
+            words.append(separation_words(pair))
         return " ".join(words)
 
     def _delta(self, effect: str) -> float:
@@ -177,11 +205,46 @@ class JointDiagnosis:
             "candidates": [c.to_json() for c in self.candidates],
             "missing": self.missing,
             "separated": [list(pair) for pair in self.separated],
+            "separation": self.separation(),
             "ladder": ladder,
             "verdict": self.verdict(),
             "records": self.records_json(),
             "seconds": self.seconds,
         }
+
+
+#: How a verdict names the winner of a pair (better, worse); other pairs: "better, not worse".
+PAIR_WORDS = {("sensor_mass", "tip_mass"): "the mass sits at the sensor, not the tip",
+              ("tip_mass", "sensor_mass"): "the mass sits at the tip, not at the sensor"}
+
+
+def alone_separation(a: JointCandidate, b: JointCandidate) -> np.ndarray:
+    """How far each record alone separates candidates ``a`` and ``b`` (nats, positive for ``a``):
+    the difference of their Laplace Δ log evidence where the record's Laplace approximations are
+    sound, else the difference of the record's highest log likelihoods under each (a Laplace
+    Occam factor on a flat ridge is not a measurement; the data's own preference is)."""
+    laplace = np.subtract(a.records_delta_log_evidence, b.records_delta_log_evidence)
+    if not (a.records_laplace_ok and b.records_laplace_ok and a.records_max_log_likelihood):
+        return laplace
+    ok = np.logical_and(a.records_laplace_ok, b.records_laplace_ok)
+    likelihood = np.subtract(a.records_max_log_likelihood, b.records_max_log_likelihood)
+    return np.where(ok, laplace, likelihood)
+
+
+def separation_words(pair: dict) -> str:
+    """One sentence for an entry of :meth:`JointDiagnosis.separation`: the winner, and the two
+    records (by free length when they differ, else by name) where the two models' f1 differ most."""
+    better, worse = pair["better"], pair["worse"]
+    head = PAIR_WORDS.get((better, worse), f"{better}, not {worse}")
+    records = sorted(pair["records"], key=lambda r: -r["f1_difference_pct"])[:2]
+    lengths = {round(r["length_m"], 3) for r in pair["records"]}
+    label = (lambda r: f"{100.0 * r['length_m']:.0f} cm") if len(lengths) == len(pair["records"]) else (
+        lambda r: r["record"])
+    where = " and ".join(label(r) for r in records)
+    gaps = " and ".join(f"{r['f1_difference_pct']:.2g} %" for r in records)
+    return (f"{head[0].upper()}{head[1:]}: no record alone separates {better} from {worse} (each within "
+            f"{SEPARATING_NATS:g} nats), together they do by {pair['delta_log_evidence']:.1f} nats: at {where} the two "
+            f"predict f1 differently by {gaps}.")
 
 
 def _ladder_rung(fit: JointCalibrationResult) -> dict:
@@ -243,7 +306,9 @@ def joint_diagnose(
         ranked.append(JointCandidate(
             effect, float(result.laplace.log_evidence - base_fit.laplace.log_evidence),
             [float(c.laplace.log_evidence - b.laplace.log_evidence) for c, b in zip(result.records, base_fit.records)],
-            [float(v) for v in _record_log_likelihoods(result) - base_ll]))
+            [float(v) for v in _record_log_likelihoods(result) - base_ll],
+            [_max_log_likelihood(c) for c in result.records],
+            [bool(c.laplace.ok and b.laplace.ok) for c, b in zip(result.records, base_fit.records)]))
     ranked.sort(key=lambda c: -math.inf if c.delta_log_evidence is None else -c.delta_log_evidence)
     return JointDiagnosis(base_fit, ranked, fits, time.perf_counter() - t0)
 
@@ -284,6 +349,12 @@ def _names_in(per_record, effects):
         own.add("damping_ratio_mode_")
     kept = [n.strip() for n in names if n.strip() in effects or any(p.startswith(n.strip()) for p in own)]
     return kept
+
+
+def _max_log_likelihood(record) -> float:
+    """A record's log likelihood at its own MAP (nats): the log posterior minus the log prior."""
+    z = record.laplace.map.z[None, :]
+    return float(record.laplace.map.log_posterior - record.problem.log_prior(z)[0])
 
 
 def _record_log_likelihoods(fit: JointCalibrationResult) -> np.ndarray:
