@@ -35,8 +35,7 @@ DEFAULT_RECORDS = ("adxl_50cm_114655", "adxl_50cm_114759")
 #: docs/joint-calibration.md).
 DEFAULT_EFFECTS = ("modal_damping", "sensor_mass")
 #: Sampling choices as shown: the Laplace preview only, or emcee for that many ensemble steps.
-SAMPLING = {"Laplace approximation only (seconds)": 0, "MCMC, 300 ensemble steps (about a minute)": 300,
-            "MCMC, 1000 ensemble steps (minutes)": 1000}
+SAMPLING = {"Laplace only (seconds)": 0, "MCMC, 300 steps (~1 min)": 300, "MCMC, 1000 steps (minutes)": 1000}
 STAGES = ("idle", "queued", "preview", "sampling", "final", "error")
 
 

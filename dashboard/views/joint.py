@@ -22,7 +22,7 @@ import panel as pn
 import param
 
 from dashboard.jobs.joint import MAX_RECORDS
-from dashboard.outputs.beam import effect_title, output_units, parameter_label
+from dashboard.outputs.beam import effect_title, output_units, parameter_label, short_label
 from dashboard.plots.joint import RecordPanel
 from dashboard.runtime.staging import run_steps
 from dashboard.state.joint import SAMPLING
@@ -95,6 +95,16 @@ def interval_text(s: dict | None) -> str:
     return f"{mean:.{digits}g} ({lo:.{digits}g}–{hi:.{digits}g})"
 
 
+def interval_html(s: dict | None) -> str:
+    """:func:`interval_text` on two lines (the mean, then the interval), neither broken: narrow columns."""
+    text = interval_text(s)
+    if "(" not in text:
+        return text
+    mean, interval = text.split(" ", 1)
+    return f'<span style="white-space:nowrap">{mean}</span><br><span style="white-space:nowrap">{interval}</span>'
+
+
+
 def _width(s: dict | None) -> float:
     return math.nan if s is None else float(s["q975"] - s["q025"])
 
@@ -108,14 +118,15 @@ def shared_table_html(outcome) -> str:
     unit = outcome.joint.records[0].setup.measurement.output_unit
     head = (f'<th style="{HEAD}{FIRST}">Shared parameter (unit)</th><th style="{HEAD}">Jointly, all {len(names)}</th>'
             + "".join(f'<th style="{HEAD}">{html.escape(n)} alone</th>' for n in names)
-            + f'<th style="{HEAD}">Joint width ÷ narrowest alone</th>')
+            + f'<th style="{HEAD}">Joint ÷ narrowest width</th>')
     rows = []
     for row in outcome.shared_rows():
         widths = [w for w in (_width(a) for a in row["alone"]) if math.isfinite(w) and w > 0]
         ratio = _width(row["joint"]) / min(widths) if widths else math.nan
-        cells = "".join(f'<td style="{CELL}">{interval_text(a)}</td>' for a in row["alone"])
-        rows.append(f'<tr data-name="{row["name"]}"><td style="{CELL}{FIRST}">{html.escape(parameter_label(row["name"], unit))}</td>'
-                    f'<td style="{CELL}font-weight:600;">{interval_text(row["joint"])}</td>{cells}'
+        cells = "".join(f'<td style="{CELL}">{interval_html(a)}</td>' for a in row["alone"])
+        rows.append(f'<tr data-name="{row["name"]}"><td style="{CELL}{FIRST}" title="{html.escape(parameter_label(row["name"], unit))}">'
+                    f'{html.escape(short_label(row["name"], unit))}</td>'
+                    f'<td style="{CELL}font-weight:600;">{interval_html(row["joint"])}</td>{cells}'
                     f'<td style="{CELL}">{"–" if not math.isfinite(ratio) else f"{ratio:.2f}"}</td></tr>')
     return (f'<div style="overflow-x:auto"><table class="joint-shared-table" style="{TABLE_CSS}"><thead><tr>{head}</tr></thead>'
             f'<tbody>{"".join(rows)}</tbody></table></div>'
@@ -124,35 +135,38 @@ def shared_table_html(outcome) -> str:
 
 
 def records_table_html(outcome) -> str:
-    """Per record under the joint calibration: geometry, window, RMSE in and after the window,
-    coverage of the 95 % band after it, the joint model's natural frequencies and the per-record parameters."""
+    """Per record under the joint calibration (one column each): geometry, window, RMSE in and
+    after the window, coverage of the 95 % band after it, the joint model's natural frequencies
+    and the record's own parameters (those calibrated per record)."""
     if outcome is None:
         return ""
     u = output_units(outcome.views[0])
-    head = ("<th style=\"{h}{f}\">Record</th><th style=\"{h}\">Free length (m)</th><th style=\"{h}\">Sensor at (m from the clamp)</th>"
-            "<th style=\"{h}\">Window (s)</th><th style=\"{h}\">RMSE in the window ({u})</th>"
-            "<th style=\"{h}\">RMSE held out ({u})</th><th style=\"{h}\">Held out inside the 95 % band (%)</th>"
-            "<th style=\"{h}\">Natural frequencies of the joint model (Hz)</th>").format(h=HEAD, f=FIRST, u=u.unit)
-    per_record = bool(outcome.joint.per_record)
-    if per_record:
-        head += f'<th style="{HEAD}">Its own parameters</th>'
-    rows = []
+    rows: list[tuple[str, list[str]]] = [
+        ("Free length (m)", []), ("Sensor position (m from the clamp)", []), ("Calibration window (s)", []),
+        (f"RMSE in the window ({u.unit})", []), (f"RMSE held out ({u.unit})", []),
+        ("Held-out samples inside the 95 % band (%)", []), ("Natural frequencies, joint model (Hz)", []),
+        (f"Noise sd σ ({u.unit})", [])]
+    own_names = list(dict.fromkeys(n for r in outcome.records for n in r["parameters"]))
+    rows += [(f"Its own {short_label(n, outcome.records[0]['output_unit'])}", []) for n in own_names]
     for view, record in zip(outcome.views, outcome.records):
         g = view.setup.measurement.geometry
         lo, hi = record["window_s"]
         coverage = record["coverage95_prediction"]
-        own = "; ".join(f"{parameter_label(n, record['output_unit'])}: {interval_text(s)}"
-                        for n, s in record["parameters"].items())
-        cells = [f"{g.length_m:.3g}", f"{g.sensor_position_m:.3g}", f"{lo:g}–{hi:g}",
-                 _fmt(u.scale * record["rmse_calibration"]), _fmt(u.scale * record["rmse_prediction"]),
-                 "–" if not math.isfinite(coverage) else f"{100 * coverage:.1f}",
-                 ", ".join(f"{f:.4g}" for f in record["frequencies_Hz"])]
-        if per_record:
-            cells.append(html.escape(own) or "–")
-        rows.append(f'<tr><td style="{CELL}{FIRST}">{html.escape(record["record"])}</td>'
-                    + "".join(f'<td style="{CELL}">{c}</td>' for c in cells) + "</tr>")
+        noise = record["noise_sd"]["mean"] if record.get("noise_sd") else math.nan
+        values = [f"{g.length_m:.3g}", f"{g.sensor_position_m:.3g}", f"{lo:g}–{hi:g}",
+                  _fmt(u.scale * record["rmse_calibration"]), _fmt(u.scale * record["rmse_prediction"]),
+                  "–" if not math.isfinite(coverage) else f"{100 * coverage:.1f}",
+                  ", ".join(f"{f:.4g}" for f in record["frequencies_Hz"]), _fmt(u.scale * noise)]
+        values += [interval_text(record["parameters"].get(n)) for n in own_names]
+        for (_, cells), value in zip(rows, values):
+            cells.append(value)
+    head = f'<th style="{HEAD}{FIRST}">Record</th>' + "".join(
+        f'<th style="{HEAD}">{html.escape(n)}</th>' for n in outcome.names)
+    body = "".join(f'<tr><td style="{CELL}{FIRST}">{html.escape(label)}</td>'
+                   + "".join(f'<td style="{CELL}">{html.escape(c)}</td>' for c in cells) + "</tr>"
+                   for label, cells in rows)
     return (f'<div style="overflow-x:auto"><table class="joint-records-table" style="{TABLE_CSS}"><thead><tr>{head}</tr></thead>'
-            f'<tbody>{"".join(rows)}</tbody></table></div>')
+            f"<tbody>{body}</tbody></table></div>")
 
 
 def _fmt(value: float) -> str:
@@ -318,7 +332,7 @@ class JointView(pn.viewable.Viewer):
         st.beam.param.watch(sync, ["uploads"])
         records.param.watch(lambda e: setattr(st, "records", list(e.new)) if list(e.new) != list(st.records) else None,
                             "value")
-        window = pn.widgets.RangeSlider.from_param(st.param.window_s, start=0.0, end=10.0, step=0.05, format="0.00",
+        window = pn.widgets.RangeSlider.from_param(st.param.window_s, name="Calibration window (s)", start=0.0, end=10.0, step=0.05, format="0.00",
                                                    sizing_mode="stretch_width", css_classes=["joint-window"])
 
         def bounds(*_):
@@ -355,7 +369,8 @@ class JointView(pn.viewable.Viewer):
         self._left.append(pn.Card(
             Markdown(f"**Records of one beam** (up to {MAX_RECORDS}; uploads from the *Beam calibration* and "
                      "*Your record* tabs appear here too)", margin=(0, 10)), records,
-            window, modes,
+            window, Markdown("The same window on every record; the rest of each record is held out.", margin=(0, 10)),
+            modes,
             Markdown("**Effects in the model** (besides the beam's stiffness EI)", margin=(5, 10, 0, 10)), effects,
             per_record, sampling, calibrate, diagnose, cancel,
             title="Several records", collapsible=False, sizing_mode="stretch_width"))
