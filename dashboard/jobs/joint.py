@@ -35,8 +35,8 @@ from functools import lru_cache
 from beam.calibration import CalibrationResult, CalibrationSpec, calibration_preview, default_engine
 from beam.calibration.joint import JointCalibrationResult, joint_preview
 from beam.calibration.run import default_walkers
-from beam.discovery.joint import JointDiagnosis, joint_diagnose
-from beam.discovery.ranking import candidate_effects
+from beam.discovery.joint import SEPARATING_NATS, JointDiagnosis, joint_diagnose
+from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, candidate_effects
 from beam.errors import BeamInputError
 from beam.inference import EnsembleRun
 from beam.io.measurement import Measurement, read_measurement
@@ -44,7 +44,9 @@ from dashboard.jobs.beam import ASSETS, bundled_datasets, load_bundled
 from dashboard.runtime import scheduler as sch
 
 __all__ = [
+    "MATERIAL_LOG_EVIDENCE",
     "MAX_RECORDS",
+    "SEPARATING_NATS",
     "JointKey",
     "JointOutcome",
     "available_records",

@@ -21,7 +21,7 @@ import math
 import panel as pn
 import param
 
-from dashboard.jobs.joint import MAX_RECORDS
+from dashboard.jobs.joint import MATERIAL_LOG_EVIDENCE, MAX_RECORDS, SEPARATING_NATS
 from dashboard.outputs.beam import effect_title, output_units, parameter_label, short_label
 from dashboard.plots.joint import RecordPanel
 from dashboard.runtime.staging import run_steps
@@ -117,7 +117,7 @@ def shared_table_html(outcome) -> str:
     names = outcome.names
     unit = outcome.joint.records[0].setup.measurement.output_unit
     head = (f'<th style="{HEAD}{FIRST}">Shared parameter (unit)</th><th style="{HEAD}">Jointly, all {len(names)}</th>'
-            + "".join(f'<th style="{HEAD}">{html.escape(n)} alone</th>' for n in names)
+            + "".join(f'<th style="{HEAD}" title="{html.escape(n)}">Record {k + 1} alone</th>' for k, n in enumerate(names))
             + f'<th style="{HEAD}">Joint ÷ narrowest width</th>')
     rows = []
     for row in outcome.shared_rows():
@@ -130,8 +130,8 @@ def shared_table_html(outcome) -> str:
                     f'<td style="{CELL}">{"–" if not math.isfinite(ratio) else f"{ratio:.2f}"}</td></tr>')
     return (f'<div style="overflow-x:auto"><table class="joint-shared-table" style="{TABLE_CSS}"><thead><tr>{head}</tr></thead>'
             f'<tbody>{"".join(rows)}</tbody></table></div>'
-            '<p style="font-size:15px;margin:4px 0;">Mean and 95 % interval of each parameter; the joint one uses every '
-            "record, each record's own only itself (same model, window and modes).</p>")
+            f'<p style="font-size:15px;margin:4px 0;">{records_key(names)}. Mean and 95 % interval of each parameter; the '
+            "joint one uses every record, each record's own only itself (same model, window and modes).</p>")
 
 
 def records_table_html(outcome) -> str:
@@ -161,7 +161,7 @@ def records_table_html(outcome) -> str:
         for (_, cells), value in zip(rows, values):
             cells.append(value)
     head = f'<th style="{HEAD}{FIRST}">Record</th>' + "".join(
-        f'<th style="{HEAD}">{html.escape(n)}</th>' for n in outcome.names)
+        f'<th style="{HEAD}">{k + 1}. {html.escape(n)}</th>' for k, n in enumerate(outcome.names))
     body = "".join(f'<tr><td style="{CELL}{FIRST}">{html.escape(label)}</td>'
                    + "".join(f'<td style="{CELL}">{html.escape(c)}</td>' for c in cells) + "</tr>"
                    for label, cells in rows)
@@ -173,14 +173,18 @@ def _fmt(value: float) -> str:
     return "–" if not math.isfinite(value) else f"{value:.3g}"
 
 
-def deciding_record(candidate, names: list[str]) -> str:
-    """The record with the largest share of ``candidate``'s joint gain (its log-likelihood change
-    between the joint fits, nats); '' when there is none."""
+def records_key(names: list[str]) -> str:
+    """``"Record 1: adxl_50cm_114655, record 2: ..."`` (escaped HTML)."""
+    return ", ".join(f"{'Record' if k == 0 else 'record'} {k + 1}: {html.escape(n)}" for k, n in enumerate(names))
+
+
+def deciding_record(candidate) -> int | None:
+    """Index of the record with the largest share of ``candidate``'s joint gain (its log-likelihood
+    change between the joint fits, nats); None when the candidate gains nothing jointly."""
     shares = candidate.records_delta_log_likelihood
-    if not shares:
-        return ""
-    k = max(range(len(shares)), key=lambda i: shares[i])
-    return names[k]
+    if not shares or candidate.delta_log_evidence is None or candidate.delta_log_evidence <= 0:
+        return None
+    return max(range(len(shares)), key=lambda i: shares[i])
 
 
 def diagnosis_table_html(diagnosis) -> str:
@@ -190,21 +194,25 @@ def diagnosis_table_html(diagnosis) -> str:
         return ""
     names = diagnosis.names
     head = (f'<th style="{HEAD}{FIRST}">Effect added</th><th style="{HEAD}">Jointly: Δ log evidence (nats)</th>'
-            + "".join(f'<th style="{HEAD}">{html.escape(n)} alone (nats)</th>' for n in names)
-            + f'<th style="{HEAD}">Decided by (largest share of the joint gain)</th>')
+            + "".join(f'<th style="{HEAD}" title="{html.escape(n)}">Record {k + 1} alone (nats)</th>'
+                      for k, n in enumerate(names))
+            + f'<th style="{HEAD}">Decided by record</th>')
     rows = []
     for c in diagnosis.candidates:
         joint = "failed: " + html.escape(c.error or "") if c.delta_log_evidence is None else f"{c.delta_log_evidence:+,.1f}"
         alone = c.records_delta_log_evidence or [math.nan] * len(names)
         weight = "font-weight:600;" if c.material else ""
+        decides = deciding_record(c)
         rows.append(f'<tr data-effect="{c.effect}"><td style="{CELL}{FIRST}{weight}">{html.escape(effect_title(c.effect))}</td>'
                     f'<td style="{CELL}{weight}">{joint}</td>'
                     + "".join(f'<td style="{CELL}">{"–" if not math.isfinite(v) else f"{v:+,.1f}"}</td>' for v in alone)
-                    + f'<td style="{CELL}">{html.escape(deciding_record(c, names)) or "–"}</td></tr>')
+                    + f'<td style="{CELL}">{"–" if decides is None else decides + 1}</td></tr>')
     return (f'<div style="overflow-x:auto"><table class="joint-diagnosis-table" style="{TABLE_CSS}"><thead><tr>{head}</tr>'
             f'</thead><tbody>{"".join(rows)}</tbody></table></div>'
-            '<p style="font-size:15px;margin:4px 0;">Δ log evidence: how much better the model explains the data with the '
-            "effect added (nats; 3 or more is material, 20:1 odds). Bold: material jointly.</p>")
+            f'<p style="font-size:15px;margin:4px 0;">{records_key(names)}. Δ log evidence: how much better the model '
+            f"explains the data with the effect added (nats); {MATERIAL_LOG_EVIDENCE:g} or more jointly is material (bold). "
+            f"A record alone tells two effects apart when their Δ differ by {SEPARATING_NATS:g} nats or more. "
+            "Decided by: the record with the largest share of the joint gain.</p>")
 
 
 class JointView(pn.viewable.Viewer):

@@ -18,7 +18,7 @@ from scipy import signal
 from beam.discovery.joint import joint_diagnose
 from dashboard.jobs.joint import load_record
 from dashboard.state.session import SessionState
-from dashboard.views.joint import JointView, interval_text
+from dashboard.views.joint import JointView, diagnosis_table_html, interval_text
 
 RUNS = ["adxl_50cm_114655", "adxl_50cm_114759"]
 INPUTS = {"window_s": (0.0, 1.0), "modes": 2, "effects": ["modal_damping", "sensor_mass"], "sampling": 0}
@@ -125,6 +125,12 @@ def test_joint_diagnosis_merges_the_candidates_as_the_library_ranks_them(session
         assert np.allclose(a.records_delta_log_evidence, b.records_delta_log_evidence, atol=0.5)
     assert merged.missing == reference.missing
     assert merged.verdict().split(".")[0] == reference.verdict().split(".")[0]
+    # the view's table: the candidates in the ranked order, a column per record
+    table = diagnosis_table_html(merged)
+    assert table.index('data-effect="sensor_mass"') > 0 and table.index('data-effect="tip_mass"') > 0
+    order = sorted(candidates, key=lambda e: table.index(f'data-effect="{e}"'))
+    assert order == [c.effect for c in reference.candidates]
+    assert "Record 1 alone (nats)" in table and "Record 2 alone (nats)" in table and "Record 3" not in table
 
 
 def test_interval_text_shows_the_width_of_the_interval():
