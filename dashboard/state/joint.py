@@ -74,6 +74,7 @@ class JointState(param.Parameterized):
     diag_progress = param.Number(0.0, bounds=(0.0, 1.0), constant=True)
     diag_error = param.String("", constant=True, doc="Why the latest joint diagnosis failed, or ''.")
     diag_requested = param.Integer(0, constant=True)
+    diag_shown = param.Integer(0, constant=True)
     diagnosis = param.ClassSelector(class_=JointDiagnosis, default=None, allow_None=True, constant=True,
                                     doc="The joint diagnosis shown (partial while candidates are judged).")
 
@@ -159,36 +160,28 @@ class JointState(param.Parameterized):
     # -- updates from the scheduler ------------------------------------------------------------
     def on_run_update(self, update: sch.Update) -> None:
         """The ``joint`` slot's callback."""
-        with editing(self):
-            if update.kind == "error":
-                kept = " The previous result is still shown." if self.result is not None else ""
-                self.param.update(stage="error", error=user_message(update.message), progress=0.0,
-                                  status=f"failed.{kept}")
-            elif update.kind == "progress":
-                self.param.update(stage="sampling", progress=update.fraction or 0.0, status=update.message)
-            elif update.kind in ("preview", "partial"):
-                self.param.update(stage="preview", error="", result=update.value, shown=update.request,
-                                  progress=0.0, status=update.message)
-            else:
-                self.param.update(stage="final", error="", result=update.value, shown=update.request, progress=1.0,
-                                  status=f"{update.message}: ready in {update.elapsed_s:.1f} s")
+        self._show(update, "", "result", "result")
 
     def on_diagnosis_update(self, update: sch.Update) -> None:
         """The ``joint-diagnosis`` slot's callback."""
+        self._show(update, "diag_", "diagnosis", "diagnosis")
+
+    def _show(self, update: sch.Update, prefix: str, value_name: str, what: str) -> None:
+        """An update of a job: its stage, status, progress and error (parameters named ``prefix`` +
+        those) and, for a result, the value (``value_name``); an error keeps the value shown."""
+        if update.kind == "error":
+            kept = f" The previous {what} is still shown." if getattr(self, value_name) is not None else ""
+            values = {"stage": "error", "error": user_message(update.message), "progress": 0.0, "status": f"failed.{kept}"}
+        elif update.kind == "progress":
+            values = {"stage": "sampling", "progress": update.fraction or 0.0, "status": update.message}
+        else:
+            final = update.kind == "final"
+            values = {"stage": "final" if final else "preview", "error": "", "shown": update.request,
+                      "progress": 1.0 if final else update.fraction or 0.0,
+                      "status": f"{update.message}: ready in {update.elapsed_s:.1f} s" if final else update.message}
         with editing(self):
-            if update.kind == "error":
-                kept = " The previous diagnosis is still shown." if self.diagnosis is not None else ""
-                self.param.update(diag_stage="error", diag_error=user_message(update.message), diag_progress=0.0,
-                                  diag_status=f"failed.{kept}")
-            elif update.kind == "progress":
-                self.param.update(diag_stage="sampling", diag_progress=update.fraction or 0.0,
-                                  diag_status=update.message)
-            elif update.kind in ("preview", "partial"):
-                self.param.update(diag_stage="preview", diag_error="", diagnosis=update.value,
-                                  diag_progress=update.fraction or 0.0, diag_status=update.message)
-            else:
-                self.param.update(diag_stage="final", diag_error="", diagnosis=update.value, diag_progress=1.0,
-                                  diag_status=f"{update.message}: ready in {update.elapsed_s:.1f} s")
+            self.param.update(**{prefix + k: v for k, v in values.items()},
+                              **({value_name: update.value} if "shown" in values else {}))
 
     def close(self) -> None:
         """Cancel both jobs (the session ends)."""

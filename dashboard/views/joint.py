@@ -29,13 +29,11 @@ from dashboard.state.joint import SAMPLING
 from dashboard.state.session import SessionState
 from dashboard.views.panes import (
     BUTTON_WRAP,
-    FLEX_ITEM_GUIDE,
-    FLEX_ITEM_INPUTS,
-    FLEX_ITEM_MAIN,
     HTML,
     Markdown,
     alert_html,
     status_html,
+    three_columns,
 )
 
 __all__ = ["JOINT_GUIDE", "JointView", "diagnosis_table_html", "interval_text", "records_table_html",
@@ -259,28 +257,24 @@ class JointView(pn.viewable.Viewer):
         if self._built:
             return
         self._built = True
-        self._left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS, css_classes=["joint-inputs"])
-        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN,
-                                 css_classes=["joint-main"])
-        self._right = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=["joint-guide"])
-        self._layout[:] = [pn.FlexBox(self._left, self._centre, self._right, flex_wrap="wrap",
-                                      align_items="flex-start", sizing_mode="stretch_width")]
+        self._left, self._centre, self._right, row = three_columns("joint")
+        self._layout[:] = [row]
         run_steps([self._build_status, self._build_results, self._build_inputs, self._build_side])
 
     # -- the steps of the build ------------------------------------------------------------------
-    def _status(self, css: str, texts: dict, prefix: str, **extra) -> pn.Column:
+    def _status(self, css: str, texts: dict, prefix: str) -> pn.Column:
         st = self._joint
         p = st.param
         stage, status, progress, error = (p[f"{prefix}{n}"] for n in ("stage", "status", "progress", "error"))
-        requested = p[f"{prefix}requested"]
+        requested, shown = p[f"{prefix}requested"], p[f"{prefix}shown"]
 
-        def text(stage, status, requested, result, diagnosis):
+        def text(stage, status, requested, shown, result, diagnosis):
             data = {"records": len(result.names) if result is not None else 0,
                     "panels": len(self._panels), "preview": int(result is None or result.joint.is_preview),
                     "candidates": len(diagnosis.candidates) if diagnosis is not None else 0}
-            return status_html(css, stage, status, requested, st.shown, texts.get(stage, stage), **data)
+            return status_html(css, stage, status, requested, shown, texts.get(stage, stage), **data)
 
-        line = HTML(pn.bind(text, stage, status, requested, p.result, p.diagnosis), sizing_mode="stretch_width",
+        line = HTML(pn.bind(text, stage, status, requested, shown, p.result, p.diagnosis), sizing_mode="stretch_width",
                     margin=(5, 10, 0, 10))
         bar = pn.indicators.Progress(
             value=pn.bind(lambda s, f: 100 if s == "final" else round(100 * f) if s in ("preview", "sampling") else 0,
