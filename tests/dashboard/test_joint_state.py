@@ -137,3 +137,30 @@ def test_interval_text_shows_the_width_of_the_interval():
     assert interval_text({"mean": 2.13654, "q025": 2.13633, "q975": 2.13676}) == "2.13654 (2.13633–2.13676)"
     assert interval_text({"mean": 0.004084, "q025": 0.004077, "q975": 0.004091}) == "0.004084 (0.004077–0.004091)"
     assert interval_text(None) == "–"
+
+
+def test_cancel_stops_the_joint_calibration_and_publishes_nothing(session):
+    joint = session.joint
+    joint.param.update(**INPUTS)
+    joint.calibrate()
+    joint.cancel()
+    assert session.wait(300)
+    assert joint.stage == "idle" and joint.result is None and "cancelled" in joint.status
+
+
+def test_joint_mcmc_publishes_the_preview_then_the_posterior(session):
+    joint = session.joint
+    joint.param.update(**{**INPUTS, "sampling": 0})
+    joint.param.sampling.objects = {**joint.param.sampling.objects, "MCMC, 30 steps": 30}  # short: a test
+    joint.sampling = 30
+    shown = []
+    joint.param.watch(lambda e: shown.append(e.new), "result")
+    joint.calibrate()
+    assert session.wait(600)
+    assert joint.stage == "final", (joint.status, joint.error)
+    # the joint preview first, then the MCMC posterior
+    assert [(o.joint.is_preview, o.joint.posterior is not None) for o in shown] == [(True, False), (False, True)]
+    laplace, mcmc = (o.joint.summary()["sensor_mass_kg"] for o in shown)
+    assert shown[1].joint.posterior.diagnostics is not None
+    # a short chain from the joint MAP: its mean within a few Laplace sds of the Laplace one
+    assert abs(mcmc["mean"] - laplace["mean"]) < 5 * laplace["sd"], (mcmc, laplace)
