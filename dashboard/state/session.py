@@ -35,6 +35,7 @@ from dashboard.state.beam import BeamState, DiagnosisState
 from dashboard.state.editing import editing
 from dashboard.state.study import StudyState
 from dashboard.state.record import RecordState
+from dashboard.state.joint import JointState
 
 __all__ = ["LANDING_SEED", "LIKELIHOOD_LABELS", "SessionState", "ToyState"]
 
@@ -234,6 +235,7 @@ class SessionState(param.Parameterized):
             self.param.update(toy=toy, beam=beam, diagnosis=diagnosis)
         self.study = StudyState(beam=beam, dispatch=dispatch)  # the window study (dashboard.state.study)
         self.record = RecordState.attached(self)  # the "Your record" view's state
+        self.joint = JointState.attached(self)  # the "Several records" view's state (dashboard.state.joint)
 
     def slot(self, name: str, on_update: Callable[[sch.Update], None], *, debounce_s: float | None = None) -> sch.RunSlot:
         """A new named run slot of this session (one per activity: a new request cancels only its own)."""

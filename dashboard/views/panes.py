@@ -25,7 +25,7 @@ import panel as pn
 
 __all__ = ["ALERT_COLOURS", "BASE_TEXT_PX", "BUTTON_WRAP", "ClassroomDesign", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "DataFrame",
            "HTML", "MIN_TEXT_PX", "corner_grid", "diagnosis_download", "Markdown", "READABLE_CSS", "ROOT_CSS", "alert_html",
-           "status_html"]
+           "status_html", "three_columns"]
 
 #: Layout of the views (CSS, shared with the diagnosis view): a wrapping flex row of a fixed
 #: input column, a main column that takes the rest, and the "For the class" panel, which
@@ -94,6 +94,16 @@ def status_html(css: str, stage: str, status: str, requested: int, shown: int, t
     detail = f" <small>({status})</small>" if status else ""
     return (f'<div class="{css}" data-stage="{stage}" data-requested="{requested}" data-shown="{shown}" {attrs}>'
             f"<b>{text}</b>{detail}</div>")
+
+
+def three_columns(prefix: str) -> tuple[pn.Column, pn.Column, pn.Column, pn.FlexBox]:
+    """The views' wrapping layout: an input column, a main column and the "For the class" column
+    (CSS classes ``PREFIX-inputs``, ``PREFIX-main``, ``PREFIX-guide``), and the flex row holding them."""
+    left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS, css_classes=[f"{prefix}-inputs"])
+    centre = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN, css_classes=[f"{prefix}-main"])
+    right = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=[f"{prefix}-guide"])
+    row = pn.FlexBox(left, centre, right, flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width")
+    return left, centre, right, row
 
 
 def corner_grid(grid: list[list], size: int) -> pn.Column:

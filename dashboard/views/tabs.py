@@ -14,6 +14,7 @@ import param
 from dashboard.state.session import SessionState
 from dashboard.views.beam import BeamCalibrationView
 from dashboard.views.diagnosis import DiagnosisView
+from dashboard.views.joint import JointView
 from dashboard.views.panes import Markdown
 from dashboard.views.study import StudyView
 from dashboard.views.record import RecordView
@@ -41,4 +42,5 @@ VIEWS = (
     ("Window study", StudyView),
     ("Diagnosis", DiagnosisView),
     ("Your record", RecordView),
+    ("Several records", JointView),
 )

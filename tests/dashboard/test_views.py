@@ -42,8 +42,10 @@ def test_app_has_three_views_over_one_session(session):
         app = create_app(session)
     assert app.session_state is session
     tabs = app.main[0]
-    assert [title for title, _ in VIEWS] == ["Toy periodic model", "Beam calibration", "Window study", "Diagnosis", "Your record"]
-    assert app.tab_titles == ["Toy periodic model", "Beam calibration", "Window study", "Diagnosis", "Your record"]
+    assert [title for title, _ in VIEWS] == ["Toy periodic model", "Beam calibration", "Window study", "Diagnosis", "Your record",
+                                           "Several records"]
+    assert app.tab_titles == ["Toy periodic model", "Beam calibration", "Window study", "Diagnosis", "Your record",
+                                           "Several records"]
     assert list(app.views) == app.tab_titles
     assert all(view.session is session for view in app.views.values())
 

@@ -1,0 +1,383 @@
+"""The "Several records" view: records of one beam calibrated and diagnosed jointly.
+
+A :class:`pn.viewable.Viewer` over ``session.joint`` (:class:`~dashboard.state.joint.JointState`);
+nothing here calls ``beam`` directly. Choose records (bundled lab runs, the shipped real runs,
+uploads of this session), the model and the per-record parameters, then
+
+* *Calibrate jointly*: one panel per record (its data, the joint MAP model, the 95 % prediction
+  band, the calibration window shaded; :class:`dashboard.plots.joint.RecordPanel`), the shared
+  parameters' joint intervals beside each record's own, and per record the RMSE, the coverage
+  and the natural frequencies of the joint model;
+* *Diagnose jointly*: the candidate effects ranked by their joint evidence, each record's own
+  Δ log evidence and its share of the joint gain (the record that decides), and the library's
+  verdict.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+
+import panel as pn
+import param
+
+from dashboard.jobs.joint import MATERIAL_LOG_EVIDENCE, MAX_RECORDS, SEPARATING_NATS
+from dashboard.outputs.beam import effect_title, output_units, parameter_label, short_label
+from dashboard.plots.joint import RecordPanel
+from dashboard.runtime.staging import run_steps
+from dashboard.state.joint import SAMPLING
+from dashboard.state.session import SessionState
+from dashboard.views.panes import (
+    BUTTON_WRAP,
+    HTML,
+    Markdown,
+    alert_html,
+    status_html,
+    three_columns,
+)
+
+__all__ = ["JOINT_GUIDE", "JointView", "diagnosis_table_html", "interval_text", "records_table_html",
+           "shared_table_html"]
+
+_STAGE_TEXT = {
+    "idle": "Choose two or more records of one beam, then press Calibrate jointly.",
+    "queued": "Calibrating jointly…",
+    "preview": "Joint preview (MAP + Laplace) shown; MCMC running…",
+    "sampling": "Calibrating: each record alone first, then all together…",
+    "final": "Joint calibration shown.",
+    "error": "Could not calibrate these records jointly.",
+}
+_DIAG_TEXT = {
+    "idle": "Press Diagnose jointly to rank the candidate effects on every record together.",
+    "queued": "Diagnosing jointly…",
+    "preview": "Candidates judged so far (more coming)…",
+    "sampling": "Judging the candidate effects…",
+    "final": "Joint diagnosis shown.",
+    "error": "Could not diagnose these records jointly.",
+}
+#: Styles of the result tables (text at the views' size; numbers right-aligned).
+TABLE_CSS = ("border-collapse:collapse;font-size:15px;width:100%;")
+CELL = "padding:4px 8px;border-bottom:1px solid #dee2e6;text-align:right;"
+HEAD = "padding:4px 8px;border-bottom:2px solid #adb5bd;text-align:right;vertical-align:bottom;"
+FIRST = "text-align:left;"
+
+JOINT_GUIDE = """**One beam, several records.** Measure the same strip more than once — again, at another free
+length, with the sensor elsewhere — and fit **one** beam to all the records: its stiffness EI, the
+masses, the clamp and the damping are **shared**; each record keeps its own noise, sensor offset and
+start (and whatever you name under *Per record*, e.g. `clamp_stiffness` when the strip was re-clamped).
+
+**Narrower intervals.** Every record adds information about the shared parameters. The table puts the
+joint 95 % interval beside each record's own: with the two shipped runs of the 50 cm aluminium strip
+(the defaults: 0–2 s, two modes, modal damping + sensor mass, Laplace), the sensor's mass is
+4.077–4.091 g jointly against 4.079–4.094 g and 4.066–4.096 g alone. Narrower is not always *right*:
+if two records' own intervals do not overlap, they disagree by more than their noise explains —
+the model still misses something.
+
+**Which record decides?** *Diagnose jointly* adds each candidate effect to the model and compares the
+joint evidence (nats). Each record's column is what it says **alone**; the record with the largest
+share of the joint gain decides. Two effects no record separates alone (a mass at the sensor or at
+the tip lower f1 alike) may be told apart by records at different lengths: the verdict says so."""
+
+
+def interval_text(s: dict | None) -> str:
+    """``"4.084 (4.077–4.091)"``: the mean and the 95 % interval with enough digits to show the
+    interval's width (two significant digits of it); ``"–"`` for None."""
+    if s is None:
+        return "–"
+    mean, lo, hi = s["mean"], s["q025"], s["q975"]
+    if not all(math.isfinite(v) for v in (mean, lo, hi)):
+        return "–"
+    width = abs(hi - lo)
+    top = max(abs(mean), abs(lo), abs(hi), 1e-300)
+    digits = 3 if width <= 0 else max(3, min(8, int(math.floor(math.log10(top))) - int(math.floor(math.log10(width))) + 2))
+    return f"{mean:.{digits}g} ({lo:.{digits}g}–{hi:.{digits}g})"
+
+
+def interval_html(s: dict | None) -> str:
+    """:func:`interval_text` on two lines (the mean, then the interval), neither broken: narrow columns."""
+    text = interval_text(s)
+    if "(" not in text:
+        return text
+    mean, interval = text.split(" ", 1)
+    return f'<span style="white-space:nowrap">{mean}</span><br><span style="white-space:nowrap">{interval}</span>'
+
+
+
+def _width(s: dict | None) -> float:
+    return math.nan if s is None else float(s["q975"] - s["q025"])
+
+
+def shared_table_html(outcome) -> str:
+    """The shared parameters: joint estimate and 95 % interval, each record's own beside it, and
+    the joint interval's width over the narrowest record's (below 1: the joint interval is narrower)."""
+    if outcome is None:
+        return ""
+    names = outcome.names
+    unit = outcome.joint.records[0].setup.measurement.output_unit
+    head = (f'<th style="{HEAD}{FIRST}">Shared parameter (unit)</th><th style="{HEAD}">Jointly, all {len(names)}</th>'
+            + "".join(f'<th style="{HEAD}" title="{html.escape(n)}">Record {k + 1} alone</th>' for k, n in enumerate(names))
+            + f'<th style="{HEAD}">Joint ÷ narrowest width</th>')
+    rows = []
+    for row in outcome.shared_rows():
+        widths = [w for w in (_width(a) for a in row["alone"]) if math.isfinite(w) and w > 0]
+        ratio = _width(row["joint"]) / min(widths) if widths else math.nan
+        cells = "".join(f'<td style="{CELL}">{interval_html(a)}</td>' for a in row["alone"])
+        rows.append(f'<tr data-name="{row["name"]}"><td style="{CELL}{FIRST}" title="{html.escape(parameter_label(row["name"], unit))}">'
+                    f'{html.escape(short_label(row["name"], unit))}</td>'
+                    f'<td style="{CELL}font-weight:600;">{interval_html(row["joint"])}</td>{cells}'
+                    f'<td style="{CELL}">{"–" if not math.isfinite(ratio) else f"{ratio:.2f}"}</td></tr>')
+    return (f'<div style="overflow-x:auto"><table class="joint-shared-table" style="{TABLE_CSS}"><thead><tr>{head}</tr></thead>'
+            f'<tbody>{"".join(rows)}</tbody></table></div>'
+            f'<p style="font-size:15px;margin:4px 0;">{records_key(names)}. Mean and 95 % interval of each parameter; the '
+            "joint one uses every record, each record's own only itself (same model, window and modes).</p>")
+
+
+def records_table_html(outcome) -> str:
+    """Per record under the joint calibration (one column each): geometry, window, RMSE in and
+    after the window, coverage of the 95 % band after it, the joint model's natural frequencies
+    and the record's own parameters (those calibrated per record)."""
+    if outcome is None:
+        return ""
+    u = output_units(outcome.views[0])
+    rows: list[tuple[str, list[str]]] = [
+        ("Free length (m)", []), ("Sensor position (m from the clamp)", []), ("Calibration window (s)", []),
+        (f"RMSE in the window ({u.unit})", []), (f"RMSE held out ({u.unit})", []),
+        ("Held-out samples inside the 95 % band (%)", []), ("Natural frequencies, joint model (Hz)", []),
+        (f"Noise sd σ ({u.unit})", [])]
+    own_names = list(dict.fromkeys(n for r in outcome.records for n in r["parameters"]))
+    rows += [(f"Its own {short_label(n, outcome.records[0]['output_unit'])}", []) for n in own_names]
+    for view, record in zip(outcome.views, outcome.records):
+        g = view.setup.measurement.geometry
+        lo, hi = record["window_s"]
+        coverage = record["coverage95_prediction"]
+        noise = record["noise_sd"]["mean"] if record.get("noise_sd") else math.nan
+        values = [f"{g.length_m:.3g}", f"{g.sensor_position_m:.3g}", f"{lo:g}–{hi:g}",
+                  _fmt(u.scale * record["rmse_calibration"]), _fmt(u.scale * record["rmse_prediction"]),
+                  "–" if not math.isfinite(coverage) else f"{100 * coverage:.1f}",
+                  ", ".join(f"{f:.4g}" for f in record["frequencies_Hz"]), _fmt(u.scale * noise)]
+        values += [interval_text(record["parameters"].get(n)) for n in own_names]
+        for (_, cells), value in zip(rows, values):
+            cells.append(value)
+    head = f'<th style="{HEAD}{FIRST}">Record</th>' + "".join(
+        f'<th style="{HEAD}">{k + 1}. {html.escape(n)}</th>' for k, n in enumerate(outcome.names))
+    body = "".join(f'<tr><td style="{CELL}{FIRST}">{html.escape(label)}</td>'
+                   + "".join(f'<td style="{CELL}">{html.escape(c)}</td>' for c in cells) + "</tr>"
+                   for label, cells in rows)
+    return (f'<div style="overflow-x:auto"><table class="joint-records-table" style="{TABLE_CSS}"><thead><tr>{head}</tr></thead>'
+            f"<tbody>{body}</tbody></table></div>")
+
+
+def _fmt(value: float) -> str:
+    return "–" if not math.isfinite(value) else f"{value:.3g}"
+
+
+def records_key(names: list[str]) -> str:
+    """``"Record 1: adxl_50cm_114655, record 2: ..."`` (escaped HTML)."""
+    return ", ".join(f"{'Record' if k == 0 else 'record'} {k + 1}: {html.escape(n)}" for k, n in enumerate(names))
+
+
+def deciding_record(candidate) -> int | None:
+    """Index of the record with the largest share of ``candidate``'s joint gain (its log-likelihood
+    change between the joint fits, nats); None when the candidate gains nothing jointly."""
+    shares = candidate.records_delta_log_likelihood
+    if not shares or candidate.delta_log_evidence is None or candidate.delta_log_evidence <= 0:
+        return None
+    return max(range(len(shares)), key=lambda i: shares[i])
+
+
+def diagnosis_table_html(diagnosis) -> str:
+    """The candidates ranked by their joint Δ log evidence, each record's Δ alone, and the record
+    that decides (largest share of the joint gain)."""
+    if diagnosis is None:
+        return ""
+    names = diagnosis.names
+    head = (f'<th style="{HEAD}{FIRST}">Effect added</th><th style="{HEAD}">Jointly: Δ log evidence (nats)</th>'
+            + "".join(f'<th style="{HEAD}" title="{html.escape(n)}">Record {k + 1} alone (nats)</th>'
+                      for k, n in enumerate(names))
+            + f'<th style="{HEAD}">Decided by record</th>')
+    rows = []
+    for c in diagnosis.candidates:
+        joint = "failed: " + html.escape(c.error or "") if c.delta_log_evidence is None else f"{c.delta_log_evidence:+,.1f}"
+        alone = c.records_delta_log_evidence or [math.nan] * len(names)
+        weight = "font-weight:600;" if c.material else ""
+        decides = deciding_record(c)
+        rows.append(f'<tr data-effect="{c.effect}"><td style="{CELL}{FIRST}{weight}">{html.escape(effect_title(c.effect))}</td>'
+                    f'<td style="{CELL}{weight}">{joint}</td>'
+                    + "".join(f'<td style="{CELL}">{"–" if not math.isfinite(v) else f"{v:+,.1f}"}</td>' for v in alone)
+                    + f'<td style="{CELL}">{"–" if decides is None else decides + 1}</td></tr>')
+    return (f'<div style="overflow-x:auto"><table class="joint-diagnosis-table" style="{TABLE_CSS}"><thead><tr>{head}</tr>'
+            f'</thead><tbody>{"".join(rows)}</tbody></table></div>'
+            f'<p style="font-size:15px;margin:4px 0;">{records_key(names)}. Δ log evidence: how much better the model '
+            f"explains the data with the effect added (nats); {MATERIAL_LOG_EVIDENCE:g} or more jointly is material (bold). "
+            f"A record alone tells two effects apart when their Δ differ by {SEPARATING_NATS:g} nats or more. "
+            "Decided by: the record with the largest share of the joint gain.</p>")
+
+
+class JointView(pn.viewable.Viewer):
+    """Calibrate one beam on several records at once, and rank the missing effects on all of them.
+
+    Parameters
+    ----------
+    session : SessionState
+        The browser session's state.
+    """
+
+    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+
+    def __init__(self, **params) -> None:
+        super().__init__(**params)
+        self._joint = self.session.joint
+        self._built = False
+        self._panels: list[RecordPanel] = []
+        self._layout = pn.Column(Markdown("Open this tab to calibrate several records jointly."),
+                                 sizing_mode="stretch_width")
+        doc = pn.state.curdoc
+        if doc is not None and doc.session_context is not None:
+            pn.state.on_session_destroyed(lambda context: self._joint.close())
+
+    @property
+    def layout(self):
+        """The view's root panel (what ``__panel__`` returns)."""
+        return self._layout
+
+    @property
+    def panels(self) -> list[RecordPanel]:
+        """The per-record figures drawn so far (one per record of the result shown)."""
+        return list(self._panels)
+
+    def __panel__(self):
+        return self._layout
+
+    def activate(self) -> None:
+        """Build the view (when its tab is opened); nothing runs before a button is pressed."""
+        self.build()
+
+    def build(self) -> None:
+        """Build the widgets (once), in steps (see :mod:`dashboard.runtime.staging`)."""
+        if self._built:
+            return
+        self._built = True
+        self._left, self._centre, self._right, row = three_columns("joint")
+        self._layout[:] = [row]
+        run_steps([self._build_status, self._build_results, self._build_inputs, self._build_side])
+
+    # -- the steps of the build ------------------------------------------------------------------
+    def _status(self, css: str, texts: dict, prefix: str) -> pn.Column:
+        st = self._joint
+        p = st.param
+        stage, status, progress, error = (p[f"{prefix}{n}"] for n in ("stage", "status", "progress", "error"))
+        requested, shown = p[f"{prefix}requested"], p[f"{prefix}shown"]
+
+        def text(stage, status, requested, shown, result, diagnosis):
+            data = {"records": len(result.names) if result is not None else 0,
+                    "panels": len(self._panels), "preview": int(result is None or result.joint.is_preview),
+                    "candidates": len(diagnosis.candidates) if diagnosis is not None else 0}
+            return status_html(css, stage, status, requested, shown, texts.get(stage, stage), **data)
+
+        line = HTML(pn.bind(text, stage, status, requested, shown, p.result, p.diagnosis), sizing_mode="stretch_width",
+                    margin=(5, 10, 0, 10))
+        bar = pn.indicators.Progress(
+            value=pn.bind(lambda s, f: 100 if s == "final" else round(100 * f) if s in ("preview", "sampling") else 0,
+                          stage, progress),
+            max=100, sizing_mode="stretch_width", height=14, margin=(0, 10), bar_color="primary")
+        alert = HTML(pn.bind(lambda e: alert_html("danger", f"<b>Error:</b> {html.escape(e)}") if e else "", error),
+                     sizing_mode="stretch_width", margin=(0, 10), css_classes=[f"{css}-error"])
+        return pn.Column(line, bar, alert, sizing_mode="stretch_width")
+
+    def _build_status(self) -> None:
+        self._centre.append(self._status("joint-status", _STAGE_TEXT, ""))
+
+    def _build_results(self) -> None:
+        st = self._joint
+        p = st.param
+        self._shared = HTML(pn.bind(shared_table_html, p.result), sizing_mode="stretch_width", margin=(5, 10),
+                            css_classes=["joint-shared"])
+        self._records = HTML(pn.bind(records_table_html, p.result), sizing_mode="stretch_width", margin=(5, 10),
+                             css_classes=["joint-records"])
+        self._panel_column = pn.Column(sizing_mode="stretch_width", css_classes=["joint-panels"])
+        self._centre.extend([Markdown("### The shared parameters", margin=(10, 10, 0, 10)), self._shared,
+                             Markdown("### Each record under the joint calibration", margin=(10, 10, 0, 10)),
+                             self._records, self._panel_column])
+        st.param.watch(self._draw_panels, "result")
+        self._draw_panels()
+        verdict = HTML(pn.bind(lambda d: "" if d is None else alert_html(
+            "success" if d.missing is not None else "secondary", html.escape(d.verdict())), p.diagnosis),
+            sizing_mode="stretch_width", margin=(5, 10), css_classes=["joint-verdict"])
+        table = HTML(pn.bind(diagnosis_table_html, p.diagnosis), sizing_mode="stretch_width", margin=(5, 10),
+                     css_classes=["joint-diagnosis"])
+        self._centre.extend([Markdown("### Which effect is missing, judged on every record", margin=(10, 10, 0, 10)),
+                             self._status("joint-diag-status", _DIAG_TEXT, "diag_"), verdict, table])
+
+    def _draw_panels(self, *_) -> None:
+        outcome = self._joint.result
+        if outcome is None:
+            return
+        views = outcome.views
+        while len(self._panels) < len(views):
+            self._panels.append(RecordPanel(len(self._panels)))
+        for k, (panel, view) in enumerate(zip(self._panels, views)):
+            g = view.setup.measurement.geometry
+            panel.show(view, f"{k + 1}. {view.setup.measurement.name}: L = {g.length_m:.3g} m")
+        panes = [pn.pane.Bokeh(panel.figure, sizing_mode="stretch_width", height=300) for panel in self._panels[:len(views)]]
+        self._panel_column.objects = panes
+
+    def _build_inputs(self) -> None:
+        st = self._joint
+        records = pn.widgets.CheckBoxGroup(inline=False, sizing_mode="stretch_width", css_classes=["joint-records-choice"])
+
+        def sync(*_):
+            records.options = st.record_options()
+            records.value = list(st.records)
+
+        sync()
+        st.param.watch(sync, ["records"])
+        st.beam.param.watch(sync, ["uploads"])
+        records.param.watch(lambda e: setattr(st, "records", list(e.new)) if list(e.new) != list(st.records) else None,
+                            "value")
+        window = pn.widgets.RangeSlider.from_param(st.param.window_s, name="Calibration window (s)", start=0.0, end=10.0, step=0.05, format="0.00",
+                                                   sizing_mode="stretch_width", css_classes=["joint-window"])
+
+        def bounds(*_):
+            ends = [float(m.time_s[-1]) for m in st.measurements()] or [10.0]
+            window.param.update(end=max(ends))
+
+        bounds()
+        st.param.watch(bounds, "records")
+        modes = pn.widgets.IntSlider.from_param(st.param.modes, name="Number of modes", sizing_mode="stretch_width",
+                                                css_classes=["joint-modes"])
+        effects = pn.widgets.CheckBoxGroup(options=st.effect_options(), value=list(st.effects), inline=False,
+                                           sizing_mode="stretch_width", css_classes=["joint-effects"])
+        effects.param.watch(lambda e: setattr(st, "effects", list(e.new)) if list(e.new) != list(st.effects) else None,
+                            "value")
+        per_record = pn.widgets.TextInput.from_param(st.param.per_record, sizing_mode="stretch_width",
+                                                     placeholder="none: every physical parameter shared",
+                                                     css_classes=["joint-per-record"])
+        sampling = pn.widgets.Select(label="Joint posterior", options=SAMPLING, value=st.sampling,
+                                     sizing_mode="stretch_width", css_classes=["joint-sampling"])
+        sampling.param.watch(lambda e: setattr(st, "sampling", e.new), "value")
+        calibrate = pn.widgets.Button(label="Calibrate jointly", color="primary", sizing_mode="stretch_width",
+                                      css_classes=["joint-calibrate"], stylesheets=BUTTON_WRAP,
+                                      disabled=pn.bind(lambda r: not r, st.param.records))
+        diagnose = pn.widgets.Button(label="Diagnose jointly", color="primary", sizing_mode="stretch_width",
+                                     css_classes=["joint-diagnose"], stylesheets=BUTTON_WRAP,
+                                     disabled=pn.bind(lambda r: not r, st.param.records))
+        busy = ("queued", "preview", "sampling")
+        cancel = pn.widgets.Button(label="Cancel", sizing_mode="stretch_width", css_classes=["joint-cancel"],
+                                   disabled=pn.bind(lambda a, b: a not in busy and b not in busy,
+                                                    st.param.stage, st.param.diag_stage))
+        calibrate.on_click(lambda e: st.calibrate())
+        diagnose.on_click(lambda e: st.diagnose())
+        cancel.on_click(lambda e: st.cancel())
+        self._left.append(pn.Card(
+            Markdown(f"**Records of one beam** (up to {MAX_RECORDS}; uploads from the *Beam calibration* and "
+                     "*Your record* tabs appear here too)", margin=(0, 10)), records,
+            window, Markdown("The same window on every record; the rest of each record is held out.", margin=(0, 10)),
+            modes,
+            Markdown("**Effects in the model** (besides the beam's stiffness EI)", margin=(5, 10, 0, 10)), effects,
+            per_record, sampling, calibrate, diagnose, cancel,
+            title="Several records", collapsible=False, sizing_mode="stretch_width"))
+
+    def _build_side(self) -> None:
+        self._right.append(pn.Card(Markdown(JOINT_GUIDE, sizing_mode="stretch_width"), title="For the class",
+                                   collapsible=True, collapsed=False, sizing_mode="stretch_width",
+                                   css_classes=["joint-class-guide"]))
