@@ -78,22 +78,11 @@ def check_suggest_arguments(args: argparse.Namespace) -> None:
 
 
 def suggestion_of(args: argparse.Namespace, ranked: list[tuple[str, float]], fits_of) -> dict:
-    """The ``suggestion`` of ``--suggest``: ``ranked`` the candidates (effect, Δ log evidence) best
-    first, ``fits_of(a, b)`` their two joint fits. When the top two are separated already
-    (:data:`beam.discovery.joint.SEPARATING_NATS`): ``{"needed": False, ...}`` with the words."""
-    from beam.discovery.joint import SEPARATING_NATS
-    from beam.discovery.suggest import suggest_record
+    """The ``suggestion`` of ``--suggest`` (:func:`beam.discovery.suggest.next_record`) with the
+    command's ranges."""
+    from beam.discovery.suggest import next_record
 
-    ranked = [(e, d) for e, d in ranked if d is not None]
-    if len(ranked) < 2:
-        return {"needed": False, "words": "fewer than two explanations were fitted: nothing to separate."}
-    (a, da), (b, db) = ranked[:2]
-    if da - db >= SEPARATING_NATS:
-        return {"needed": False, "effects": [a, b], "delta_log_evidence": da - db,
-                "words": f"{a} and {b} are separated already ({da - db:.1f} nats): no further record needed."}
-    suggestion = suggest_record(fits_of(a, b), (a, b), da - db, length_range=args.length_range,
-                                position_range=args.position_range)
-    return {"needed": True, **suggestion.to_json()}
+    return next_record(ranked, fits_of, length_range=args.length_range, position_range=args.position_range)
 
 
 class TerminalProgress:

@@ -90,6 +90,7 @@ class JointDiagnosis:
     candidates: list[JointCandidate]
     fits: dict[str, JointCalibrationResult]
     seconds: float
+    suggestion: dict | None = None  # which record to take next (beam.discovery.suggest.next_record)
 
     @property
     def names(self) -> list[str]:

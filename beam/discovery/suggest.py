@@ -25,7 +25,7 @@ import numpy as np
 
 from beam.errors import BeamInputError
 
-__all__ = ["Setting", "Suggestion", "default_length_range", "suggest_record"]
+__all__ = ["Setting", "Suggestion", "default_length_range", "next_record", "suggest_record"]
 
 #: Default free-length range of a suggestion, as fractions of the reference record's length: a
 #: strip is clamped shorter by pushing it onto the table and somewhat longer if it has spare length.
@@ -240,6 +240,46 @@ def suggest_record(
     best = max(settings, key=lambda s: s.score)
     return Suggestion((effects[0], effects[1]), float(delta_log_evidence), best,
                       setup.measurement.name, settings)
+
+
+def next_record(
+    ranked: Sequence[tuple[str, float | None]],
+    fits_of,
+    *,
+    length_range: tuple[float, float] | None = None,
+    position_range: tuple[float, float] | None = None,
+) -> dict:
+    """Which record to take next, as ``beam diagnose --suggest`` reports it.
+
+    Parameters
+    ----------
+    ranked : sequence of (str, float or None)
+        The candidate effects and their Δ log evidence (nats), best first; None for a failed fit.
+    fits_of : callable
+        ``fits_of(a, b)``: the two joint calibrations of explanations ``a`` and ``b`` (as
+        :func:`suggest_record` takes them); called only when a suggestion is needed.
+    length_range, position_range : (float, float), optional
+        As :func:`suggest_record`.
+
+    Returns
+    -------
+    dict
+        ``{"needed": False, "words": ...}`` (with ``effects`` and ``delta_log_evidence`` when
+        the top two are separated by :data:`beam.discovery.joint.SEPARATING_NATS` already), else
+        ``{"needed": True, **Suggestion.to_json()}``.
+    """
+    from beam.discovery.joint import SEPARATING_NATS
+
+    ranked = [(e, d) for e, d in ranked if d is not None]
+    if len(ranked) < 2:
+        return {"needed": False, "words": "fewer than two explanations were fitted: nothing to separate."}
+    (a, da), (b, db) = ranked[:2]
+    if da - db >= SEPARATING_NATS:
+        return {"needed": False, "effects": [a, b], "delta_log_evidence": da - db,
+                "words": f"{a} and {b} are separated already ({da - db:.1f} nats): no further record needed."}
+    suggestion = suggest_record(fits_of(a, b), (a, b), da - db, length_range=length_range,
+                                position_range=position_range)
+    return {"needed": True, **suggestion.to_json()}
 
 
 def _range(pair: tuple[float, float], what: str) -> tuple[float, float]:

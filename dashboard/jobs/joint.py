@@ -37,6 +37,7 @@ from beam.calibration.joint import JointCalibrationResult, joint_preview
 from beam.calibration.run import default_walkers
 from beam.discovery.joint import SEPARATING_NATS, JointDiagnosis, joint_diagnose
 from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, candidate_effects
+from beam.discovery.suggest import next_record
 from beam.errors import BeamInputError
 from beam.inference import EnsembleRun
 from beam.io.measurement import Measurement, read_measurement
@@ -320,4 +321,11 @@ def joint_diagnosis_run(key: JointKey, measurements: Sequence[Measurement]) -> I
         return
     if not parts:
         raise failed[0]
-    yield sch.final(merged(parts, time.perf_counter() - t0), "joint diagnosis")
+    diagnosis = merged(parts, time.perf_counter() - t0)
+    yield sch.partial(diagnosis, 0.97, "where a new record would tell the top two apart")
+    try:
+        suggestion = next_record([(c.effect, c.delta_log_evidence) for c in diagnosis.candidates],
+                                 lambda a, b: [diagnosis.fits[a], diagnosis.fits[b]])
+    except BeamInputError as exc:  # no setting to scan on this rig: said, the diagnosis stands
+        suggestion = {"needed": False, "words": f"no suggestion: {exc}"}
+    yield sch.final(replace(diagnosis, suggestion=suggestion, seconds=time.perf_counter() - t0), "joint diagnosis")

@@ -36,7 +36,7 @@ from dashboard.views.panes import (
     three_columns,
 )
 
-__all__ = ["JOINT_GUIDE", "JointView", "diagnosis_table_html", "interval_text", "records_table_html",
+__all__ = ["JOINT_GUIDE", "JointView", "diagnosis_table_html", "interval_text", "records_table_html", "suggestion_html",
            "shared_table_html"]
 
 _STAGE_TEXT = {
@@ -185,6 +185,16 @@ def deciding_record(candidate) -> int | None:
     return max(range(len(shares)), key=lambda i: shares[i])
 
 
+def suggestion_html(diagnosis) -> str:
+    """Which record to take next (:func:`beam.discovery.suggest.next_record`), once the joint
+    diagnosis has ended; '' before."""
+    suggestion = None if diagnosis is None else diagnosis.suggestion
+    if not suggestion:
+        return ""
+    return alert_html("warning" if suggestion.get("needed") else "secondary",
+                      "<b>Which record to take next:</b> " + html.escape(suggestion["words"]))
+
+
 def diagnosis_table_html(diagnosis) -> str:
     """The candidates ranked by their joint Δ log evidence, each record's Δ alone, and the record
     that decides (largest share of the joint gain)."""
@@ -305,8 +315,10 @@ class JointView(pn.viewable.Viewer):
             sizing_mode="stretch_width", margin=(5, 10), css_classes=["joint-verdict"])
         table = HTML(pn.bind(diagnosis_table_html, p.diagnosis), sizing_mode="stretch_width", margin=(5, 10),
                      css_classes=["joint-diagnosis"])
+        next_record = HTML(pn.bind(suggestion_html, p.diagnosis), sizing_mode="stretch_width", margin=(5, 10),
+                           css_classes=["joint-suggestion"])
         self._centre.extend([Markdown("### Which effect is missing, judged on every record", margin=(10, 10, 0, 10)),
-                             self._status("joint-diag-status", _DIAG_TEXT, "diag_"), verdict, table])
+                             self._status("joint-diag-status", _DIAG_TEXT, "diag_"), verdict, table, next_record])
 
     def _draw_panels(self, *_) -> None:
         outcome = self._joint.result

@@ -8,6 +8,7 @@ Laplace (preview-level) only, short windows.
 
 from __future__ import annotations
 
+import html
 import math
 
 import numpy as np
@@ -15,10 +16,11 @@ import pytest
 from bokeh.models import ColumnDataSource
 from scipy import signal
 
-from beam.discovery.joint import joint_diagnose
+from beam.discovery.joint import SEPARATING_NATS, joint_diagnose
+from beam.discovery.suggest import next_record
 from dashboard.jobs.joint import load_record
 from dashboard.state.session import SessionState
-from dashboard.views.joint import JointView, diagnosis_table_html, interval_text
+from dashboard.views.joint import JointView, diagnosis_table_html, interval_text, suggestion_html
 
 RUNS = ["adxl_50cm_114655", "adxl_50cm_114759"]
 INPUTS = {"window_s": (0.0, 1.0), "modes": 2, "effects": ["modal_damping", "sensor_mass"], "sampling": 0}
@@ -131,6 +133,12 @@ def test_joint_diagnosis_merges_the_candidates_as_the_library_ranks_them(session
     order = sorted(candidates, key=lambda e: table.index(f'data-effect="{e}"'))
     assert order == [c.effect for c in reference.candidates]
     assert "Record 1 alone (nats)" in table and "Record 2 alone (nats)" in table and "Record 3" not in table
+    # which record to take next: the library's answer for these fits, shown in the view's words
+    ranked = [(c.effect, c.delta_log_evidence) for c in merged.candidates]
+    assert merged.suggestion == next_record(ranked, lambda a, b: [merged.fits[a], merged.fits[b]])
+    assert html.escape(merged.suggestion["words"]) in suggestion_html(merged)
+    gap = ranked[0][1] - ranked[1][1]
+    assert merged.suggestion["needed"] == (gap < SEPARATING_NATS)
 
 
 def test_interval_text_shows_the_width_of_the_interval():
