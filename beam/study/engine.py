@@ -4,8 +4,8 @@
 ``DASK_SCHEDULER_ADDRESS``) or starts a :class:`distributed.LocalCluster` of worker processes
 with one thread each and single-threaded numba/BLAS (:data:`SINGLE_THREAD_ENV`, set by the
 nanny before the worker starts). :func:`stream_cells` scatters each record once, submits one
-task per cell (longest expected first) and yields the results as they finish
-(:func:`distributed.as_completed`); a task
+task per cell (longest expected first, as many at a time as the workers have threads) and yields
+the results as they finish (:func:`distributed.as_completed`); a task
 that fails outside the calibration (a worker lost) is turned into an error row, never raised.
 """
 
@@ -15,6 +15,7 @@ import logging
 import os
 import time
 import uuid
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 
@@ -137,8 +138,9 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
     """Run ``cells`` on ``client``'s workers; yield ``(cell, outcome)`` as each finishes.
 
     ``records`` maps a cell's ``record_hash`` to its record; each record is sent to the cluster
-    once. Cells are submitted longest expected first, each with its expected cost as its task
-    priority (:mod:`beam.study.schedule`): the short ones fill the workers at the end. ``costs``
+    once. Cells are submitted longest expected first (:mod:`beam.study.schedule`), no more at a
+    time than the workers have threads, the next one as each finishes: the first free worker takes
+    the longest cell left, and the short ones fill the workers at the end. ``costs``
     gives a cell's expected cost (any positive scale), default
     :func:`beam.study.schedule.expected_cost`. ``outcome`` is :func:`beam.study.cells.run_cell`'s
     dict, with ``task["submitted"]`` and ``task["received"]`` (epoch s, this process's clock) added.
@@ -158,12 +160,22 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
     run = uuid.uuid4().hex[:8]
     if costs is None:
         costs = {cell: expected_cost(cell, records[cell.record_hash]) for cell in cells}
+    queue = deque(submission_order({cell: costs[cell] for cell in cells}))
     futures = {}
-    for index, cell in enumerate(submission_order({cell: costs[cell] for cell in cells})):
-        future = client.submit(run_cell, scattered[cell.record_hash], cell, key=f"beam-study-{run}-{index}",
-                               pure=False, priority=float(costs[cell]))
-        futures[future.key] = (cell, future, time.time())
-    pending = as_completed([f for _, f, _ in futures.values()])
+    pending = as_completed()
+
+    def top_up() -> None:
+        # as many cells in flight as the workers have threads: each is taken by the first free worker,
+        # never queued on a busy one behind a long cell (Dask places a task by its data and its guesses)
+        slots = max(1, sum(client.nthreads().values()))
+        while queue and len(futures) < slots:
+            cell = queue.popleft()
+            future = client.submit(run_cell, scattered[cell.record_hash], cell, key=f"beam-study-{run}-{len(queue)}",
+                                   pure=False, priority=float(costs[cell]))
+            futures[future.key] = (cell, future, time.time())
+            pending.add(future)
+
+    top_up()
     try:
         while not pending.is_empty():
             if stop is None:
@@ -184,6 +196,7 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
                                "extra": {}, "draws": {}, "task": {}}
                 future.release()
                 outcome["task"].update(submitted=submitted, received=time.time())
+                top_up()
                 yield cell, outcome
     finally:
         if futures:  # stopped or closed early: what has not finished is not wanted
