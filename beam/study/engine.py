@@ -186,6 +186,7 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
                     if stop():
                         return
                     time.sleep(poll_s)
+                    top_up()  # a worker that joined meanwhile takes a cell now
                     continue
             for future in batch:
                 cell, _, submitted = futures.pop(future.key)
