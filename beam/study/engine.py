@@ -4,7 +4,8 @@
 ``DASK_SCHEDULER_ADDRESS``) or starts a :class:`distributed.LocalCluster` of worker processes
 with one thread each and single-threaded numba/BLAS (:data:`SINGLE_THREAD_ENV`, set by the
 nanny before the worker starts). :func:`stream_cells` scatters each record once, submits one
-task per cell and yields the results as they finish (:func:`distributed.as_completed`); a task
+task per cell (longest expected first, as many at a time as the workers have threads) and yields
+the results as they finish (:func:`distributed.as_completed`); a task
 that fails outside the calibration (a worker lost) is turned into an error row, never raised.
 """
 
@@ -14,12 +15,14 @@ import logging
 import os
 import time
 import uuid
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.study.cells import StudyCell, code_version, error_row, run_cell
+from beam.study.schedule import expected_cost, submission_order
 
 __all__ = ["SCHEDULER_ENV", "SINGLE_THREAD_ENV", "connect", "disconnect", "open_client", "scheduler_address",
            "stream_cells"]
@@ -130,13 +133,17 @@ def open_client(address: str | None = None, workers: int | None = None,
 
 
 def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[StudyCell], *,
-                 stop: Callable[[], bool] | None = None, poll_s: float = 0.2) -> Iterator[tuple[StudyCell, dict]]:
+                 stop: Callable[[], bool] | None = None, poll_s: float = 0.2,
+                 costs: Mapping[StudyCell, float] | None = None) -> Iterator[tuple[StudyCell, dict]]:
     """Run ``cells`` on ``client``'s workers; yield ``(cell, outcome)`` as each finishes.
 
     ``records`` maps a cell's ``record_hash`` to its record; each record is sent to the cluster
-    once. Longer windows (the longer calibrations) are given a higher priority, so that the
-    short ones fill the workers at the end. ``outcome`` is :func:`beam.study.cells.run_cell`'s dict, with ``task["submitted"]``
-    and ``task["received"]`` (epoch s, this process's clock) added.
+    once. Cells are submitted longest expected first (:mod:`beam.study.schedule`), no more at a
+    time than the workers have threads, the next one as each finishes: the first free worker takes
+    the longest cell left, and the short ones fill the workers at the end. ``costs``
+    gives a cell's expected cost (any positive scale), default
+    :func:`beam.study.schedule.expected_cost`. ``outcome`` is :func:`beam.study.cells.run_cell`'s
+    dict, with ``task["submitted"]`` and ``task["received"]`` (epoch s, this process's clock) added.
 
     ``stop``, if given, is asked every ``poll_s`` seconds (s) while no result is ready: once it
     returns True the cells not finished are cancelled (a cell already running on a worker runs to
@@ -151,12 +158,24 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
     needed = {cell.record_hash for cell in cells}
     scattered = {key: client.scatter(records[key], hash=False) for key in needed}
     run = uuid.uuid4().hex[:8]
+    if costs is None:
+        costs = {cell: expected_cost(cell, records[cell.record_hash]) for cell in cells}
+    queue = deque(submission_order({cell: costs[cell] for cell in cells}))
     futures = {}
-    for index, cell in enumerate(cells):
-        future = client.submit(run_cell, scattered[cell.record_hash], cell, key=f"beam-study-{run}-{index}",
-                               pure=False, priority=cell.window[1] - cell.window[0])
-        futures[future.key] = (cell, future, time.time())
-    pending = as_completed([f for _, f, _ in futures.values()])
+    pending = as_completed()
+
+    def top_up() -> None:
+        # as many cells in flight as the workers have threads: each is taken by the first free worker,
+        # never queued on a busy one behind a long cell (Dask places a task by its data and its guesses)
+        slots = max(1, sum(client.nthreads().values()))
+        while queue and len(futures) < slots:
+            cell = queue.popleft()
+            future = client.submit(run_cell, scattered[cell.record_hash], cell, key=f"beam-study-{run}-{len(queue)}",
+                                   pure=False, priority=float(costs[cell]))
+            futures[future.key] = (cell, future, time.time())
+            pending.add(future)
+
+    top_up()
     try:
         while not pending.is_empty():
             if stop is None:
@@ -167,6 +186,7 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
                     if stop():
                         return
                     time.sleep(poll_s)
+                    top_up()  # a worker that joined meanwhile takes a cell now
                     continue
             for future in batch:
                 cell, _, submitted = futures.pop(future.key)
@@ -177,6 +197,7 @@ def stream_cells(client, records: Mapping[str, Measurement], cells: Iterable[Stu
                                "extra": {}, "draws": {}, "task": {}}
                 future.release()
                 outcome["task"].update(submitted=submitted, received=time.time())
+                top_up()
                 yield cell, outcome
     finally:
         if futures:  # stopped or closed early: what has not finished is not wanted

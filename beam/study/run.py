@@ -2,7 +2,8 @@
 
 :func:`study_cells` lays the cells out; :func:`run_study` reuses the stored ones
 (:class:`beam.study.store.CellStore`), runs the others on Dask (:mod:`beam.study.engine`) as
-they finish, stores each at once (an interrupted study resumes), and writes the tables.
+they finish (longest expected first, :mod:`beam.study.schedule`, corrected by the seconds the
+stored cells took), stores each at once (an interrupted study resumes), and writes the tables.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from beam.io.measurement import Measurement
 from beam.physics.effects import parse_effects
 from beam.study.cells import StudyCell, code_version, record_fingerprint
 from beam.study.engine import open_client, scheduler_address, stream_cells
+from beam.study.schedule import expected_cost, rescaled_costs
 from beam.study.store import CellStore, write_tables
 from beam.study.windows import default_windows
 
@@ -104,6 +106,14 @@ def warm_kernels(record: Measurement, cells: Iterable[StudyCell]) -> None:
             pass
 
 
+def _costs(by_hash: dict[str, Measurement], todo: Sequence[StudyCell], stored: Sequence[dict]) -> dict[StudyCell, float]:
+    """Expected cost of each cell to run, rescaled by the seconds the ``stored`` entries took."""
+    costs = {cell: expected_cost(cell, by_hash[cell.record_hash]) for cell in todo}
+    recorded = [(e["cell"], expected_cost(e["cell"], by_hash[e["cell"].record_hash]), e["row"].get("seconds"))
+                for e in stored if e["cell"].record_hash in by_hash]
+    return rescaled_costs(costs, recorded)
+
+
 def run_study(records: Sequence[tuple[str, Measurement]], cells: Sequence[tuple[int, StudyCell]], *,
               out: str | Path, scheduler: str | None = None, workers: int | None = None,
               on_cell: Callable[[dict, int, int], None] | None = None) -> StudyResult:
@@ -146,8 +156,9 @@ def run_study(records: Sequence[tuple[str, Measurement]], cells: Sequence[tuple[
         pending = {cells[p][1]: p for p in todo}  # a cell appears once (windows, sets and likelihoods have no repeats)
         first = by_hash[cells[todo[0]][1].record_hash]
         address = scheduler_address(scheduler)
+        costs = _costs(by_hash, [cells[p][1] for p in todo], [e for e in entries if e is not None])
         with open_client(address, workers, warm=lambda: warm_kernels(first, (cells[p][1] for p in todo))) as client:
-            for cell, outcome in stream_cells(client, by_hash, (cells[p][1] for p in todo)):
+            for cell, outcome in stream_cells(client, by_hash, (cells[p][1] for p in todo), costs=costs):
                 stamp = store.save(cell, outcome)
                 position = pending[cell]
                 entry = {"cell": cell, "index": cells[position][0], "key": store.key(cell), "reused": False,

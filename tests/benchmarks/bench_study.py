@@ -11,7 +11,10 @@ folder each), and prints:
 - the effective parallelism, the sum of the cells' compute times over the streaming phase: how many
   workers were busy on average (on a shared machine the load changes between the two runs and moves
   the speed-up; this ratio compares each run with itself);
-- each cell's compute time (in the worker: the calibration and its scoring);
+- each cell's compute time (in the worker: the calibration and its scoring), its rank in the order the
+  cells are sent (longest expected first, :mod:`beam.study.schedule`) and when it started with 2 workers;
+- the lower bound of each streaming phase (the longest cell, or the cells' sum shared by the workers) and the
+  greedy schedule of the measured cell times in the order sent and in the study's order (no overhead);
 - the Dask overhead per cell with 1 worker: the streaming phase minus the sum of the cells' compute
   times, per cell, and as a share of the mean cell time (scheduling, transfer of the record and the
   result, the client's bookkeeping); and with 2 workers the idle tail (workers waiting for the last cell).
@@ -34,6 +37,7 @@ sys.path.insert(0, str(ROOT))
 from beam.cli.arguments import measurement_path  # noqa: E402
 from beam.io.measurement import read_measurement  # noqa: E402
 from beam.study.run import run_study, study_cells  # noqa: E402
+from beam.study.schedule import expected_cost  # noqa: E402
 from beam.study.windows import default_windows  # noqa: E402
 
 #: The issue's targets: the streaming phase with 2 workers at least this many times faster than with 1
@@ -53,8 +57,20 @@ def one_run(records, cells, workers: int) -> dict:
         raise SystemExit(f"a cell failed: {failed[0]}")
     compute = [t["end"] - t["start"] for t in tasks]
     stream = max(t["received"] for t in tasks) - min(t["submitted"] for t in tasks)
+    t0 = min(t["submitted"] for t in tasks)
     return {"workers": workers, "wall": wall, "stream": stream, "compute": compute,
-            "seconds": [e["row"]["seconds"] for e in result.entries], "computed": result.computed}
+            "seconds": [e["row"]["seconds"] for e in result.entries], "computed": result.computed,
+            "start": [t["start"] - t0 for t in tasks]}
+
+
+def lpt_makespan(times: list[float], workers: int, order: list[int]) -> float:
+    """Streaming time of ``workers`` idle-free workers taking the cells in ``order`` (s): the greedy
+    list schedule, each cell to the first free worker."""
+    free = [0.0] * workers
+    for i in order:
+        k = free.index(min(free))
+        free[k] += times[i]
+    return max(free)
 
 
 def main() -> None:
@@ -76,6 +92,20 @@ def main() -> None:
         print(f"{run['workers']} worker(s): wall {run['wall']:.1f} s, streaming {run['stream']:.1f} s; "
               f"cell compute median {statistics.median(c):.2f} s (min {min(c):.2f}, max {max(c):.2f}, sum {sum(c):.1f})")
     one, two = runs
+    costs = [expected_cost(c, record) for _, c in cells]
+    by_cost = sorted(range(len(cells)), key=lambda i: -costs[i])
+    print("cells (study order): window, likelihood, expected-cost rank, compute s with 1 worker / with 2 workers, "
+          "start after the first submission s (2 workers)")
+    for i, (_, c) in enumerate(cells):
+        print(f"  {c.window[0]:g}-{c.window[1]:g} s {c.likelihood:>4}: rank {by_cost.index(i) + 1:2d}, "
+              f"{one['compute'][i]:6.2f} / {two['compute'][i]:6.2f} s, start {two['start'][i]:6.2f} s")
+    for run in runs:
+        c = run["compute"]
+        bound = max(sum(c) / run["workers"], max(c))
+        print(f"{run['workers']} worker(s): lower bound of the streaming phase max(sum / workers, longest cell) "
+              f"{bound:.1f} s; greedy schedule of these cell times in the order sent "
+              f"{lpt_makespan(c, run['workers'], by_cost):.1f} s, in the study's order "
+              f"{lpt_makespan(c, run['workers'], list(range(len(c)))):.1f} s; measured {run['stream']:.1f} s")
     print(f"speed-up 2 vs 1 worker: {one['stream'] / two['stream']:.2f}x streaming phase, "
           f"{one['wall'] / two['wall']:.2f}x whole study (cluster start and warm-up included)")
     print("effective parallelism (sum of the cells' compute times / streaming phase; load changes between the "
