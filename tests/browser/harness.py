@@ -38,6 +38,11 @@ MISSING_CHROMIUM = (
     "Install it with `apt-get update && apt-get install -y chromium` (not `playwright install`)."
 )
 
+#: Interval (ms) at which the waits below re-read the page: a result stays on screen until the
+#: next request, so 0.1 s late at most; polling every animation frame walked the Bokeh document
+#: 60 times a second and took CPU from the server's runs for the whole wait.
+POLL_MS = 100
+
 #: Reads the page state from the Bokeh models: stage / request ids of the status element, the
 #: prediction band (sum and length of its upper-edge ``y``) and the window slider's value.
 READ_STATE_JS = """() => {
@@ -150,7 +155,7 @@ def wait_for_result(page, *, after_request: int = 0, stage: str = "final", timeo
         page.wait_for_function(
             f"""() => {{ const s = ({READ_STATE_JS})();
                        return s.stage === '{stage}' && s.shown > {after_request} && s.shown === s.requested && s.band_n > 0; }}""",
-            timeout=timeout_ms, polling="raf")
+            timeout=timeout_ms, polling=POLL_MS)
     except PlaywrightTimeout:  # say what the page showed instead (a lost update, an error, a slow run)
         raise AssertionError(f"no {stage!r} result for a request after {after_request} within {timeout_ms / 1000:g} s; "
                              f"the page shows {read_state(page)}") from None
@@ -206,7 +211,7 @@ def read_status(page, css: str = "cal-status") -> dict:
 def wait_for_status(page, condition: str, css: str = "cal-status", timeout_ms: float = 90000) -> dict:
     """Wait until ``condition`` (a JS expression over ``s``, the status) holds; returns the status."""
     page.wait_for_function(f"(css) => {{ const s = ({READ_STATUS_JS})(css); return {condition}; }}", arg=css,
-                           timeout=timeout_ms, polling="raf")
+                           timeout=timeout_ms, polling=POLL_MS)
     return read_status(page, css)
 
 

@@ -32,8 +32,9 @@ SIZES = [(1024, 768), (1280, 800), (1920, 1080)]
 MIN_PX = 14.0
 
 #: ``__deepAll`` (the harness's: shadow roots included) and the helpers below; ``__shown`` leaves
-#: out what is hidden.
-HELPERS_JS = DEEP_JS + """
+#: out what is hidden. A function that returns nothing: as a script its value, the last function
+#: it defines, costs Playwright tens of seconds per evaluation (docs/decisions-ci.md).
+HELPERS_JS = "() => {" + DEEP_JS + """
 window.__shown = (sel) => window.__deepAll(sel).filter((e) => getComputedStyle(e).visibility !== 'hidden');
 window.__label = (e) => (typeof e.className === 'string' && e.className ? e.className : e.tagName) + ': '
                         + (e.textContent || '').trim().slice(0, 60);
@@ -49,7 +50,7 @@ window.__textWidth = (text, size, style, font) => {
 };
 window.__plotViews = () => [...Bokeh.index.query((v) => v.model && v.model.type === 'Figure')]
   .filter((v) => v.el && v.el.isConnected && v.el.getBoundingClientRect().width > 0);
-"""
+}"""
 
 #: Text in the page (own text of an element) smaller than the minimum, at the current size.
 SMALL_TEXT_JS = """(min) => {
