@@ -92,6 +92,7 @@ def test_each_record_shows_only_mode_1_and_alone_cannot_separate(mass_at):
         assert abs(delta) < 3.0, (record.name, delta)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("truth", "other"), [("sensor_mass", "tip_mass"), ("tip_mass", "sensor_mass")])
 def test_three_lengths_together_separate_sensor_mass_from_tip_mass(truth, other):
     diagnosis = joint_diagnose(records(truth), window=(0.0, 2.0), modes=1, base=BASE, candidates=EFFECTS)

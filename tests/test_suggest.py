@@ -49,6 +49,7 @@ def gap(diagnosis, a: str, b: str) -> float:
     return by_effect[a] - by_effect[b]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("truth", "other"), [("sensor_mass", "tip_mass"), ("tip_mass", "sensor_mass")])
 def test_the_suggested_record_separates_what_the_first_could_not(truth, other):
     first = strip(0.5, 0.44, truth, seed=1)

@@ -20,6 +20,7 @@ def record(tmp_path_factory) -> str:
     return str(folder / f"{measurement.name}.csv")
 
 
+@pytest.mark.slow
 def test_diagnose_suggest_json(record):
     done = beam("diagnose", record, "--window", "0:2", "--modes", "2", "--base", "modal_damping", "--suggest",
                 "--length-range", "0.3:0.6", "--json")
