@@ -15,7 +15,7 @@ import pytest
 
 from beam.calibration.joint import joint_preview
 from beam.discovery.joint import SEPARATING_NATS, joint_diagnose
-from beam.discovery.suggest import suggest_record
+from beam.discovery.suggest import next_record, suggest_record
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.physics.geometry import BeamGeometry
@@ -119,3 +119,18 @@ def test_from_a_joint_set_of_one_mode_records():
     together = joint_diagnose(pair + [new], **options)
     assert gap(together, "sensor_mass", "tip_mass") >= 10.0
     assert together.missing == "sensor_mass"
+
+
+def test_no_suggestion_without_a_material_explanation_or_a_close_pair():
+    """A suggestion separates two supported explanations: none when the best candidate is not
+    material (two damping effects at +3.7 and +3.6 nats) or when the top two are 3 nats apart
+    already; the fits are then never needed."""
+    def no_fits(a, b):
+        raise AssertionError("no fit is needed")
+
+    weak = next_record([("air_damping", 3.7), ("kelvin_voigt", 3.6), ("tip_mass", -1.1)], no_fits)
+    assert not weak["needed"] and "materially" in weak["words"]
+    apart = next_record([("sensor_mass", 420.0), ("tip_mass", 30.0)], no_fits)
+    assert not apart["needed"] and "separated already" in apart["words"]
+    lone = next_record([("sensor_mass", 420.0), ("tip_mass", None)], no_fits)
+    assert not lone["needed"]

@@ -140,9 +140,10 @@ class Suggestion:
         if best.f1_difference_resolutions < 1.0:
             return (f"no setting within the ranges separates {a} from {b} as calibrated: at best ({where}) they "
                     f"predict f1 {best.f1_difference_pct:.2g} % apart, {best.f1_difference_resolutions:.2g}x what a "
-                    f"{best.duration_s:.3g} s record resolves ({best.resolution_Hz:.2g} Hz). Two fits that both left "
-                    f"their effect out (a mass near zero) predict alike everywhere: then widen the ranges or measure "
-                    f"another mode.")
+                    f"{best.duration_s:.3g} s record resolves ({best.resolution_Hz:.2g} Hz). Explanations that predict the "
+                    f"same frequencies everywhere (effects that only damp, or two fits that both left their effect "
+                    f"out, such as a mass near zero) are not told apart by another length or sensor position: widen "
+                    f"the ranges, or compare what the frequencies do not show (each mode's damping).")
         return (f"{where}: {a} and {b} predict f1 {best.f1_difference_pct:.2g} % apart "
                 f"({best.f1_Hz[0]:.4g} against {best.f1_Hz[1]:.4g} Hz), {best.f1_difference_resolutions:.2g}x what a "
                 f"{best.duration_s:.3g} s record resolves ({best.resolution_Hz:.2g} Hz), and f2 "
@@ -265,15 +266,21 @@ def next_record(
     -------
     dict
         ``{"needed": False, "words": ...}`` (with ``effects`` and ``delta_log_evidence`` when
-        the top two are separated by :data:`beam.discovery.joint.SEPARATING_NATS` already), else
+        the best candidate is not material, :data:`beam.discovery.ranking.MATERIAL_LOG_EVIDENCE`,
+        or the top two are separated by :data:`beam.discovery.joint.SEPARATING_NATS` already), else
         ``{"needed": True, **Suggestion.to_json()}``.
     """
     from beam.discovery.joint import SEPARATING_NATS
+    from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE
 
     ranked = [(e, d) for e, d in ranked if d is not None]
     if len(ranked) < 2:
         return {"needed": False, "words": "fewer than two explanations were fitted: nothing to separate."}
     (a, da), (b, db) = ranked[:2]
+    if da < MATERIAL_LOG_EVIDENCE:  # no explanation is supported: there is no pair to tell apart
+        return {"needed": False, "effects": [a, b], "delta_log_evidence": da - db,
+                "words": f"no candidate improves the model materially (the best, {a}, by {da:.1f} nats, under "
+                         f"{MATERIAL_LOG_EVIDENCE:g}): there are no two explanations to tell apart yet."}
     if da - db >= SEPARATING_NATS:
         return {"needed": False, "effects": [a, b], "delta_log_evidence": da - db,
                 "words": f"{a} and {b} are separated already ({da - db:.1f} nats): no further record needed."}

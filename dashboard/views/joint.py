@@ -94,13 +94,18 @@ def interval_text(s: dict | None) -> str:
 
 
 def interval_html(s: dict | None) -> str:
-    """:func:`interval_text` on two lines (the mean, then the interval), neither broken: narrow columns."""
+    """The mean over the 95 % interval's reach from it, in a narrow cell: ``± h`` (h the half-width,
+    two significant digits) when the interval is symmetric within a tenth of h, else ``−a +b``;
+    the whole interval (:func:`interval_text`) in the tooltip."""
     text = interval_text(s)
     if "(" not in text:
         return text
-    mean, interval = text.split(" ", 1)
-    return f'<span style="white-space:nowrap">{mean}</span><br><span style="white-space:nowrap">{interval}</span>'
-
+    mean, lo, hi = s["mean"], s["q025"], s["q975"]
+    below, above = mean - lo, hi - mean
+    half = 0.5 * (hi - lo)
+    reach = (f"± {half:.2g}" if abs(above - below) <= 0.1 * half else f"−{below:.2g} +{above:.2g}")
+    return (f'<span title="{html.escape(text)}"><span style="white-space:nowrap">{text.split(" ", 1)[0]}</span><br>'
+            f'<span style="white-space:nowrap">{reach}</span></span>')
 
 
 def _width(s: dict | None) -> float:
@@ -128,7 +133,8 @@ def shared_table_html(outcome) -> str:
                     f'<td style="{CELL}">{"–" if not math.isfinite(ratio) else f"{ratio:.2f}"}</td></tr>')
     return (f'<div style="overflow-x:auto"><table class="joint-shared-table" style="{TABLE_CSS}"><thead><tr>{head}</tr></thead>'
             f'<tbody>{"".join(rows)}</tbody></table></div>'
-            f'<p style="font-size:15px;margin:4px 0;">{records_key(names)}. Mean and 95 % interval of each parameter; the '
+            f'<p style="font-size:15px;margin:4px 0;">{records_key(names)}. Mean and the reach of the 95 % interval '
+            "(hover a cell for the interval) of each parameter; the "
             "joint one uses every record, each record's own only itself (same model, window and modes).</p>")
 
 

@@ -17,10 +17,11 @@ from bokeh.models import ColumnDataSource
 from scipy import signal
 
 from beam.discovery.joint import SEPARATING_NATS, joint_diagnose
+from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE
 from beam.discovery.suggest import next_record
 from dashboard.jobs.joint import load_record
 from dashboard.state.session import SessionState
-from dashboard.views.joint import JointView, diagnosis_table_html, interval_text, suggestion_html
+from dashboard.views.joint import JointView, diagnosis_table_html, interval_html, interval_text, suggestion_html
 
 RUNS = ["adxl_50cm_114655", "adxl_50cm_114759"]
 INPUTS = {"window_s": (0.0, 1.0), "modes": 2, "effects": ["modal_damping", "sensor_mass"], "sampling": 0}
@@ -138,12 +139,19 @@ def test_joint_diagnosis_merges_the_candidates_as_the_library_ranks_them(session
     assert merged.suggestion == next_record(ranked, lambda a, b: [merged.fits[a], merged.fits[b]])
     assert html.escape(merged.suggestion["words"]) in suggestion_html(merged)
     gap = ranked[0][1] - ranked[1][1]
-    assert merged.suggestion["needed"] == (gap < SEPARATING_NATS)
+    assert merged.suggestion["needed"] == (ranked[0][1] >= MATERIAL_LOG_EVIDENCE and gap < SEPARATING_NATS)
 
 
 def test_interval_text_shows_the_width_of_the_interval():
     assert interval_text({"mean": 2.13654, "q025": 2.13633, "q975": 2.13676}) == "2.13654 (2.13633–2.13676)"
     assert interval_text({"mean": 0.004084, "q025": 0.004077, "q975": 0.004091}) == "0.004084 (0.004077–0.004091)"
+    # the narrow cell: the mean over the interval's reach, the interval itself in the tooltip
+    symmetric = interval_html({"mean": 2.13654, "q025": 2.13633, "q975": 2.13676})
+    assert "2.13654</span><br>" in symmetric and "± 0.00022" in symmetric
+    assert 'title="2.13654 (2.13633–2.13676)"' in symmetric
+    skewed = interval_html({"mean": 1.0, "q025": 0.9, "q975": 1.3})
+    assert "−0.1 +0.3" in skewed and "±" not in skewed
+    assert interval_html(None) == "–"
     assert interval_text(None) == "–"
 
 
