@@ -282,14 +282,15 @@ class NonlinearFreeModel(ProjectedFreeModel):
             rss = np.sum((self.fit_data - screen) ** 2, axis=1)
         rss[~np.isfinite(rss)] = np.inf
         ar1 = AR1_COEFFICIENT in values
-        for row in range(len(starts) - len(sources), len(starts)):
+        averaged = self._averaged_start(problem, starts, amplitudes, rss, nulls)
+        for row in range(len(starts) - len(sources), len(starts)) if averaged is None else ():
             # an equivalent start's amplitudes refined on its own response (its swing is the
             # sub-model's, its decay is not): screened by its profile, as the nested start is
+            # (not needed with the averaged model's MAP, a start of the same kind, refined further)
             refined = self._inner(self._one(values, row), amplitudes[row], float(values[AR1_COEFFICIENT][row]) if ar1
                                   else (0.0 if self.likelihood == "ar1" else None))
             amplitudes[row] = refined["amplitudes"]
             rss[row] = float(np.sum((self.fit_data - refined["fitted"]) ** 2))
-        averaged = self._averaged_start(problem, starts, amplitudes, rss, nulls)
         if averaged is not None:  # the averaged model's MAP, its amplitudes refined on the full response
             starts, amplitudes, rss = (np.vstack([starts, averaged[0]]), np.vstack([amplitudes, averaged[1]]),
                                        np.append(rss, averaged[2]))
