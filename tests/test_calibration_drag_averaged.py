@@ -89,3 +89,15 @@ def test_the_averaged_preview_is_near_the_full_calibration_which_starts_from_it(
                                   engine=Engine())
     assert full.laplace.map.log_posterior == pytest.approx(without.laplace.map.log_posterior, rel=1e-6)
     assert full.laplace.map.n_iterations < without.laplace.map.n_iterations
+
+
+def test_without_viscous_damping_the_averaged_decay_is_the_pure_quadratic_law():
+    """zeta -> 0: the closed form's limit a / (1 + b a t) (no viscous decay at all) still follows
+    the full integrator within 1 % relative L2 over 4 s of a 2 cm release, and the drag alone
+    takes a visible part of the swing (the model without it is far off)."""
+    undamped = dict(TRUTH, damping_ratio_mode_1=0.0, damping_ratio_mode_2=0.0)
+    full, averaged, _, _ = _full_and_averaged([0.02, 0.0], values=undamped)
+    error = np.linalg.norm(averaged - full) / np.linalg.norm(full)
+    assert error < 0.01
+    free, _, _, _ = _full_and_averaged([0.02, 0.0], values=dict(undamped, drag_coefficient=0.0))
+    assert np.linalg.norm(free - full) / np.linalg.norm(full) > 10 * error
