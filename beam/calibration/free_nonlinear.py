@@ -28,7 +28,8 @@ physical parameters (internal coordinates), the amplitudes and the offset togeth
 best of the linear sub-model's optimum (the nested start: C_d at its null value, and at a few
 values across its plausible range) and its equivalent starts (the slow-flow approximation: the
 drag's cycle-averaged viscous share taken out of the modal damping ratios,
-:meth:`NonlinearFreeModel.equivalent_starts`), each Jacobian one batched integration of
+:meth:`NonlinearFreeModel.equivalent_starts`) and the MAP of the averaged model
+(:mod:`beam.calibration.free_averaged`, closed form, no integration), each Jacobian one batched integration of
 1 + d + 2m sets, until its Gauss–Newton step is shorter than :data:`JOINT_STOP_SD` posterior
 sd (in the posterior's own metric: the trust-region search otherwise spends its last iterations
 on moves far below the posterior's width); the Laplace
@@ -100,6 +101,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
             raise BeamInputError("NonlinearFreeModel needs a nonlinear effect; use ProjectedFreeModel")
         self._nl_cache: tuple | None = None
         self._seeds: dict[bytes, np.ndarray] = {}
+        self.averaged = None  # the averaged model's fit of the last map_search (a drag preview), if any
 
     # ------------------------------------------------------------------ the response
     def _one(self, values: Mapping[str, np.ndarray], i: int) -> dict[str, float]:
@@ -280,13 +282,19 @@ class NonlinearFreeModel(ProjectedFreeModel):
             rss = np.sum((self.fit_data - screen) ** 2, axis=1)
         rss[~np.isfinite(rss)] = np.inf
         ar1 = AR1_COEFFICIENT in values
-        for row in range(len(starts) - len(sources), len(starts)):
+        averaged = self._averaged_start(problem, starts, amplitudes, rss, nulls)
+        for row in range(len(starts) - len(sources), len(starts)) if averaged is None else ():
             # an equivalent start's amplitudes refined on its own response (its swing is the
             # sub-model's, its decay is not): screened by its profile, as the nested start is
+            # (not needed with the averaged model's MAP, a start of the same kind, refined further)
             refined = self._inner(self._one(values, row), amplitudes[row], float(values[AR1_COEFFICIENT][row]) if ar1
                                   else (0.0 if self.likelihood == "ar1" else None))
             amplitudes[row] = refined["amplitudes"]
             rss[row] = float(np.sum((self.fit_data - refined["fitted"]) ** 2))
+        if averaged is not None:  # the averaged model's MAP, its amplitudes refined on the full response
+            starts, amplitudes, rss = (np.vstack([starts, averaged[0]]), np.vstack([amplitudes, averaged[1]]),
+                                       np.append(rss, averaged[2]))
+            values = problem.from_internal(starts)
         best = int(np.argmin(rss))
         quadratic = [problem.parameter(n).prior.internal_quadratic() for n in physical]
         rho = (float(values[AR1_COEFFICIENT][best]) if ar1 and np.isfinite(values[AR1_COEFFICIENT][best])
@@ -350,6 +358,34 @@ class NonlinearFreeModel(ProjectedFreeModel):
                          hessian=hessian, hessian_point=best_z.copy(), converged=bool(solution.status > 0 or settled["at"]),
                          message=message, n_starts=len(starts), start_log_posteriors=scores,
                          at_bound=at_bound, n_iterations=int(solution.nfev))
+
+    def _averaged_start(self, problem: Problem, starts: np.ndarray, amplitudes: np.ndarray, rss: np.ndarray,
+                        nulls: Sequence[int]) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """The start from the averaged model (:class:`beam.calibration.free_averaged.AveragedDragModel`):
+        its MAP from the best-screened nested start, as an internal point (ndim,), its amplitudes
+        refined by the inner solve on the full response (k,) and their residual sum of squares;
+        None without a nested start or with a nonlinear effect other than the drag. Kept as
+        :attr:`averaged` (the preview of the averaged model)."""
+        from beam.calibration.fit import internal_starts
+        from beam.calibration.free_averaged import AveragedDragModel
+
+        self.averaged = None
+        if not nulls or tuple(self.nonlinear_names) != ("drag_coefficient",) or not self.model.geometry.width_m:
+            return None
+        source = min(nulls, key=lambda i: rss[i])
+        values = problem.from_internal(starts[source : source + 1])
+        one = {n: float(v[0]) for n, v in values.items()}
+        try:
+            fit = AveragedDragModel(self).fit(problem, one, amplitudes[source])
+        except (BeamInputError, np.linalg.LinAlgError):
+            return None
+        self.averaged = fit
+        point = starts[source].copy()
+        point[: len(fit.internal)] = internal_starts(problem, [fit.values])[0][: len(fit.internal)]
+        rho = (float(values[AR1_COEFFICIENT][0]) if AR1_COEFFICIENT in values
+               else (0.0 if self.likelihood == "ar1" else None))
+        refined = self._inner({n: fit.values.get(n, one[n]) for n in self.names}, fit.amplitudes, rho)
+        return point, refined["amplitudes"], float(np.sum((self.fit_data - refined["fitted"]) ** 2))
 
     def equivalent_starts(self, one: Mapping[str, float]) -> list[dict[str, float]]:
         """Starts with the drag on, from a sub-model's optimum ``one`` (natural units, the drag at

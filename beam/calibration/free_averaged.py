@@ -1,0 +1,378 @@
+"""The averaged (slow-flow) model of a free decay under linear + quadratic damping: a closed-form
+preview of the ``quadratic_drag`` calibration and the start of the full one.
+
+Each retained mode k rings at its damped frequency omega_d,k with an envelope A_k(t). The mode p
+of the largest velocity amplitude (a_k omega_k at the window's start; mode 1 on a released
+strip) decays by its own drag, averaged over one cycle of |v| v (the mean of |sin|³, 4 / 3 pi):
+
+    dA_p/dt = -c_p A_p - b_p A_p²,   b_p = (4 / 3 pi) kappa_pp omega_p C_d,
+    kappa_jk = ½ rho_air b ∫ |psi_j| psi_k² dx   (psi mass-normalised, A a modal amplitude),
+
+with the closed form (c_k = zeta_k omega_k = -Re(pole_k), tau the time since the window's start)
+
+    A_p(tau) = a_p e^(-c_p tau) / (1 + b_p a_p tau phi(c_p tau)),   phi(x) = (1 - e^(-x)) / x,
+
+which tends to a_p / (1 + b_p a_p tau) as zeta_p -> 0 (phi -> 1). Every other mode k is damped
+by mode p's velocity: linearised in v_k, |v| v ≈ 2 |v_p| v_k, whose average over mode p's cycle
+(the mean of |sin|, 2 / pi) gives dA_k/dt = -c_k A_k - beta_k A_p(t) A_k, beta_k =
+(2 / pi) kappa_pk omega_p C_d, and since ∫ A_p dt = ln(1 + b_p a_p tau phi) / b_p,
+
+    A_k(tau) = a_k e^(-c_k tau) (1 + b_p a_p tau phi(c_p tau))^(-beta_k / b_p).
+
+The phases are the linear model's: at first order the drag does not change the frequency. The
+response is the linear free-response basis of :class:`~beam.calibration.free.ProjectedFreeModel`
+with each mode's exponential envelope e^(-c_k tau) replaced by A_k(tau) / a_k: at C_d = 0 it
+*is* the linear model, and its amplitudes (two per mode: cosine and sine at the window's start)
+and offset are the coordinates of :class:`~beam.calibration.free_nonlinear.NonlinearFreeModel`
+(the same initial modal state, a_k = hypot(eta_k, (eta'_k - Re(pole_k) eta_k) / omega_d,k)).
+
+Limits of the approximation: it keeps, of the drag's coupling of the modes through |v| v, the
+dominant mode's own term and its damping of the others; it drops the weaker modes' own drag
+and their drag on the dominant one (second order in v_k / v_p), the beating of two modes inside
+|v|, the drag's harmonics (3 omega, 5 omega, ... components of relative order b A / omega) and
+its second-order frequency shift. It holds while the envelope changes little over one cycle
+and one mode dominates the velocity; with two comparable velocities it is not the drag's
+averaged model any more (the full integrator is). Its error against the full integrator on a
+strip decay (relative L2) is in ``docs/decisions-drag.md``; its Laplace intervals are those of
+the averaged model and do not include that error.
+
+Why hand-written: the response is a closed form (no library evaluates it), and it is what makes
+the preview cheaper than the ETDRK4 integration it stands for (no integration at all).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from beam.errors import BeamInputError
+from beam.inference import AR1_COEFFICIENT, Problem
+
+__all__ = ["AVERAGED_NOTE", "AveragedDragFit", "AveragedDragModel", "averaged_drag_preview"]
+
+#: The label of every result of the averaged model.
+AVERAGED_NOTE = ("averaged (slow-flow) approximation of the quadratic drag: each mode's envelope decays by "
+                 "dA/dt = -zeta omega A - b A² (cycle-averaged, the modes' cross terms neglected); a preview, "
+                 "not the full integration")
+
+
+#: The averaged model's search stops once its Gauss–Newton step is shorter than this (posterior
+#: sd): a tenth of the posterior's width, well below the averaged model's own bias (its MAP lies
+#: several posterior sd from the full model's; ``docs/decisions-drag.md``), which the full
+#: calibration started from it removes.
+PREVIEW_STOP_SD = 0.1
+
+
+@dataclass(frozen=True)
+class AveragedDragFit:
+    """The MAP and Laplace approximation of the averaged model.
+
+    Attributes
+    ----------
+    values : dict of str to float
+        MAP of the physical parameters, natural units.
+    internal : ndarray (d,)
+        The same, the problem's internal coordinates.
+    covariance : ndarray (d, d)
+        Laplace covariance in internal coordinates (the amplitudes and offset eliminated).
+    intervals : dict of str to (float, float)
+        95 % intervals, natural units (internal mean ± 1.96 sd, mapped).
+    amplitudes : ndarray (k,)
+        Basis amplitudes (2 per mode, output units) and the offset at the MAP.
+    noise_sd : float
+        Root-mean-square residual at the MAP (the output's unit).
+    n_evaluations : int
+        Residual evaluations of the least squares.
+    note : str
+        :data:`AVERAGED_NOTE`.
+    """
+
+    values: dict
+    internal: np.ndarray
+    covariance: np.ndarray
+    intervals: dict
+    amplitudes: np.ndarray
+    noise_sd: float
+    n_evaluations: int
+    note: str = AVERAGED_NOTE
+
+
+class AveragedDragModel:
+    """The averaged model on the window of a :class:`~beam.calibration.free_nonlinear.NonlinearFreeModel`
+    (its beam model, modes, output, times, data, offset and state map).
+
+    Parameters
+    ----------
+    free : NonlinearFreeModel
+        A free decay whose only nonlinear effect is ``quadratic_drag``.
+    """
+
+    def __init__(self, free) -> None:
+        if tuple(free.nonlinear_names) != ("drag_coefficient",):
+            raise BeamInputError("the averaged model covers the quadratic drag alone")
+        self.free = free
+        self.tau = free.fit_time_s - free.reference_s
+        self._cache: dict[bytes, dict] = {}
+
+    def _theta(self, one: Mapping[str, float]) -> dict:
+        """What depends on the parameters only (cached): the linear basis (n, 2m), c_k, omega_d,k,
+        the state map, and b_k per unit modal amplitude."""
+        from beam.physics.nonlinear import AIR_DENSITY_KG_M3, drag_quadrature
+
+        free, m = self.free, self.free.modes
+        one = {n: float(one[n]) for n in free.names}
+        key = np.array([one[n] for n in free.names]).tobytes()
+        if key in self._cache:
+            return self._cache[key]
+        values = {n: np.array([one[n]]) for n in free.names}
+        poles = free.poles(values)[0]
+        upper = poles[::2]
+        if poles.size != 2 * m or np.any(np.abs(upper.imag) <= 0.0):
+            raise BeamInputError("the averaged model needs every retained mode underdamped")
+        basis = free.design(poles[None, :], free.fit_time_s)[0][:, : 2 * m]  # (n, 2m)
+        sigma, omega_d = upper.real, np.abs(upper.imag)
+        omega2, shapes = free.model.mode_shapes({n: one[n] for n in free.names}, m)
+        nodes, weights = drag_quadrature(free.model.geometry.length_m)
+        psi = free.model.parts.basis.evaluate(nodes, 0) @ shapes
+        kappa = 0.5 * AIR_DENSITY_KG_M3 * free.model.geometry.width_m * (weights @ np.abs(psi) ** 3)
+        omega = np.sqrt(np.maximum(omega2, 0.0))
+        b = 4.0 / (3.0 * math.pi) * kappa * omega * one["drag_coefficient"]
+        # cross[p, k] = beta_k / b_p: mode p's velocity damping mode k, (2 / pi) kappa_pk omega_p over b_p
+        kappa_pk = np.einsum("g,gp,gk->pk", weights, np.abs(psi), psi**2)  # (m, m), per ½ rho b C_d
+        cross = (2.0 / math.pi) * kappa_pk / ((4.0 / (3.0 * math.pi)) * np.maximum(np.diag(kappa_pk), 1e-300)[:, None])
+        x = -sigma[None, :] * self.tau[:, None]
+        phi = np.where(x > 1e-12, -np.expm1(-x) / np.where(x > 1e-12, x, 1.0), 1.0)
+        entry = {"basis": basis, "sigma": sigma, "omega_d": omega_d, "T": free.state_matrix(one), "b": b,
+                 "omega": omega, "cross": cross,
+                 "slow": self.tau[:, None] * phi}  # tau phi(c tau) (n, m)
+        if len(self._cache) > 64:
+            self._cache.clear()
+        self._cache[key] = entry
+        return entry
+
+    def modal_amplitudes(self, one: Mapping[str, float], amplitudes: np.ndarray) -> np.ndarray:
+        """Initial envelope a_k (m,) of each mode (modal coordinate) of basis amplitudes (2m or k,)."""
+        entry, m = self._theta(one), self.free.modes
+        state = entry["T"] @ np.asarray(amplitudes[: 2 * m], dtype=float)
+        eta, rate = state[:m], state[m:]
+        return np.hypot(eta, (rate - entry["sigma"] * eta) / entry["omega_d"])
+
+    def response(self, one: Mapping[str, float], amplitudes: np.ndarray) -> np.ndarray:
+        """The averaged response (n,) on the window, the offset included (output units)."""
+        entry, m = self._theta(one), self.free.modes
+        a0 = self.modal_amplitudes(one, amplitudes)
+        p = int(np.argmax(a0 * entry["omega"]))  # the mode of the largest velocity
+        growth = entry["b"][p] * a0[p] * entry["slow"][:, p]  # (n,)
+        ratio = np.exp(-np.log1p(growth)[:, None] * entry["cross"][p][None, :])  # A(tau) / (a e^(-c tau)) (n, m)
+        ratio[:, p] = 1.0 / (1.0 + growth)
+        out = np.zeros(self.tau.size)
+        for k in range(m):
+            out += ratio[:, k] * (entry["basis"][:, 2 * k] * amplitudes[2 * k] + entry["basis"][:, 2 * k + 1]
+                                  * amplitudes[2 * k + 1])
+        return out + (amplitudes[-1] if self.free.offset else 0.0)
+
+    # ------------------------------------------------------------------ MAP + Laplace
+    def fit(self, problem: Problem, start: Mapping[str, float], amplitudes: np.ndarray) -> AveragedDragFit:
+        """MAP of the averaged model (trust-region least squares over the internal physical
+        parameters, the amplitudes and the offset, from ``start`` and its ``amplitudes``) and its
+        Laplace covariance (Gauss–Newton, the amplitudes and offset eliminated with their
+        N(0, A²) prior, as :meth:`NonlinearFreeModel._laplace_hessian`). White noise at the
+        start's residual sd (the AR(1) coefficient of ``start`` whitens, if the likelihood has it)."""
+        from beam.calibration.fit import internal_starts
+
+        free = self.free
+        physical = [n for n in problem.names if n not in problem.noise_names]
+        d = len(physical)
+        lo, hi = problem.internal_bounds
+        margin = 1e-9 * np.maximum(hi - lo, 1e-300)
+        z0 = internal_starts(problem, [dict(start)])[0][:d]
+        quadratic = [problem.parameter(n).prior.internal_quadratic() for n in physical]
+        rho = float(start.get(AR1_COEFFICIENT, 0.0)) if free.likelihood == "ar1" else None
+        y = free.fit_data
+
+        def natural(z):
+            return {n: float(problem.parameter(n).prior.from_internal(z[i])) for i, n in enumerate(physical)}
+
+        def data_residual(x):
+            return free._whitened((y - self.response(natural(x[:d]), x[d:]))[None, :], rho)[0]
+
+        a = np.asarray(amplitudes, dtype=float)
+        # the best of the start and its equivalent starts (the same initial modal state, the
+        # amplitudes then refined at fixed parameters: cheap, the parameters' part is cached)
+        m2 = 2 * free.modes
+        state = self._theta(dict(start))["T"] @ a[:m2]
+        best = (float(np.sum(data_residual(np.concatenate([z0, a])) ** 2)), z0, a)
+        for other in free.equivalent_starts({n: start[n] for n in free.names}):
+            z = internal_starts(problem, [other])[0][:d]
+            b = np.concatenate([np.linalg.solve(self._theta(natural(z))["T"], state), a[m2:]])
+            scale0 = max(math.sqrt(float(np.mean(data_residual(np.concatenate([z, b])) ** 2))), 1e-300)
+
+            def amplitude_residuals(v, z=z, scale0=scale0):
+                return data_residual(np.concatenate([z, v])) / scale0
+
+            def amplitude_jacobian(v, z=z, scale0=scale0):
+                return jacobian_of(lambda w: data_residual(np.concatenate([z, w])) / scale0, v, np.full(
+                    v.size, 1e-6 * max(float(np.max(np.abs(v))), 1e-300)))
+
+            b, _ = _levenberg_marquardt(amplitude_residuals, amplitude_jacobian, b, np.full(b.size, -np.inf),
+                                        np.full(b.size, np.inf), iterations=8)
+            rss = float(np.sum(data_residual(np.concatenate([z, b])) ** 2))
+            if np.isfinite(rss) and rss < best[0]:
+                best = (rss, z, b)
+        _, z0, a = best
+        sd = max(math.sqrt(float(np.mean(data_residual(np.concatenate([z0, a])) ** 2))), 1e-300)
+
+        def residuals(x):
+            return np.concatenate([data_residual(x) / sd, free._prior_residuals(x[:d], quadratic)])
+
+        def jacobian(x):
+            steps = np.concatenate([np.full(d, 1e-6), np.full(x.size - d, 1e-6 * max(float(np.max(np.abs(x[d:]))),
+                                                                                     1e-300))])
+            columns = jacobian_of(data_residual, x, steps).T
+            prior = np.zeros((d, x.size))
+            for j, (_, _, sigma) in enumerate(quadratic):
+                if math.isfinite(sigma):
+                    prior[j, j] = 1.0 / sigma
+            return np.vstack([columns.T / sd, prior])
+
+        lower = np.concatenate([lo[:d] + margin[:d], np.full(a.size, -np.inf)])
+        upper = np.concatenate([hi[:d] - margin[:d], np.full(a.size, np.inf)])
+        x, evaluations = _levenberg_marquardt(residuals, jacobian, np.clip(np.concatenate([z0, a]), lower, upper),
+                                              lower, upper, stop=PREVIEW_STOP_SD)
+        noise = math.sqrt(float(np.mean(data_residual(x) ** 2)))
+        info = (jacobian(x)[: y.size] * sd / noise).T @ (jacobian(x)[: y.size] * sd / noise)
+        for j, (_, _, sigma) in enumerate(quadratic):
+            if math.isfinite(sigma):
+                info[j, j] += 1.0 / sigma**2
+        info[d:, d:] += np.eye(a.size) / free.prior_sd**2
+        schur = info[:d, :d] - info[:d, d:] @ np.linalg.solve(info[d:, d:], info[d:, :d])
+        cov = np.linalg.inv(schur)
+        spread = 1.959963984540054 * np.sqrt(np.maximum(np.diag(cov), 0.0))
+        intervals = {n: (float(problem.parameter(n).prior.from_internal(x[i] - spread[i])),
+                         float(problem.parameter(n).prior.from_internal(x[i] + spread[i])))
+                     for i, n in enumerate(physical)}
+        return AveragedDragFit(values=natural(x[:d]), internal=x[:d].copy(), covariance=cov, intervals=intervals,
+                               amplitudes=x[d:].copy(), noise_sd=noise, n_evaluations=evaluations)
+
+
+def averaged_drag_preview(measurement, window: tuple[float, float], effects, modes: int | None = None,
+                          likelihood: str = "iid", engine=None) -> AveragedDragFit:
+    """The preview of a free decay's calibration with ``quadratic_drag`` by the averaged model:
+    the calibration preview of the model without the drag (the linear sub-model, remembered by
+    ``engine``), then the averaged model's MAP and Laplace approximation from its optimum (C_d at
+    its null value). The result is labelled :data:`AVERAGED_NOTE`; its intervals are those of the
+    averaged model and do not include its approximation error.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        A free decay of a beam with a width.
+    window : (float, float)
+        Calibration window (s), starting at the free response's start.
+    effects : str or sequence of str
+        The effects, ``quadratic_drag`` among them (its only nonlinear effect).
+    modes : int, optional
+        Retained modes (the setup's choice by default).
+    likelihood : str
+        ``"iid"`` or ``"ar1"``.
+    engine : Engine, optional
+        Shared with the caller's calibrations (the linear sub-model's preview is remembered).
+
+    Returns
+    -------
+    AveragedDragFit
+    """
+    from beam.calibration.engine import default_engine
+    from beam.calibration.fit import internal_starts
+    from beam.calibration.free import ProjectedFreeModel
+    from beam.calibration.nulls import null_value
+    from beam.calibration.run import CalibrationSpec, calibration_preview
+    from beam.calibration.setup import build_problem, make_setup
+    from beam.calibration.records import decimate_measurement
+    from beam.io.limits import MAX_CALIBRATION_SAMPLES
+    from beam.physics.effects import EFFECTS
+
+    engine = default_engine() if engine is None else engine
+    measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
+    options = {"window": window, "effects": effects, "likelihood": likelihood} | ({} if modes is None else
+                                                                                 {"modes": modes})
+    spec = CalibrationSpec.of(None, **options).resolve(measurement)
+    setup = make_setup(measurement, window=spec.window, effects=spec.effects, modes=spec.modes,
+                       likelihood=spec.likelihood)
+    problem = build_problem(setup)
+    free = problem.model
+    if not (setup.is_free and "drag_coefficient" in setup.physical_names):
+        raise BeamInputError("the averaged preview is for a free decay with quadratic_drag")
+    linear = tuple(e for e in setup.effects if not EFFECTS[e].nonlinear)
+    sub = calibration_preview(setup.measurement, window=setup.window, effects=linear, modes=setup.modes,
+                              likelihood=setup.likelihood, engine=engine)
+    one = {n: float(v) for n, v in sub.laplace.map.values.items() if n in setup.physical_names or n == AR1_COEFFICIENT}
+    one["drag_coefficient"] = null_value(problem, "drag_coefficient")
+    one = {n: float(problem.from_internal(internal_starts(problem, [one]))[n][0]) for n in one}  # clipped to the prior
+    amplitudes = ProjectedFreeModel.fit(free, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
+    return AveragedDragModel(free).fit(problem, one, amplitudes)
+
+
+def _levenberg_marquardt(residuals, jacobian, x: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                         iterations: int = 100, stop: float = 0.01) -> tuple[np.ndarray, int]:
+    """Levenberg–Marquardt on the normal equations, bounds by projection (a coordinate at a bound
+    with the gradient pushing out is held), an accepted step repeated (doubling) while it
+    gains, until the Gauss–Newton step is shorter than ``stop`` in the residuals' metric
+    (residuals scaled to unit noise: posterior sd). Hand-written because scipy's trust-region search takes
+    a singular value decomposition of the whole (samples x unknowns) Jacobian at every iteration
+    (~0.18 s on a 5 s window: 10 s of a preview), while its normal equations are 16 x 16.
+
+    Returns the point and the number of residual evaluations."""
+    r = residuals(x)
+    cost, evaluations = float(r @ r), 1
+    jac = jacobian(x)
+    damping = 1e-3
+    span = np.where(np.isfinite(upper - lower), upper - lower, np.inf)
+    for _ in range(iterations):
+        gradient = jac.T @ r
+        held = (((x - lower) < 1e-4 * span) & (gradient > 0)) | (((upper - x) < 1e-4 * span) & (gradient < 0))
+        free = ~held
+        normal = jac[:, free].T @ jac[:, free]
+        newton, *_ = np.linalg.lstsq(normal, -gradient[free], rcond=None)
+        if float(np.linalg.norm(jac[:, free] @ newton)) < stop:
+            break
+        scale = np.maximum(np.diag(normal), 1e-300)
+        while damping < 1e12:
+            step = np.zeros_like(x)
+            step[free] = np.linalg.solve(normal + damping * np.diag(scale), -gradient[free])
+            trial = np.clip(x + step, lower, upper)
+            r_trial = residuals(trial)
+            evaluations += 1
+            trial_cost = float(r_trial @ r_trial)
+            if np.isfinite(trial_cost) and trial_cost < cost:
+                x, r, cost = trial, r_trial, trial_cost
+                for _ in range(6):  # along a direction the linearisation underestimates (a ratio
+                    trial = np.clip(x + step, lower, upper)  # crawling to its bound): further while it gains
+                    r_trial = residuals(trial)
+                    evaluations += 1
+                    trial_cost = float(r_trial @ r_trial)
+                    if not (np.isfinite(trial_cost) and trial_cost < cost):
+                        break
+                    x, r, cost = trial, r_trial, trial_cost
+                    step = 2.0 * step
+                jac = jacobian(x)
+                damping = max(damping / 10.0, 1e-9)
+                break
+            damping *= 4.0
+        else:
+            break
+    return x, evaluations
+
+
+def jacobian_of(function, x: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """Forward-difference Jacobian (n, len(x)) of ``function`` (x -> (n,)) with ``steps``."""
+    base = function(x)
+    columns = np.empty((base.size, x.size))
+    for j in range(x.size):
+        point = x.copy()
+        point[j] += steps[j]
+        columns[:, j] = (function(point) - base) / steps[j]
+    return columns
