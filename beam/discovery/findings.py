@@ -664,12 +664,56 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
     elif identified is not None and len(identified.frequency_Hz):
         notes.append("no identified mode matches the model's mode 1: its amplitude-frequency relation is unknown")
     notes.extend(window_hint_notes(result, mode1))  # too short a window to tell the damping laws apart
+    notes.extend(_phase_lag_notes(result, time_s, data, prediction, frequencies, mode1))
     fingerprints = dx.fingerprints(
         comparison, backbone=mode1.backbone if mode1 else None, decay=mode1.decay if mode1 else None,
         spectrum=spectrum, whiteness=whiteness, free_decay=measurement.is_free,
     )
     return ResidualReport(band, spectrum, whiteness, identified, comparison, mode1, frequencies, ratios,
                           fingerprints, dx.explain(fingerprints), notes)
+
+
+#: A held-out lag of mode 1 worth a note: it explains at least this share of the residual power
+#: after the window ...
+PHASE_LAG_SHARE = 0.5
+#: ... and reaches at least this many degrees (a tenth of a cycle and more: plainly visible).
+PHASE_LAG_DEG = 30.0
+
+
+def _phase_lag_notes(result: CalibrationResult, time_s: np.ndarray, data: np.ndarray, prediction: np.ndarray,
+                     frequencies: np.ndarray, mode1) -> list[str]:
+    """A note when, on a free decay, the held-out error is mostly mode 1 drifting out of phase
+    (:func:`beam.residuals.phase.phase_drift`): how far, what frequency offset that is, what is
+    left once it is aligned, and the physics a frequency changing with the swing points to."""
+    setup = result.setup
+    if not setup.is_free or not len(frequencies):
+        return []
+    try:
+        drift = dx.phase_drift(time_s, data, prediction, float(frequencies[0]), float(setup.window[1]),
+                            filter_from_s=float(time_s[0]))
+    except BeamInputError:  # too short a held-out span, or samples the model does not cover
+        return []
+    last = float(drift.lag_deg[-1])
+    if not (drift.lag_share >= PHASE_LAG_SHARE and abs(last) >= PHASE_LAG_DEG):
+        return []
+    unit = setup.measurement.output_unit
+    ahead = last > 0
+    spectral = getattr(getattr(mode1, "backbone", None), "spectral_drift", float("nan"))
+    own = (f" The record's own f1 {'rises' if spectral < 0 else 'falls'} {abs(100 * spectral):.2g} % from the "
+           "first to the last third of its decay (short-time spectrum)." if np.isfinite(spectral) else "")
+    if np.isfinite(spectral) and (spectral < 0) == ahead:  # the record's own frequency drifts that way
+        physics = ("A frequency that rises as the swing dies is a stiffness that falls with amplitude — a clamp "
+                   "that softens or slips at large swings — which no catalogue effect models."
+                   if ahead else
+                   "A frequency that falls as the swing dies is a stiffness that grows with amplitude, as a "
+                   "hardening spring's does.")
+    else:
+        physics = "A longer calibration window pins f1 more closely."
+    return [f"after the window the model's mode 1 drifts out of phase with the record: the record runs "
+            f"{'ahead' if ahead else 'behind'} by {abs(last):.0f}° at {drift.block_stop_s[-1]:.3g} s, its "
+            f"f1 {abs(drift.frequency_offset_pct):.2g} % {'above' if ahead else 'below'} the model's there. "
+            f"That lag is {100 * drift.lag_share:.0f} % of the error after the window: aligning the phase alone "
+            f"would take it from {drift.rmse_total:.3g} to {drift.rmse_aligned_total:.3g} {unit}.{own} {physics}"]
 
 
 def _name_unseen(result: CalibrationResult, values: dict, comparison: list[dx.ModeMatch]) -> list[dx.ModeMatch]:

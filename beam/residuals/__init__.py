@@ -20,6 +20,8 @@ module                      what
                             backbone (frequency against amplitude), decay law
 :mod:`.fingerprints`        dimensionless fingerprints of missing effects, a score and one
                             sentence per effect id
+:mod:`.phase`               the phase lag of mode 1 after the window, block by block, and how
+                            much of the held-out error it explains
 ==========================  ====================================================================
 """
 
@@ -56,6 +58,7 @@ from beam.residuals.modal_id import (
     unseen_reason,
 )
 from beam.residuals.noise import NoiseFloor, noise_floor, record_noise_floor
+from beam.residuals.phase import PhaseDrift, phase_drift
 from beam.residuals.residuals import (
     BandResiduals,
     ExceedanceInterval,
@@ -82,6 +85,8 @@ from beam.residuals.whiteness import (
 __all__ = [
     "DIFFERENCE_CONVENTION",
     "NoiseFloor",
+    "PhaseDrift",
+    "phase_drift",
     "noise_floor",
     "record_noise_floor",
     "THRESHOLDS",
