@@ -976,8 +976,10 @@ def geometries(draw, patch: bool = True, force: bool = False, strain: bool = Fal
     start, end = (a * length, b * length) if patch else (None, None)
     force_position = draw(st.floats(1e-6, 1.0)) * length if force else None
     if strain:  # a strain gauge reads -(h/2) w'': the strip's section is part of the record
+        # a strip: the width at most its length, the thickness at most its width (the reader's rules)
+        width = draw(st.floats(1e-3, min(0.2, length)))
         return BeamGeometry(length, density, start, end, sensor * length, force_position,
-                            width_m=draw(st.floats(1e-3, 0.2)), thickness_m=draw(st.floats(1e-4, 0.02)))
+                            width_m=width, thickness_m=draw(st.floats(1e-4, min(0.02, width))))
     return BeamGeometry(length, density, start, end, sensor * length, force_position)
 
 
