@@ -51,7 +51,7 @@ import numpy as np
 from beam.errors import BeamInputError
 from beam.inference import AR1_COEFFICIENT, Problem
 
-__all__ = ["AVERAGED_NOTE", "AveragedDragFit", "AveragedDragModel", "averaged_drag_preview"]
+__all__ = ["AVERAGED_NOTE", "AveragedDragFit", "AveragedDragModel"]
 
 #: The label of every result of the averaged model.
 AVERAGED_NOTE = ("averaged (slow-flow) approximation of the quadratic drag: each mode's envelope decays by "
@@ -197,7 +197,7 @@ class AveragedDragModel:
             return {n: float(problem.parameter(n).prior.from_internal(z[i])) for i, n in enumerate(physical)}
 
         def data_residual(x):
-            return free._whitened((y - self.response(natural(x[:d]), x[d:]))[None, :], rho)[0]
+            return free.whitened((y - self.response(natural(x[:d]), x[d:]))[None, :], rho)[0]
 
         a = np.asarray(amplitudes, dtype=float)
         # the best of the start and its equivalent starts (the same initial modal state, the
@@ -226,7 +226,7 @@ class AveragedDragModel:
         sd = max(math.sqrt(float(np.mean(data_residual(np.concatenate([z0, a])) ** 2))), 1e-300)
 
         def residuals(x):
-            return np.concatenate([data_residual(x) / sd, free._prior_residuals(x[:d], quadratic)])
+            return np.concatenate([data_residual(x) / sd, free.prior_residuals(x[:d], quadratic)])
 
         def jacobian(x):
             steps = np.concatenate([np.full(d, 1e-6), np.full(x.size - d, 1e-6 * max(float(np.max(np.abs(x[d:]))),
@@ -256,64 +256,6 @@ class AveragedDragModel:
                      for i, n in enumerate(physical)}
         return AveragedDragFit(values=natural(x[:d]), internal=x[:d].copy(), covariance=cov, intervals=intervals,
                                amplitudes=x[d:].copy(), noise_sd=noise, n_evaluations=evaluations)
-
-
-def averaged_drag_preview(measurement, window: tuple[float, float], effects, modes: int | None = None,
-                          likelihood: str = "iid", engine=None) -> AveragedDragFit:
-    """The preview of a free decay's calibration with ``quadratic_drag`` by the averaged model:
-    the calibration preview of the model without the drag (the linear sub-model, remembered by
-    ``engine``), then the averaged model's MAP and Laplace approximation from its optimum (C_d at
-    its null value). The result is labelled :data:`AVERAGED_NOTE`; its intervals are those of the
-    averaged model and do not include its approximation error.
-
-    Parameters
-    ----------
-    measurement : Measurement
-        A free decay of a beam with a width.
-    window : (float, float)
-        Calibration window (s), starting at the free response's start.
-    effects : str or sequence of str
-        The effects, ``quadratic_drag`` among them (its only nonlinear effect).
-    modes : int, optional
-        Retained modes (the setup's choice by default).
-    likelihood : str
-        ``"iid"`` or ``"ar1"``.
-    engine : Engine, optional
-        Shared with the caller's calibrations (the linear sub-model's preview is remembered).
-
-    Returns
-    -------
-    AveragedDragFit
-    """
-    from beam.calibration.engine import default_engine
-    from beam.calibration.fit import internal_starts
-    from beam.calibration.free import ProjectedFreeModel
-    from beam.calibration.nulls import null_value
-    from beam.calibration.run import CalibrationSpec, calibration_preview
-    from beam.calibration.setup import build_problem, make_setup
-    from beam.calibration.records import decimate_measurement
-    from beam.io.limits import MAX_CALIBRATION_SAMPLES
-    from beam.physics.effects import EFFECTS
-
-    engine = default_engine() if engine is None else engine
-    measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
-    options = {"window": window, "effects": effects, "likelihood": likelihood} | ({} if modes is None else
-                                                                                 {"modes": modes})
-    spec = CalibrationSpec.of(None, **options).resolve(measurement)
-    setup = make_setup(measurement, window=spec.window, effects=spec.effects, modes=spec.modes,
-                       likelihood=spec.likelihood)
-    problem = build_problem(setup)
-    free = problem.model
-    if not (setup.is_free and "drag_coefficient" in setup.physical_names):
-        raise BeamInputError("the averaged preview is for a free decay with quadratic_drag")
-    linear = tuple(e for e in setup.effects if not EFFECTS[e].nonlinear)
-    sub = calibration_preview(setup.measurement, window=setup.window, effects=linear, modes=setup.modes,
-                              likelihood=setup.likelihood, engine=engine)
-    one = {n: float(v) for n, v in sub.laplace.map.values.items() if n in setup.physical_names or n == AR1_COEFFICIENT}
-    one["drag_coefficient"] = null_value(problem, "drag_coefficient")
-    one = {n: float(problem.from_internal(internal_starts(problem, [one]))[n][0]) for n in one}  # clipped to the prior
-    amplitudes = ProjectedFreeModel.fit(free, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
-    return AveragedDragModel(free).fit(problem, one, amplitudes)
 
 
 def _levenberg_marquardt(residuals, jacobian, x: np.ndarray, lower: np.ndarray, upper: np.ndarray,

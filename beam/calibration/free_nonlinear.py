@@ -215,7 +215,9 @@ class NonlinearFreeModel(ProjectedFreeModel):
         physical = [n for n in problem.names if n not in problem.noise_names]
         return {name: np.atleast_1d(problem.parameter(name).prior.from_internal(x[..., i])) for i, name in enumerate(physical[:d])}
 
-    def _whitened(self, rows: np.ndarray, rho: float | None) -> np.ndarray:
+    def whitened(self, rows: np.ndarray, rho: float | None) -> np.ndarray:
+        """Residual rows (n_rows, samples) whitened by the AR(1) coefficient ``rho`` (None: i.i.d.,
+        returned as they are)."""
         return rows if rho is None else self._whiten(rows, np.full(rows.shape[0], rho))
 
     def map_search(self, problem: Problem, guesses: Sequence[Mapping[str, float]]) -> MapResult:
@@ -307,13 +309,13 @@ class NonlinearFreeModel(ProjectedFreeModel):
 
         def residuals(x):
             f = self._record_response(problem, x[None, :], d, self.fit_time_s)[0]
-            data = self._whitened((y - f)[None, :], rho)[0] / sd
-            return np.concatenate([data, self._prior_residuals(x[:d], quadratic)])
+            data = self.whitened((y - f)[None, :], rho)[0] / sd
+            return np.concatenate([data, self.prior_residuals(x[:d], quadratic)])
 
         last: dict[str, np.ndarray] = {}
 
         def jacobian(x):
-            data = -self._whitened(self._joint_columns(problem, x, d, self.fit_time_s)[1], rho) / sd
+            data = -self.whitened(self._joint_columns(problem, x, d, self.fit_time_s)[1], rho) / sd
             prior = np.zeros((d, x.size))
             for j, (_, _, sigma) in enumerate(quadratic):
                 if math.isfinite(sigma):
@@ -464,7 +466,9 @@ class NonlinearFreeModel(ProjectedFreeModel):
         return np.array([one[n] for n in self.names] + [rho]).tobytes()
 
     @staticmethod
-    def _prior_residuals(z: np.ndarray, quadratic) -> np.ndarray:
+    def prior_residuals(z: np.ndarray, quadratic) -> np.ndarray:
+        """The priors as residuals, (z − mu) / sigma per internal coordinate (0 where a prior
+        has no quadratic form); ``quadratic`` from each prior's ``internal_quadratic()``."""
         return np.array([(z[j] - mu) / sigma if math.isfinite(sigma) else 0.0
                          for j, (_, mu, sigma) in enumerate(quadratic)])
 
@@ -507,7 +511,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         sd = float(np.atleast_1d(values[NOISE_SD])[0])
         rho = float(np.atleast_1d(values[AR1_COEFFICIENT])[0]) if AR1_COEFFICIENT in values else None
         _, columns = self._joint_columns(problem, np.concatenate([z[:d], fit["amplitudes"][0]]), d, self.fit_time_s)
-        white = self._whitened(columns, rho) / sd
+        white = self.whitened(columns, rho) / sd
         info = white @ white.T
         for j, (_, _, sigma) in enumerate(quadratic):
             if math.isfinite(sigma):
