@@ -73,7 +73,10 @@ def test_two_records_calibrated_jointly_show_a_panel_each_and_the_shared_table(p
     for name in ("bending_stiffness_Nm2", "sensor_mass_kg"):
         cells = table.locator(f"tr[data-name='{name}'] td").all_inner_texts()
         assert "(kg)" in cells[0] or "(N m²)" in cells[0], cells  # units in the label
-        assert "–" in cells[1] and len(cells) == 5, cells  # joint, two records alone, the width ratio
+        assert len(cells) == 5, cells  # joint, two records alone, the width ratio
+        assert "±" in cells[1] or ("−" in cells[1] and "+" in cells[1]), cells  # the mean over its reach
+        tooltip = table.locator(f"tr[data-name='{name}'] td span[title]").first.get_attribute("title")
+        assert "(" in tooltip and "–" in tooltip, tooltip  # the 95 % interval itself on hover
     records = page.locator("table.joint-records-table th").all_inner_texts()
     assert records == ["Record", f"1. {RUNS[0]}", f"2. {RUNS[1]}"], records  # a column per record
 
