@@ -44,6 +44,7 @@ from beam.calibration import (
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, applicable, parse_effects
+from beam.residuals.envelope import RISING_DRIFT, decay_frequency_drift
 
 #: Evidence gain (nats) a candidate needs to count as a material improvement.
 MATERIAL_LOG_EVIDENCE = 5.0
@@ -160,6 +161,8 @@ def record_features(measurement: Measurement) -> frozenset[str]:
         features.add("width")
     if measurement.is_free:
         features.add("free")
+        if decay_frequency_drift(measurement.time_s, measurement.output) < -RISING_DRIFT:
+            features.add("rising_frequency")
     return frozenset(features)
 
 

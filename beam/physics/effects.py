@@ -19,6 +19,9 @@ patch_stiffening    added density/stiffness on patch     patch_added_density_kg_
 patch_damping       added strain-rate damping on patch   patch_added_kelvin_voigt_Nm2s
 tip_cubic_spring    nonlinear tip force -k3 w(L)^3       tip_cubic_stiffness_N_m3
 quadratic_drag      air drag -½ rho_air C_d b |w_t| w_t  drag_coefficient
+clamp_friction      microslip of the clamp: a root       clamp_friction_stiffness_Nm_rad,
+                    moment that softens and dissipates   clamp_slip_moment_Nm
+                    with the amplitude (Iwan, Masing)
 sensor_mass         point mass at the sensor x_obs       sensor_mass_kg
 effective_length    free length L_eff instead of L       effective_length_m
 modal_damping       damping ratio per undamped mode      damping_ratio_mode_1, damping_ratio_mode_2,
@@ -63,6 +66,24 @@ range except the clamp's stiffness (a rigid clamp is k_theta -> infinity).
     KC; Bidkar et al. 2009, J. Fluid Mech. 634, 269–289, cantilevered strips at KC of order 1).
     The prior range 0.01–50 reaches below that band so that the effect vanishes at its low
     end (a model with it nests the model without it).
+``clamp_friction``
+    Frictional microslip where the clamp grips the strip: the root is held by a rotational
+    joint of stick stiffness k_f (``clamp_friction_stiffness_Nm_rad``) whose contact slips
+    progressively as the root moment grows, until the whole contact slips at the moment M_s
+    (``clamp_slip_moment_Nm``). The joint is Iwan's parallel array of Jenkins elements with a
+    uniform density of slip strengths (Iwan 1966, J. Appl. Mech. 33, 893–900; Segalman 2005,
+    J. Appl. Mech. 72, 752–760): its loading curve is M(theta) = k_f theta (1 - |theta| / (2
+    theta_s)) for |theta| <= theta_s = 2 M_s / k_f and M_s beyond, and it unloads and reloads
+    along Masing's branches M = M_r + 2 M((theta - theta_r) / 2) from the last reversal
+    (theta_r, M_r) (Masing 1926). In microslip (|theta| < theta_s) the cycle of amplitude A has
+    the mean stiffness k_f - (k_f / 2 theta_s) A (half the sum of its branches) and dissipates
+    (4 / 3) (k_f / 2 theta_s) A³: the frequency of every mode falls, and its damping ratio
+    grows, linearly with the amplitude, the damping ratio 4 / 3 pi (0.42) times the relative
+    frequency drop (``docs/physics-clamp-friction.md``). The linear part k_f theta
+    replaces the rigid clamp (the basis keeps the root rotation, as ``clamp_compliance``);
+    the softening, the hysteresis and the slip are integrated with the drag's ETDRK4 scheme
+    (:func:`beam.physics.nonlinear.integrate_general`). Both parameters vanish at the top of
+    their ranges (a rigid joint that never slips), where the model nests the model without it.
 ``modal_damping``
     Damping applied in the coordinates of the undamped modes (of the current M and K, sensor mass
     and all): mode j gets the ratio zeta_j, so that alone it has the poles
@@ -363,6 +384,24 @@ EFFECTS: dict[str, Effect] = {
             nonlinear=True,
         ),
         Effect(
+            "clamp_friction",
+            "Clamp friction",
+            "the clamp grips the strip by friction: a root joint of stick stiffness k_f that slips progressively "
+            "(Iwan microslip, Masing hysteresis) and wholly at the moment M_s",
+            (
+                ParameterSpec("clamp_friction_stiffness_Nm_rad", "N m/rad", "k_f",
+                              "stick stiffness of the clamp's frictional joint", 0.01, 1e6, absent_at="high"),
+                ParameterSpec("clamp_slip_moment_Nm", "N m", "M_s",
+                              "root moment at which the whole clamp contact slips", 1e-4, 1e4, absent_at="high"),
+            ),
+            (
+                Term("stiffness", "stiffness_clamp", "clamp_friction_stiffness_Nm_rad"),
+                Term("clamp_friction", "stiffness_clamp", "clamp_slip_moment_Nm"),
+            ),
+            frees_root_rotation=True,
+            nonlinear=True,
+        ),
+        Effect(
             "sensor_mass",
             "Sensor mass",
             "point mass of the sensor at its position x_obs (from the sidecar; translation only)",
@@ -394,6 +433,8 @@ RECORD_FEATURES: dict[str, str] = {
     "displacement": "the output is a displacement",
     "width": "the sidecar gives the strip's width ([beam] width_m)",
     "free": "the record has no input: a free decay",
+    "rising_frequency": ("the free decay's mode-1 frequency rises as the swing dies (short-time spectra of its first "
+                         "and last thirds): the beam is stiffer at small amplitude"),
     "no_patch": "the sidecar places no patch: the clamp's edge can move without carrying a bonded patch into the clamp",
 }
 
@@ -407,6 +448,9 @@ EFFECT_NEEDS: dict[str, frozenset[str]] = {
     # offered on free decays, where a damping that grows with the amplitude shows (the calibration
     # fits them: beam.calibration.free_nonlinear), of a strip whose width is known
     "quadratic_drag": frozenset({"width", "free"}),
+    # calibrated on free decays (beam.calibration.free_nonlinear); offered where the record's own
+    # spectra show the softening it stands for
+    "clamp_friction": frozenset({"free", "rising_frequency"}),
     # a strip's free length is uncertain where it is clamped by hand; on a patch beam the prior's
     # range of lengths would move the bonded patch into the clamp (the fit then fails)
     "effective_length": frozenset({"no_patch"}),

@@ -161,6 +161,10 @@ def _merge(pieces: list, groups: list[np.ndarray], batch: int):
     return first
 
 
+#: Parameters whose positive value makes the equations nonlinear (the state-space references refuse them).
+_NONLINEAR_SWITCHES = ("tip_cubic_stiffness_N_m3", "drag_coefficient", "clamp_slip_moment_Nm")
+
+
 @dataclass(frozen=True)
 class _Layout:
     """Where each term's coefficient comes from, for one set of given parameter names."""
@@ -177,6 +181,7 @@ class _Layout:
     key_denominators: np.ndarray  # row of key_matrix @ table dividing each (rho or EI): the ratios
     cubic_row: int  # row of the tip cubic stiffness in the table, -1 if not given
     drag_row: int  # row of the drag coefficient in the table, -1 if not given
+    friction_rows: tuple[int, int]  # rows of the clamp friction's (k_f, M_s), -1 if not given
     modal_rows: np.ndarray  # rows of the table holding the given modal damping ratios
     modal_modes: np.ndarray  # their 0-based mode indices
 
@@ -431,11 +436,12 @@ class BeamModel:
             key_denominators = np.repeat([0, mass.size], [mass.size, stiffness.size])
             cubic_row = rows.get("tip_cubic_stiffness_N_m3", -1)
             drag_row = rows.get("drag_coefficient", -1)
+            friction_rows = (rows.get("clamp_friction_stiffness_Nm_rad", -1), rows.get("clamp_slip_moment_Nm", -1))
             modal = where("modal_damping")
             modal_rows = np.array([rows[terms[i].parameter] for i in modal], dtype=int)
             modal_modes = np.array([terms[i].mode - 1 for i in modal], dtype=int)
             layout = _Layout(terms, columns, mass, stiffness, damping, force, damping_map, scale_matrix, key_matrix,
-                             key_denominators, cubic_row, drag_row, modal_rows, modal_modes)
+                             key_denominators, cubic_row, drag_row, friction_rows, modal_rows, modal_modes)
             self._layouts[names] = layout
         return layout
 
@@ -828,14 +834,22 @@ class BeamModel:
         return int(n_modes)
 
     def _is_nonlinear_at(self, layout: _Layout, table: np.ndarray) -> bool:
-        """Whether any set of ``table`` switches a nonlinear term on (k3 > 0 or C_d > 0)."""
-        return any(row >= 0 and bool(np.any(table[row] > 0)) for row in (layout.cubic_row, layout.drag_row))
+        """Whether any set of ``table`` switches a nonlinear term on (k3 > 0, C_d > 0 or a clamp
+        friction, whatever its slip moment)."""
+        return self._is_general_at(layout, table) or (layout.cubic_row >= 0 and bool(np.any(table[layout.cubic_row] > 0)))
+
+    @staticmethod
+    def _is_general_at(layout: _Layout, table: np.ndarray) -> bool:
+        """Whether the response needs :func:`beam.physics.nonlinear.integrate_general` (the drag on in a
+        set, or the clamp friction)."""
+        return (layout.drag_row >= 0 and bool(np.any(table[layout.drag_row] > 0))) or layout.friction_rows[1] >= 0
 
     def _general_response(
         self, parameters: Mapping[str, float | np.ndarray], layout: _Layout, table: np.ndarray, n_modes: int,
         inputs: np.ndarray, steps_s: np.ndarray, order: int, initial: np.ndarray | None, static_correction: bool,
     ) -> np.ndarray:
-        """The retained modes with the spring and the drag (:func:`beam.physics.nonlinear.integrate_general`).
+        """The retained modes with the spring, the drag and the clamp friction
+        (:func:`beam.physics.nonlinear.integrate_general`).
 
         The undamped modes are solved densely for each set (the drag needs the shapes along the
         span, which the cached unit modes do not keep); C_r = Phi^T C Phi carries every damping
@@ -874,8 +888,12 @@ class BeamModel:
             rows = np.stack([self._sensor_row, self.parts.tip_values])  # (2, n)
             share = rows @ rest  # (B, 2 outputs, 2 loads)
             static = np.concatenate([share[:, :, 0], share[:, :, 1]], axis=1)
+        root = friction = None
+        if layout.friction_rows[1] >= 0:  # the clamp friction's moment acts on the root rotation
+            root = self.parts.basis.evaluate(np.zeros(1), 1)[0] @ kept  # (B, m)
+            friction = np.stack([table[layout.friction_rows[0]], table[layout.friction_rows[1]]], axis=1)
         return integrate_general(omega2[:, :n_modes], reduced_damping, reduced_force, sensor, tip, gauss, cubic, drag,
-                                 inputs, steps_s, order, initial, static)
+                                 inputs, steps_s, order, initial, static, root, friction)
 
     def _check_driven(self) -> None:
         if self.input_kind is None:
@@ -993,7 +1011,7 @@ class BeamModel:
         n_modes = self._check_modes(modes)
         names, table, batched = self._table(parameters)
         layout = self._layout(names)
-        if layout.drag_row >= 0 and np.any(table[layout.drag_row] > 0):
+        if self._is_general_at(layout, table):
             voltage = self._check_record(voltage, sample_interval_s)
             out = self._general_response(parameters, layout, table, n_modes, voltage,
                                          np.full(voltage.size - 1, float(sample_interval_s)), order, None,
@@ -1061,7 +1079,7 @@ class BeamModel:
         layout = self._layout(names)
         if layout.cubic_row >= 0 and np.any(table[layout.cubic_row] > 0):
             raise BeamInputError("response_at is linear; tip_cubic_spring needs response() on a uniform grid")
-        if layout.drag_row >= 0 and np.any(table[layout.drag_row] > 0):  # integrated at the stamps
+        if self._is_general_at(layout, table):  # integrated at the stamps
             out = self._general_response(parameters, layout, table, n_modes, signal, np.diff(time), order, None,
                                          static_correction)
             if static_correction and order > 0:
@@ -1114,8 +1132,8 @@ class BeamModel:
         names, table, batched = self._table(parameters)
         layout = self._layout(names)
         if self._is_nonlinear_at(layout, table):
-            raise BeamInputError("the free-response basis is linear; tip_cubic_spring and quadratic_drag are not "
-                                 "supported here (free_response integrates them)")
+            raise BeamInputError("the free-response basis is linear; tip_cubic_spring, quadratic_drag and clamp_friction "
+                                 "are not supported here (free_response integrates them)")
         reduced = self._reduced_modes(layout, table, n_modes)
         poles, _ = modal.modal_decomposition(reduced["omega2"], reduced["damping"])
         basis = modal.free_basis(poles, time)
@@ -1232,8 +1250,9 @@ class BeamModel:
         self._check_driven()
         order = self._order(output)
         voltage = self._check_record(input_signal, sample_interval_s)
-        if any(np.any(np.asarray(parameters.get(name, 0.0)) > 0) for name in ("tip_cubic_stiffness_N_m3", "drag_coefficient")):
-            raise BeamInputError("the full state-space reference is linear; use response() for tip_cubic_spring and quadratic_drag")
+        if any(np.any(np.asarray(parameters.get(name, 0.0)) > 0) for name in _NONLINEAR_SWITCHES):
+            raise BeamInputError("the full state-space reference is linear; use response() for tip_cubic_spring, "
+                                 "quadratic_drag and clamp_friction")
         _, _, batched = self._table(parameters)
         matrices = self.system_matrices(parameters)
         batch = matrices["mass"].shape[0]
@@ -1261,9 +1280,9 @@ class BeamModel:
         """
         order = self._order(output)
         time = self._check_times(time_s)
-        if any(np.any(np.asarray(parameters.get(name, 0.0)) > 0) for name in ("tip_cubic_stiffness_N_m3", "drag_coefficient")):
-            raise BeamInputError("the full state-space reference is linear; use free_response() for tip_cubic_spring "
-                                 "and quadratic_drag")
+        if any(np.any(np.asarray(parameters.get(name, 0.0)) > 0) for name in _NONLINEAR_SWITCHES):
+            raise BeamInputError("the full state-space reference is linear; use free_response() for tip_cubic_spring, "
+                                 "quadratic_drag and clamp_friction")
         matrices = self.system_matrices(parameters)
         if matrices["mass"].shape[0] != 1:
             raise BeamInputError("free_response_full takes one parameter set")

@@ -491,12 +491,36 @@ def _etdrk4_grouped(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, vol
 
 
 @numba.njit(cache=True, nogil=True)
+def _joint_backbone(x, stiffness, slip_rotation, slip_moment):  # pragma: no cover - jitted
+    """Loading curve of the clamp's Iwan joint: k x (1 - |x| / (2 x_s)) up to the slip rotation
+    x_s = 2 M_s / k, M_s sign(x) beyond (N m)."""
+    ax = abs(x)
+    if ax >= slip_rotation:
+        return slip_moment if x > 0.0 else -slip_moment
+    return stiffness * x * (1.0 - ax / (2.0 * slip_rotation))
+
+
+@numba.njit(cache=True, nogil=True)
+def _joint_moment(theta, row, friction, memory):  # pragma: no cover - jitted
+    """The clamp friction's moment on the beam beyond its linear part, k_f theta - R(theta) (N m):
+    R on the Masing branch from the last reversal (theta_r, R_r) = ``memory[0:2]``,
+    R = R_r + 2 B((theta - theta_r) / 2) with B the loading curve (:func:`_joint_backbone`)."""
+    k = friction[row, 0]
+    moment_s = friction[row, 1]
+    theta_s = 2.0 * moment_s / k
+    restoring = memory[1] + 2.0 * _joint_backbone(0.5 * (theta - memory[0]), k, theta_s, moment_s)
+    return k * theta - restoring
+
+
+@numba.njit(cache=True, nogil=True)
 def _forcing(xi, u, row, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static,
-             out, gauss_force):  # pragma: no cover - jitted
-    """The modal forcing beta_u u + beta_tip s(w_tip) + sum_g beta_g F_g of the state ``xi`` into
-    ``out``, the drag forces F_g = -c_g |v_g| v_g into ``gauss_force``; returns the spring's force s
-    (N). v_g = Re(gamma_g . xi) is the velocity at Gauss point g (gains already doubled for a
-    conjugate pair), w_tip the tip displacement with the discarded modes' quasi-static share."""
+             out, gauss_force, beta_root, gamma_root, friction, memory):  # pragma: no cover - jitted
+    """The modal forcing beta_u u + beta_tip s(w_tip) + sum_g beta_g F_g + beta_root g(theta) of
+    the state ``xi`` into ``out``, the drag forces F_g = -c_g |v_g| v_g into ``gauss_force``, the
+    clamp friction's moment g (N m, :func:`_joint_moment`, 0 without it) into ``memory[3]``;
+    returns the spring's force s (N). v_g = Re(gamma_g . xi) is the velocity at Gauss point g
+    (gains already doubled for a conjugate pair), w_tip the tip displacement with the discarded
+    modes' quasi-static share, theta = Re(gamma_root . xi) the root rotation."""
     n_poles = xi.shape[0]
     k3 = cubic[row]
     spring = 0.0
@@ -508,6 +532,15 @@ def _forcing(xi, u, row, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, c
         spring = -k3 * w * w * w
     for j in range(n_poles):
         out[j] = beta_u[row, j] * u + beta_tip[row, j] * spring
+    memory[3] = 0.0
+    if friction[row, 1] > 0.0:
+        theta = 0.0
+        for j in range(n_poles):
+            theta += (gamma_root[row, 0, j] * xi[j]).real
+        moment = _joint_moment(theta, row, friction, memory)
+        memory[3] = moment
+        for j in range(n_poles):
+            out[j] += beta_root[row, j] * moment
     for g in range(gauss_force.shape[0]):
         c = drag[row, g]
         if c == 0.0:
@@ -548,8 +581,54 @@ def _step_coefficients(poles, widths):  # pragma: no cover - jitted
 
 
 @numba.njit(cache=True, nogil=True)
+def _root_state(xi, row, gamma_root):  # pragma: no cover - jitted
+    """(theta, theta', amplitude) of the root rotation: Re(gamma . xi) for the rotation and its rate,
+    and the sum of the kept poles' moduli |gamma_j xi_j| (rad)."""
+    theta = 0.0
+    rate = 0.0
+    amplitude = 0.0
+    for j in range(xi.shape[0]):
+        theta += (gamma_root[row, 0, j] * xi[j]).real
+        rate += (gamma_root[row, 1, j] * xi[j]).real
+        amplitude += abs(gamma_root[row, 0, j] * xi[j])
+    return theta, rate, amplitude
+
+
+@numba.njit(cache=True, nogil=True)
+def _start_branch(xi, row, gamma_root, friction, memory):  # pragma: no cover - jitted
+    """The Masing branch the joint is on at the start (``memory``: theta_r, R_r, direction): the
+    motion taken as the settled cycle of the root's current amplitude A, whose last reversal was
+    at -direction A with R = -direction B(A) (a release from rest: the release point itself)."""
+    theta, rate, amplitude = _root_state(xi, row, gamma_root)
+    amplitude = max(amplitude, abs(theta))
+    direction = 1.0 if rate > 0.0 else (-1.0 if rate < 0.0 else (-1.0 if theta > 0.0 else 1.0))
+    k = friction[row, 0]
+    moment_s = friction[row, 1]
+    memory[0] = -direction * amplitude
+    memory[1] = -direction * _joint_backbone(amplitude, k, 2.0 * moment_s / k, moment_s)
+    memory[2] = direction
+
+
+@numba.njit(cache=True, nogil=True)
+def _follow_reversal(xi, row, gamma_root, friction, memory, theta_before, rate_before, h):  # pragma: no cover - jitted
+    """After a substep of ``h`` s: if the root's rotation rate changed sign, start the new Masing
+    branch at the turning point (theta' taken linear over the substep, theta at the root of it)
+    with R on the old branch there. Returns the rotation and its rate now."""
+    theta, rate, _ = _root_state(xi, row, gamma_root)
+    direction = memory[2]
+    if rate * direction < 0.0:
+        share = rate_before / (rate_before - rate) if rate_before != rate else 0.0
+        turn = theta_before + 0.5 * rate_before * share * h
+        memory[1] = turn * friction[row, 0] - _joint_moment(turn, row, friction, memory)  # R on the old branch
+        memory[0] = turn
+        memory[2] = -direction
+    return theta, rate
+
+
+@numba.njit(cache=True, nogil=True)
 def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_tip, gamma_gauss, direct, cubic, drag,
-                    static, initial, voltage, step_id, counts, table):  # pragma: no cover - jitted
+                    static, beta_root, gamma_root, friction, initial, voltage, step_id, counts, table,
+                    widths):  # pragma: no cover - jitted
     """ETDRK4 (Cox & Matthews 2002) on xi' = Lambda xi + N(xi, u) for parameter set ``row``.
 
     Stages a = E_h xi + Q N(xi), b = E_h xi + Q N(a), c = E_h a + Q (2 N(b) - N(xi)),
@@ -558,7 +637,10 @@ def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_t
     over its interval, split into ``counts[k]`` substeps whose coefficients are
     ``table[:, step_id[k]]`` (:func:`_step_coefficients`; a record's stamps take few distinct
     steps). Output at t_k: Re(gamma_out . xi) + direct[0] u + direct[1] s + sum_g direct[2 + g] F_g
-    + the quasi-static terms of the displacement (static[0] u - static[2] k3 w³), as in :func:`_etdrk4`.
+    + direct[2 + G] g + the quasi-static terms of the displacement (static[0] u - static[2] k3 w³), as in
+    :func:`_etdrk4`. The clamp friction's Masing memory is held fixed over a substep and moved to
+    the turning point after the substep in which the root's rotation reverses
+    (:func:`_follow_reversal`); ``widths`` are the substeps (s) of ``step_id``.
     """
     n_poles = poles.shape[1]
     n = voltage.shape[0]
@@ -574,12 +656,21 @@ def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_t
     nc = np.empty(n_poles, np.complex128)
     forces = np.empty(n_gauss)
     b = row
+    memory = np.zeros(4)  # the friction's last reversal (theta_r, R_r), its direction, its moment now
+    rubbing = friction[b, 1] > 0.0
+    theta = 0.0
+    rate = 0.0
+    if rubbing:
+        _start_branch(xi, b, gamma_root, friction, memory)
+        theta, rate, _ = _root_state(xi, b, gamma_root)
     for k in range(n):
         u = voltage[k]
-        spring = _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces)
+        spring = _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces,
+                          beta_root, gamma_root, friction, memory)
         value = (static[b, 0] + direct[b, 0]) * u + (direct[b, 1] + static[b, 2]) * spring
         for g in range(n_gauss):
             value += direct[b, 2 + g] * forces[g]
+        value += direct[b, 2 + n_gauss] * memory[3]
         for j in range(n_poles):
             value += (gamma_out[b, j] * xi[j]).real
         out[k] = value
@@ -587,20 +678,27 @@ def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_t
             break
         e_full, e_half, q_half = table[0, step_id[k]], table[1, step_id[k]], table[2, step_id[k]]
         f1, f2, f3 = table[3, step_id[k]], table[4, step_id[k]], table[5, step_id[k]]
+        h = widths[step_id[k]]
         for sub in range(counts[k]):
             if sub > 0:
-                _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces)
+                _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces,
+                         beta_root, gamma_root, friction, memory)
             for j in range(n_poles):
                 sa[j] = e_half[j] * xi[j] + q_half[j] * n0[j]
-            _forcing(sa, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, na, forces)
+            _forcing(sa, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, na, forces,
+                     beta_root, gamma_root, friction, memory)
             for j in range(n_poles):
                 sb[j] = e_half[j] * xi[j] + q_half[j] * na[j]
-            _forcing(sb, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nb, forces)
+            _forcing(sb, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nb, forces,
+                     beta_root, gamma_root, friction, memory)
             for j in range(n_poles):
                 sc[j] = e_half[j] * sa[j] + q_half[j] * (2.0 * nb[j] - n0[j])
-            _forcing(sc, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nc, forces)
+            _forcing(sc, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nc, forces,
+                     beta_root, gamma_root, friction, memory)
             for j in range(n_poles):
                 xi[j] = e_full[j] * xi[j] + f1[j] * n0[j] + f2[j] * (na[j] + nb[j]) + f3[j] * nc[j]
+            if rubbing:
+                theta, rate = _follow_reversal(xi, b, gamma_root, friction, memory, theta, rate, h)
     return out
 
 
@@ -629,17 +727,22 @@ def integrate_general(
     omega_squared: np.ndarray, reduced_damping: np.ndarray, force: np.ndarray, sensor: np.ndarray, tip: np.ndarray,
     gauss: np.ndarray, cubic_N_m3: np.ndarray, drag_kg_m: np.ndarray, voltage: np.ndarray, steps_s: np.ndarray,
     order: int = 0, initial: np.ndarray | None = None, static_gains: np.ndarray | None = None,
+    root: np.ndarray | None = None, friction: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Sensor output (B, n) of the retained modes with the tip spring and the quadratic air drag.
+    """Sensor output (B, n) of the retained modes with the tip spring, the quadratic air drag and
+    the clamp friction.
 
     The retained modes (mass-normalised undamped shapes) obey
 
-        eta'' + C_r eta' + diag(omega²) eta = f_r u(t) + tip_r s + sum_g psi_g F_g,
-        s = -k3 w_tip³,  F_g = -c_g |v_g| v_g,  v_g = psi_g . eta'
+        eta'' + C_r eta' + diag(omega²) eta = f_r u(t) + tip_r s + sum_g psi_g F_g + root_r g,
+        s = -k3 w_tip³,  F_g = -c_g |v_g| v_g,  v_g = psi_g . eta',
+        g = k_f theta - R(theta),  theta = root_r . eta
 
     with psi_g the shapes at the Gauss points x_g of :func:`drag_quadrature` and c_g =
     ½ rho_air C_d b w_g (kg/m): the distributed drag ½ rho_air C_d b |w_t| w_t projected on the
-    modes by quadrature. They are diagonalised (first-order form, one coordinate per conjugate
+    modes by quadrature; R the moment of the clamp's Iwan joint on its Masing branch (stick
+    stiffness k_f, whole slip at M_s; :func:`_joint_moment`), whose linear part k_f theta is in
+    omega² already. They are diagonalised (first-order form, one coordinate per conjugate
     pair) and stepped by ETDRK4 (:func:`_etdrk4_general`), whose linear part is exact.
 
     Parameters
@@ -657,6 +760,8 @@ def integrate_general(
     initial : (B, 2m), optional  (eta, eta') at t_0; rest when omitted.
     static_gains : (B, 4), optional  the discarded modes' quasi-static share (see
         :func:`integrate_tip_cubic`), displacement only.
+    root : (B, m), optional  the root rotation's row (rad per unit modal coordinate).
+    friction : (B, 2), optional  the clamp friction's k_f (N m/rad) and M_s (N m); none when omitted.
     """
     omega2 = np.asarray(omega_squared, dtype=float)
     batch, m = omega2.shape
@@ -683,11 +788,14 @@ def integrate_general(
 
     kept_poles = np.where(kept, take(poles), -1.0 + 0j)
     gauss = np.asarray(gauss, dtype=float)
-    direct = np.zeros((batch, 2 + gauss.shape[1]))
+    root = np.zeros((batch, m)) if root is None else np.broadcast_to(np.asarray(root, dtype=float), (batch, m))
+    friction = np.zeros((batch, 2)) if friction is None else np.broadcast_to(np.asarray(friction, dtype=float), (batch, 2))
+    direct = np.zeros((batch, 3 + gauss.shape[1]))
     if order == 2:  # the retained modes' acceleration feels the modal force at once
         direct[:, 0] = np.einsum("bm,bm->b", sensor, force)
         direct[:, 1] = np.einsum("bm,bm->b", sensor, tip)
-        direct[:, 2:] = np.einsum("bm,bgm->bg", sensor, gauss)
+        direct[:, 2:-1] = np.einsum("bm,bgm->bg", sensor, gauss)
+        direct[:, -1] = np.einsum("bm,bm->b", sensor, root)
     static = np.zeros((batch, 4))
     if static_gains is not None and order == 0:
         given = np.asarray(static_gains, dtype=float)
@@ -705,7 +813,9 @@ def integrate_general(
         np.ascontiguousarray(outputs(gauss, 1)), direct,
         np.ascontiguousarray(np.broadcast_to(np.asarray(cubic_N_m3, dtype=float), (batch,))),
         np.ascontiguousarray(np.broadcast_to(np.asarray(drag_kg_m, dtype=float), (batch, gauss.shape[1]))),
-        static, np.ascontiguousarray(start), np.ascontiguousarray(voltage, dtype=float),
+        static, np.ascontiguousarray(inputs(root[:, None, :])[:, 0]),
+        np.ascontiguousarray(np.stack([outputs(root[:, None, :], 0)[:, 0], outputs(root[:, None, :], 1)[:, 0]], axis=1)),
+        np.ascontiguousarray(friction), np.ascontiguousarray(start), np.ascontiguousarray(voltage, dtype=float),
     )
     steps = np.asarray(steps_s, dtype=float)
     out = np.empty((batch, steps.size + 1))
@@ -713,5 +823,5 @@ def integrate_general(
         counts = np.maximum(1, np.ceil(critical[row] * steps / GENERAL_RESOLUTION)).astype(np.int64)
         widths, step_id = np.unique(steps / counts, return_inverse=True)
         table = _step_coefficients(args[0][row], widths)
-        out[row] = _etdrk4_general(row, *args, step_id.reshape(-1).astype(np.int64), counts, table)
+        out[row] = _etdrk4_general(row, *args, step_id.reshape(-1).astype(np.int64), counts, table, widths)
     return out

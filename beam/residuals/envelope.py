@@ -39,6 +39,7 @@ __all__ = [
     "backbone",
     "check_backbone",
     "spectral_drift",
+    "decay_frequency_drift",
     "decay_law",
     "extrapolate",
     "mode_envelope",
@@ -56,6 +57,11 @@ MIN_BACKBONE_CYCLES = 12
 DRIFT_FLOOR = 1e-3
 #: Largest ratio between the backbone's shift and the spectral drift (either way) that still agrees.
 DRIFT_AGREEMENT = 2.0
+#: A free decay whose dominant mode's frequency rises by more than this (relative, from the first
+#: third of the decay to the last; :func:`decay_frequency_drift`) softens at large amplitude: ten
+#: times what the quadratic drag alone, whose frequency shift is of second order, leaves on a
+#: simulated strip decay (``docs/decisions.md``).
+RISING_DRIFT = 2e-4
 
 
 @dataclass(frozen=True, eq=False)
@@ -487,6 +493,38 @@ def spectral_drift(time_s: np.ndarray, signal: np.ndarray, frequency_Hz: float, 
         peaks.append(float(freq[k] + offset * (freq[1] - freq[0])))
     early, late = peaks
     return early, late, (early - late) / late
+
+
+def decay_frequency_drift(time_s: np.ndarray, signal: np.ndarray) -> float:
+    """How the dominant mode's frequency drifts over a free decay: (f_early − f_late) / f_late
+    (:func:`spectral_drift`) from the record's largest excursion (the release) to its end,
+    resampled onto uniform stamps (a sensor's jittered clock would bias the spectra's frequency
+    scale). Negative: the frequency rises as the swing dies. NaN when a third of the decay holds
+    fewer than 4 cycles.
+
+    Parameters
+    ----------
+    time_s, signal : ndarray, shape (n,)
+        Increasing stamps (s) and the free decay's samples (any unit).
+    """
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(signal, dtype=float)
+    if t.size < 16 or t.shape != y.shape or not np.all(np.isfinite(y)):
+        return float("nan")
+    start = int(np.argmax(np.abs(y - np.median(y))))
+    t, y = t[start:], y[start:]
+    if t.size < 16 or t[-1] <= t[0]:
+        return float("nan")
+    uniform = np.linspace(t[0], t[-1], t.size)
+    y = np.interp(uniform, t, y)
+    dt = float(uniform[1] - uniform[0])
+    magnitude = np.abs(np.fft.rfft((y - y.mean()) * np.hanning(y.size)))
+    freq = np.fft.rfftfreq(y.size, dt)
+    above = freq > 2.0 / (t[-1] - t[0])  # at least two cycles in the decay
+    if not np.any(above):
+        return float("nan")
+    dominant = float(freq[above][np.argmax(magnitude[above])])
+    return spectral_drift(uniform, y, dominant, float(uniform[0]), float(uniform[-1]))[2]
 
 
 def check_backbone(shape: Backbone, envelope: ModeEnvelope, time_s: np.ndarray, signal: np.ndarray) -> Backbone:
