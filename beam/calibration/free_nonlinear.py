@@ -73,6 +73,16 @@ JOINT_BOUND_FRACTION = 1e-4
 #: Fractions of the sub-model's mode-1 damping ratio that the drag's equivalent viscous damping
 #: takes over in the equivalent starts (:meth:`NonlinearFreeModel.equivalent_starts`).
 EQUIVALENT_FRACTIONS = (0.5, 0.7, 0.85)
+#: The clamp friction's starts (:meth:`NonlinearFreeModel.friction_starts`): the joint's stick
+#: stiffness k_f in units of the strip's EI / L (a clamp far stiffer than the strip's root, which
+#: still lowers f1 by 0.1-3 %) ...
+FRICTION_STIFFNESS_RATIOS = (100.0, 300.0, 1000.0, 3000.0)
+#: ... and the root rotation's amplitude at the window's start in units of the slip rotation
+#: theta_s = 2 M_s / k_f (microslip to whole slip over a swing).
+FRICTION_SLIP_RATIOS = (0.5, 1.0, 2.0)
+#: Equivalent and friction starts whose amplitudes are refined by the inner solve before the
+#: search picks its start (the best screened; each refinement costs ~6 batched integrations).
+REFINED_STARTS = 1
 
 
 def nonlinear_parameters(names: Sequence[str]) -> tuple[str, ...]:
@@ -258,12 +268,14 @@ class NonlinearFreeModel(ProjectedFreeModel):
         # a start at its nulls (within the clipping margin of internal_starts): a sub-model's optimum
         null_z = {n: (problem.names.index(n), float(problem.parameter(n).prior.to_internal(null_value(problem, n))),
                       2e-6 * problem.parameter(n).prior.internal_scale) for n in self.nonlinear_names}
-        nulls = [i for i in range(len(starts))
-                 if all(abs(starts[i, j] - z) <= within for j, z, within in null_z.values())]
+        # the nonlinear parameters each start holds at their nulls: a start with any is a sub-model's optimum
+        off = [{n for n, (j, z, within) in null_z.items() if abs(starts[i, j] - z) <= within} for i in range(len(starts))]
+        nulls = [i for i in range(len(starts)) if off[i]]
         sources, derived = [], []
         for i in nulls:
             sub = {n: float(values[n][i]) for n in values if n in self.names or n == AR1_COEFFICIENT}
-            more = self.equivalent_starts(sub)
+            more = ((self.equivalent_starts(sub) if "drag_coefficient" in off[i] else [])
+                    + (self.friction_starts(sub) if "clamp_slip_moment_Nm" in off[i] else []))
             sources += [i] * len(more)
             derived += more
         if derived:
@@ -272,6 +284,11 @@ class NonlinearFreeModel(ProjectedFreeModel):
         linear = ProjectedFreeModel.fit(self, values)
         amplitudes = linear["amplitudes"].copy()
         m2 = 2 * self.modes
+        ar1 = AR1_COEFFICIENT in values
+        for i in sorted(set(sources)):
+            if len(off[i]) < len(self.nonlinear_names):  # a nonlinear sub-model: its state refined on its own response
+                amplitudes[i] = self._inner(self._one(values, i), amplitudes[i], float(values[AR1_COEFFICIENT][i]) if ar1
+                                            else (0.0 if self.likelihood == "ar1" else None))["amplitudes"]
         for row, source in enumerate(sources, start=len(starts) - len(sources)):
             # an equivalent start keeps its sub-model's initial modal state (the same swing at the
             # window's start), not the linear profile at its lowered damping
@@ -283,9 +300,10 @@ class NonlinearFreeModel(ProjectedFreeModel):
         with np.errstate(all="ignore"):
             rss = np.sum((self.fit_data - screen) ** 2, axis=1)
         rss[~np.isfinite(rss)] = np.inf
-        ar1 = AR1_COEFFICIENT in values
         averaged = self._averaged_start(problem, starts, amplitudes, rss, nulls)
-        for row in range(len(starts) - len(sources), len(starts)) if averaged is None else ():
+        derived_rows = np.arange(len(starts) - len(sources), len(starts))
+        derived_rows = derived_rows[np.argsort(rss[derived_rows], kind="stable")][:REFINED_STARTS]
+        for row in derived_rows if averaged is None else ():
             # an equivalent start's amplitudes refined on its own response (its swing is the
             # sub-model's, its decay is not): screened by its profile, as the nested start is
             # (not needed with the averaged model's MAP, a start of the same kind, refined further)
@@ -436,6 +454,50 @@ class NonlinearFreeModel(ProjectedFreeModel):
                 if name in one:
                     start[name] = float(max(one[name] - drag * per_unit[j], 0.1 * one[name]))
             starts.append(start)
+        return starts
+
+    def friction_starts(self, one: Mapping[str, float]) -> list[dict[str, float]]:
+        """Starts with the clamp friction on, from a sub-model's optimum ``one`` (natural units, the
+        friction at its null values: a rigid joint that never slips).
+
+        For each stick stiffness k_f of :data:`FRICTION_STIFFNESS_RATIOS` (times EI / L), EI is
+        raised so that the compliant root keeps the sub-model's f1 (one correction, f1² ∝ EI),
+        and for each ratio q of :data:`FRICTION_SLIP_RATIOS` the slip moment is set so that the
+        root's rotation at the window's start, |r_1| A_1 (r_1 the root rotation per unit mode-1
+        coordinate, A_1 the sub-model's mode-1 amplitude there), is q slip rotations:
+        M_s = k_f |r_1| A_1 / 2 q. The joint's softening and loss are of order (theta / theta_s)
+        times its share of the mode's strain energy, so the grid spans a drift of f1 from
+        negligible to several times what a strip's decay shows.
+
+        Returns
+        -------
+        list of dict
+            Natural-unit starts; empty when the model has no clamp friction.
+        """
+        m = self.modes
+        names = ("clamp_friction_stiffness_Nm_rad", "clamp_slip_moment_Nm", "bending_stiffness_Nm2")
+        if not all(n in one for n in names):
+            return []
+        amplitudes = ProjectedFreeModel.fit(self, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
+        state = self.state_matrix(one) @ amplitudes[: 2 * m]
+        omega2, _ = self.model.mode_shapes({n: one[n] for n in self.names}, m)
+        if not (np.all(np.isfinite(state)) and omega2[0] > 0.0):
+            return []
+        mode_1 = math.hypot(state[0], state[m] / math.sqrt(omega2[0]))
+        stiffness = one["bending_stiffness_Nm2"]
+        root = self.model.parts.basis.evaluate(np.zeros(1), 1)[0]
+        starts = []
+        for ratio in FRICTION_STIFFNESS_RATIOS:
+            trial = dict(one, clamp_friction_stiffness_Nm_rad=ratio * stiffness / self.model.geometry.length_m)
+            softened, _ = self.model.mode_shapes({n: trial[n] for n in self.names}, m)
+            trial["bending_stiffness_Nm2"] = stiffness * float(omega2[0] / softened[0])
+            _, shapes = self.model.mode_shapes({n: trial[n] for n in self.names}, m)
+            rotation = abs(float(root @ shapes[:, 0])) * mode_1  # rad at the window's start
+            if not (math.isfinite(rotation) and rotation > 0.0):
+                continue
+            for slip in FRICTION_SLIP_RATIOS:
+                moment = trial["clamp_friction_stiffness_Nm_rad"] * rotation / (2.0 * slip)
+                starts.append(dict(trial, clamp_slip_moment_Nm=float(moment)))
         return starts
 
     def _joint_columns(self, problem: Problem, x: np.ndarray, d: int, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -318,7 +318,9 @@ def prepare(
             linear_effects = tuple(e for e in setup.effects if not EFFECTS[e].nonlinear)
             sub = calibration_preview(setup.measurement, window=setup.window, effects=linear_effects,
                                       modes=setup.modes, likelihood=setup.likelihood, engine=engine)  # remembered by the engine
-            chosen = nonlinear_free_starts(problem, setup, sub.laplace.map.values, warm_start)
+            # and every other remembered sub-model's (one with a nonlinear effect of its own), nested too
+            chosen = nonlinear_free_starts(problem, setup, sub.laplace.map.values, warm_start) + null_starts(
+                problem, setup, engine)
         else:  # free response (initial state profiled out) or point force: no coupling to solve for
             chosen = projected_starting_points(problem, setup, warm_start) + null_starts(problem, setup, engine)
         return chosen + (best_guesses(problem, extra) if extra else [])

@@ -702,8 +702,12 @@ def _phase_lag_notes(result: CalibrationResult, time_s: np.ndarray, data: np.nda
     own = (f" The record's own f1 {'rises' if spectral < 0 else 'falls'} {abs(100 * spectral):.2g} % from the "
            "first to the last third of its decay (short-time spectrum)." if np.isfinite(spectral) else "")
     if np.isfinite(spectral) and (spectral < 0) == ahead:  # the record's own frequency drifts that way
-        physics = ("A frequency that rises as the swing dies is a stiffness that falls with amplitude — a clamp "
-                   "that softens or slips at large swings — which no catalogue effect models."
+        physics = (("A frequency that rises as the swing dies is a stiffness that falls with amplitude — a clamp "
+                    "that slips at large swings: add clamp_friction (a frictional joint at the root, fitted on "
+                    "free decays; its calibration takes minutes)."
+                    if "clamp_friction" not in setup.effects else
+                    "A frequency that rises as the swing dies is what clamp_friction models; the window may be "
+                    "too short to pin its slip moment.")
                    if ahead else
                    "A frequency that falls as the swing dies is a stiffness that grows with amplitude, as a "
                    "hardening spring's does.")

@@ -102,7 +102,10 @@ range except the clamp's stiffness (a rigid clamp is k_theta -> infinity).
 Effects flagged ``missing_effect_candidate=False`` are left out of the missing-effect ranking
 (:data:`CANDIDATE_EFFECTS`): ``modal_damping`` replaces a damping law rather than adding physics,
 and ``sensor_mass`` matters for a contact sensor (an accelerometer), which a displacement record
-from a laser does not have; the diagnosis decides when to offer them. ``quadratic_drag`` is
+from a laser does not have; the diagnosis decides when to offer them. ``clamp_friction`` is named
+by the diagnosis's note on a held-out phase lag where the record's own frequency rises as the
+swing dies, not fitted by the ranking: its calibration takes minutes, the ranking fits every
+candidate (``docs/physics-clamp-friction.md``). ``quadratic_drag`` is
 offered on free decays of a strip whose width the sidecar gives (:data:`EFFECT_NEEDS`).
 """
 
@@ -400,6 +403,7 @@ EFFECTS: dict[str, Effect] = {
             ),
             frees_root_rotation=True,
             nonlinear=True,
+            missing_effect_candidate=False,
         ),
         Effect(
             "sensor_mass",
