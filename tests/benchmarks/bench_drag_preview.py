@@ -22,8 +22,6 @@ printed beside the wall times (the machine may be shared), with the 1-minute loa
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import os
 import sys
 import time
@@ -34,9 +32,7 @@ sys.path.insert(0, str(ROOT))
 
 from beam.calibration import calibration_preview, calibration_stream  # noqa: E402
 from beam.calibration.engine import Engine  # noqa: E402
-from beam.io.measurement import read_measurement  # noqa: E402
-
-BASE = "modal_damping,sensor_mass"
+from bench_drag_calibration import BASE, strip_records  # noqa: E402
 
 
 def _timed_next(stream):
@@ -47,20 +43,11 @@ def _timed_next(stream):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("records", nargs="*", type=Path)
-    parser.add_argument("--width", type=float, default=0.05, help="strip width (m) when the sidecar has none")
-    parser.add_argument("--window", type=float, default=5.0, help="end of the calibration window (s)")
-    args = parser.parse_args()
-    shared = ROOT.parent / "shared" / "real-data"
-    records = args.records or sorted((shared if shared.is_dir() else ROOT / "assets" / "real").glob("adxl_*.csv"))
+    args, records = strip_records()
     print("record  duration_s  rate_Hz  linear_s  linear_cpu_s  cold_s  cold_cpu_s  cold_ratio  cold_cpu_ratio  "
           "warm_s  warm_cpu_s  warm_ratio  warm_cpu_ratio  averaged  full_map_s  avg_C_d  full_C_d  load")
     worst = 0.0
-    for path in records:
-        record = read_measurement(path)
-        if record.geometry.width_m is None:
-            record = dataclasses.replace(record, geometry=dataclasses.replace(record.geometry, width_m=args.width))
+    for path, record in records:
         window, drag_effects = (0.0, args.window), BASE + ",quadratic_drag"
         warm_up = calibration_stream(record, window=window, effects=drag_effects, engine=Engine())
         next(warm_up)
