@@ -126,11 +126,16 @@ def test_a_model_without_the_drag_streams_no_averaged_event(record):
     assert first.approximation is None and not first.is_averaged and AVERAGED_NOTE not in first.laplace.warnings
 
 
-def test_a_failing_averaged_preview_is_logged_and_skipped(record, monkeypatch, caplog):
-    """Where the averaged model does not apply (here forced: an overdamped mode), the stream
-    starts with the full model's preview, and the log says why."""
+@pytest.mark.parametrize("error, level", [
+    (BeamInputError("the averaged model needs every retained mode underdamped"), logging.INFO),
+    (ValueError("an unforeseen failure of the averaged model"), logging.WARNING),
+])
+def test_a_failing_averaged_preview_is_logged_and_skipped(record, monkeypatch, caplog, error, level):
+    """Where the averaged model does not apply (here forced: an overdamped mode) or fails, the
+    stream starts with the full model's preview, and the log says why (a failure other than
+    the model's limits as a warning)."""
     def refuse(self, problem, sub_values):
-        raise BeamInputError("the averaged model needs every retained mode underdamped")
+        raise error
 
     monkeypatch.setattr(AveragedDragModel, "fit_nested", refuse)
     with caplog.at_level(logging.INFO, logger="beam.calibration.run"):
@@ -138,4 +143,5 @@ def test_a_failing_averaged_preview_is_logged_and_skipped(record, monkeypatch, c
         first = next(stream)
         stream.close()
     assert first.approximation is None and "drag_coefficient" in first.laplace.map.values
-    assert any("underdamped" in r.getMessage() for r in caplog.records)
+    logged = [r for r in caplog.records if r.name == "beam.calibration.run" and r.levelno == level]
+    assert logged and (str(error) in logged[0].getMessage() or logged[0].exc_info[1] is error)

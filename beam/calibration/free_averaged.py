@@ -250,7 +250,8 @@ class AveragedDragModel:
         m2 = 2 * free.modes
         state = self._theta(dict(start))["T"] @ a[:m2]
         best = (float(np.sum(data_residual(np.concatenate([z0, a])) ** 2)), z0, a)
-        for other in free.equivalent_starts({n: start[n] for n in free.names}):
+        keep = [*free.names, *([AR1_COEFFICIENT] if AR1_COEFFICIENT in start else [])]  # the AR(1) whitens the linear fit
+        for other in free.equivalent_starts({n: start[n] for n in keep}):
             z = internal_starts(problem, [other])[0][:d]
             b = np.concatenate([np.linalg.solve(self._theta(natural(z))["T"], state), a[m2:]])
             scale0 = max(math.sqrt(float(np.mean(data_residual(np.concatenate([z, b])) ** 2))), 1e-300)

@@ -626,7 +626,7 @@ def averaged_preview(setup: BeamCalibrationSetup, problem: Problem, engine: Engi
     """The averaged drag model's preview of a free decay whose only nonlinear effect is
     ``quadratic_drag`` (:class:`~beam.calibration.free_averaged.AveragedDragModel`, no integration),
     or None for any other model or when the averaged model does not apply (a mode overdamped at
-    the start, a singular Laplace matrix: logged, never raised).
+    the start, a singular Laplace matrix) or fails: logged, never raised.
 
     Its MAP and Laplace covariance are the averaged model's from the linear sub-model's optimum
     (:func:`linear_sub_map`, remembered by ``engine``: the full calibration starts from it
@@ -644,8 +644,11 @@ def averaged_preview(setup: BeamCalibrationSetup, problem: Problem, engine: Engi
         fit = model.fit_nested(problem, linear_sub_map(setup, engine))
         bands = _lead_nan(setup, model.bands(fit, problem, setup.measurement.time_s[setup.free_start_indices[1]:]))
         laplace_result = averaged_laplace(problem, fit, time.perf_counter() - t0)
-    except (BeamInputError, np.linalg.LinAlgError) as exc:
+    except (BeamInputError, np.linalg.LinAlgError) as exc:  # the averaged model does not apply
         LOGGER.info("no averaged drag preview for %s: %s", setup.measurement.name, exc)
+        return None
+    except Exception:  # an optional first look: its failure must not cost the calibration
+        LOGGER.warning("the averaged drag preview of %s failed", setup.measurement.name, exc_info=True)
         return None
     prediction = bands.mean.copy()
     prediction.flags.writeable = False
