@@ -12,6 +12,8 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the simulated drag decay of the library's tests
 from test_calibration_drag import _drag_decay  # noqa: E402
 
+from beam.calibration.engine import Engine  # noqa: E402
+from dashboard.jobs import beam as beam_jobs  # noqa: E402
 from dashboard.jobs.beam import AVERAGED_STATUS, LAPLACE_STATUS, CalibrationKey, calibration_stages  # noqa: E402
 from dashboard.runtime import scheduler as sch  # noqa: E402
 from dashboard.state.beam import BeamState  # noqa: E402
@@ -20,9 +22,12 @@ from dashboard.views.beam import convergence_html, stage_text  # noqa: E402
 
 @pytest.fixture(scope="module")
 def stages():
-    """The job's stages for a simulated decay under the drag (C_d = 12), window 0-4 s, 2 modes."""
+    """The job's stages for a simulated decay under the drag (C_d = 12), window 0-4 s, 2 modes, in
+    a worker whose engine remembers nothing yet (one that knows this model's MAP shows it at once)."""
     key = CalibrationKey("simulated_drag", (0.0, 4.0), ("modal_damping", "quadratic_drag"), 2)
-    return list(calibration_stages(key, _drag_decay(seed=8)))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(beam_jobs, "default_engine", Engine)
+        return list(calibration_stages(key, _drag_decay(seed=8)))
 
 
 def test_the_job_publishes_the_averaged_preview_first_then_the_full_results(stages):
