@@ -343,8 +343,8 @@ def averaged_laplace(problem: Problem, fit: AveragedDragFit, seconds: float = 0.
         i, prior = problem.names.index(name), problem.parameter(name).prior
         value, information = ((fit.noise_sd, 2.0 * n / fit.noise_sd**2) if name == NOISE_SD else
                               (fit.ar1_coefficient or 0.0, n / max(1.0 - (fit.ar1_coefficient or 0.0) ** 2, 1e-12)))
-        span = hi[i] - lo[i]
-        z[i] = float(np.clip(prior.to_internal(value), lo[i] + 1e-9 * span, hi[i] - 1e-9 * span))
+        inside = 1e-9 * (hi[i] - lo[i]) if np.isfinite(hi[i] - lo[i]) else 0.0  # a logit coordinate: unbounded
+        z[i] = float(np.clip(prior.to_internal(value), lo[i] + inside, hi[i] - inside))
         x = float(prior.from_internal(z[i]))
         h = 1e-6 * max(abs(x), 1e-6)
         slope = float(prior.to_internal(x + h) - prior.to_internal(x - h)) / (2.0 * h)  # d z / d x
