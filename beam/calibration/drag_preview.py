@@ -8,11 +8,8 @@ nonlinear calibration (that starts from the averaged model) must not import.
 
 from __future__ import annotations
 
-import numpy as np
-
 from beam.calibration.free_averaged import AveragedDragFit, AveragedDragModel
 from beam.errors import BeamInputError
-from beam.inference import AR1_COEFFICIENT
 
 __all__ = ["averaged_drag_preview"]
 
@@ -45,14 +42,10 @@ def averaged_drag_preview(measurement, window: tuple[float, float], effects, mod
     AveragedDragFit
     """
     from beam.calibration.engine import default_engine
-    from beam.calibration.fit import internal_starts
-    from beam.calibration.free import ProjectedFreeModel
-    from beam.calibration.nulls import null_value
-    from beam.calibration.run import CalibrationSpec, calibration_preview
+    from beam.calibration.run import CalibrationSpec, linear_sub_map
     from beam.calibration.setup import build_problem, make_setup
     from beam.calibration.records import decimate_measurement
     from beam.io.limits import MAX_CALIBRATION_SAMPLES
-    from beam.physics.effects import EFFECTS
 
     engine = default_engine() if engine is None else engine
     measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
@@ -62,14 +55,6 @@ def averaged_drag_preview(measurement, window: tuple[float, float], effects, mod
     setup = make_setup(measurement, window=spec.window, effects=spec.effects, modes=spec.modes,
                        likelihood=spec.likelihood)
     problem = build_problem(setup)
-    free = problem.model
     if not (setup.is_free and "drag_coefficient" in setup.physical_names):
         raise BeamInputError("the averaged preview is for a free decay with quadratic_drag")
-    linear = tuple(e for e in setup.effects if not EFFECTS[e].nonlinear)
-    sub = calibration_preview(setup.measurement, window=setup.window, effects=linear, modes=setup.modes,
-                              likelihood=setup.likelihood, engine=engine)
-    one = {n: float(v) for n, v in sub.laplace.map.values.items() if n in setup.physical_names or n == AR1_COEFFICIENT}
-    one["drag_coefficient"] = null_value(problem, "drag_coefficient")
-    one = {n: float(problem.from_internal(internal_starts(problem, [one]))[n][0]) for n in one}  # clipped to the prior
-    amplitudes = ProjectedFreeModel.fit(free, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
-    return AveragedDragModel(free).fit(problem, one, amplitudes)
+    return AveragedDragModel(problem.model).fit_nested(problem, linear_sub_map(setup, engine))

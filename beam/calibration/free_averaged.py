@@ -49,9 +49,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from beam.errors import BeamInputError
-from beam.inference import AR1_COEFFICIENT, Problem
+from beam.inference import AR1_COEFFICIENT, LaplaceResult, MapResult, PredictiveBands, Problem
 
-__all__ = ["AVERAGED_NOTE", "AveragedDragFit", "AveragedDragModel"]
+__all__ = ["AVERAGED_NOTE", "AveragedDragFit", "AveragedDragModel", "averaged_laplace"]
 
 #: The label of every result of the averaged model.
 AVERAGED_NOTE = ("averaged (slow-flow) approximation of the quadratic drag: each mode's envelope decays by "
@@ -86,6 +86,8 @@ class AveragedDragFit:
         Root-mean-square residual at the MAP (the output's unit).
     n_evaluations : int
         Residual evaluations of the least squares.
+    ar1_coefficient : float or None
+        The AR(1) coefficient the residuals were whitened with (the start's), None for i.i.d. noise.
     note : str
         :data:`AVERAGED_NOTE`.
     """
@@ -97,6 +99,7 @@ class AveragedDragFit:
     amplitudes: np.ndarray
     noise_sd: float
     n_evaluations: int
+    ar1_coefficient: float | None = None
     note: str = AVERAGED_NOTE
 
 
@@ -108,13 +111,19 @@ class AveragedDragModel:
     ----------
     free : NonlinearFreeModel
         A free decay whose only nonlinear effect is ``quadratic_drag``.
+    time_s : ndarray, optional
+        Times (s, none before the window's first sample) the response is evaluated at: the
+        window's (``free.fit_time_s``) by default, the record's after the window to predict it.
     """
 
-    def __init__(self, free) -> None:
+    def __init__(self, free, time_s: np.ndarray | None = None) -> None:
         if tuple(free.nonlinear_names) != ("drag_coefficient",):
             raise BeamInputError("the averaged model covers the quadratic drag alone")
         self.free = free
-        self.tau = free.fit_time_s - free.reference_s
+        self.time_s = free.fit_time_s if time_s is None else np.asarray(time_s, dtype=float)
+        self.tau = self.time_s - free.reference_s
+        if self.tau.size and self.tau[0] < -1e-12:
+            raise BeamInputError("the averaged model predicts forward from the window's first sample only")
         self._cache: dict[bytes, dict] = {}
 
     def _theta(self, one: Mapping[str, float]) -> dict:
@@ -132,7 +141,7 @@ class AveragedDragModel:
         upper = poles[::2]
         if poles.size != 2 * m or np.any(np.abs(upper.imag) <= 0.0):
             raise BeamInputError("the averaged model needs every retained mode underdamped")
-        basis = free.design(poles[None, :], free.fit_time_s)[0][:, : 2 * m]  # (n, 2m)
+        basis = free.design(poles[None, :], self.time_s)[0][:, : 2 * m]  # (n, 2m)
         sigma, omega_d = upper.real, np.abs(upper.imag)
         omega2, shapes = free.model.mode_shapes({n: one[n] for n in free.names}, m)
         nodes, weights = drag_quadrature(free.model.geometry.length_m)
@@ -174,6 +183,39 @@ class AveragedDragModel:
                                   * amplitudes[2 * k + 1])
         return out + (amplitudes[-1] if self.free.offset else 0.0)
 
+    def bands(self, fit: AveragedDragFit, problem: Problem, time_s: np.ndarray, level: float = 0.95) -> PredictiveBands:
+        """Predictive bands of the averaged model at ``time_s`` (s, from the window's first sample
+        on; output units) by the delta method, as the full model's
+        :meth:`~beam.calibration.free_nonlinear.NonlinearFreeModel.linearised_bands`: the averaged
+        response at the MAP ``fit`` (a :meth:`fit` of this model, on the window), its sd from
+        ``fit.covariance`` (the physical parameters) through the response's derivative with the
+        amplitudes and offset re-fitted on the window (d a / d theta from the window's normal
+        equations), the prediction band widened by ``fit.noise_sd``. Closed forms only: no
+        integration. The bands hold the averaged model's uncertainty, not its approximation error.
+        """
+        from scipy import stats
+
+        physical = [n for n in problem.names if n not in problem.noise_names]
+        d = len(physical)
+        x = np.concatenate([fit.internal, fit.amplitudes])
+        record = AveragedDragModel(self.free, time_s)
+
+        def on(model):
+            return lambda v: model.response(_natural(problem, physical, v[:d]), v[d:])
+
+        steps = np.concatenate([np.full(d, 1e-6), np.full(x.size - d, 1e-6 * max(float(np.max(np.abs(x[d:]))),
+                                                                                   1e-300))])
+        record_columns, window_columns = jacobian_of(on(record), x, steps), jacobian_of(on(self), x, steps)
+        sensitivity, *_ = np.linalg.lstsq(window_columns[:, d:], window_columns[:, :d], rcond=None)  # -d a / d theta
+        derivative = record_columns[:, :d] - record_columns[:, d:] @ sensitivity  # (n, d)
+        model_sd = np.sqrt(np.maximum(np.einsum("ti,ij,tj->t", derivative, fit.covariance, derivative), 0.0))
+        mean = on(record)(x)
+        quantile = float(stats.norm.ppf(0.5 + 0.5 * level))
+        spread = np.sqrt(model_sd**2 + fit.noise_sd**2)
+        return PredictiveBands(time_s=record.time_s, mean=mean, credible_lower=mean - quantile * model_sd,
+                               credible_upper=mean + quantile * model_sd, prediction_lower=mean - quantile * spread,
+                               prediction_upper=mean + quantile * spread, level=float(level), n_draws=0)
+
     # ------------------------------------------------------------------ MAP + Laplace
     def fit(self, problem: Problem, start: Mapping[str, float], amplitudes: np.ndarray) -> AveragedDragFit:
         """MAP of the averaged model (trust-region least squares over the internal physical
@@ -193,8 +235,11 @@ class AveragedDragModel:
         rho = float(start.get(AR1_COEFFICIENT, 0.0)) if free.likelihood == "ar1" else None
         y = free.fit_data
 
+        if self.time_s is not free.fit_time_s:
+            raise BeamInputError("the averaged model is fitted on its window's times")
+
         def natural(z):
-            return {n: float(problem.parameter(n).prior.from_internal(z[i])) for i, n in enumerate(physical)}
+            return _natural(problem, physical, z)
 
         def data_residual(x):
             return free.whitened((y - self.response(natural(x[:d]), x[d:]))[None, :], rho)[0]
@@ -205,7 +250,8 @@ class AveragedDragModel:
         m2 = 2 * free.modes
         state = self._theta(dict(start))["T"] @ a[:m2]
         best = (float(np.sum(data_residual(np.concatenate([z0, a])) ** 2)), z0, a)
-        for other in free.equivalent_starts({n: start[n] for n in free.names}):
+        keep = [*free.names, *([AR1_COEFFICIENT] if AR1_COEFFICIENT in start else [])]  # the AR(1) whitens the linear fit
+        for other in free.equivalent_starts({n: start[n] for n in keep}):
             z = internal_starts(problem, [other])[0][:d]
             b = np.concatenate([np.linalg.solve(self._theta(natural(z))["T"], state), a[m2:]])
             scale0 = max(math.sqrt(float(np.mean(data_residual(np.concatenate([z, b])) ** 2))), 1e-300)
@@ -255,7 +301,65 @@ class AveragedDragModel:
                          float(problem.parameter(n).prior.from_internal(x[i] + spread[i])))
                      for i, n in enumerate(physical)}
         return AveragedDragFit(values=natural(x[:d]), internal=x[:d].copy(), covariance=cov, intervals=intervals,
-                               amplitudes=x[d:].copy(), noise_sd=noise, n_evaluations=evaluations)
+                               amplitudes=x[d:].copy(), noise_sd=noise, n_evaluations=evaluations, ar1_coefficient=rho)
+
+    def fit_nested(self, problem: Problem, sub_values: Mapping[str, float]) -> AveragedDragFit:
+        """:meth:`fit` from the optimum ``sub_values`` (natural units) of the model without the
+        drag (the linear sub-model): its parameters (and AR(1) coefficient) with C_d at its null
+        value, clipped into the priors, and the linear model's amplitudes there."""
+        from beam.calibration.fit import internal_starts
+        from beam.calibration.free import ProjectedFreeModel
+        from beam.calibration.nulls import null_value
+
+        physical = [n for n in problem.names if n not in problem.noise_names]
+        one = {n: float(v) for n, v in sub_values.items() if n in physical or n == AR1_COEFFICIENT}
+        one["drag_coefficient"] = null_value(problem, "drag_coefficient")
+        one = {n: float(problem.from_internal(internal_starts(problem, [one]))[n][0]) for n in one}  # in the priors
+        amplitudes = ProjectedFreeModel.fit(self.free, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
+        return self.fit(problem, one, amplitudes)
+
+
+def averaged_laplace(problem: Problem, fit: AveragedDragFit, seconds: float = 0.0) -> LaplaceResult:
+    """The averaged model's fit ``fit`` as a Laplace approximation of ``problem`` (the full
+    model's), for a result that shows it: centred at its MAP (internal coordinates), its noise
+    sd at ``fit.noise_sd`` (and the AR(1) coefficient at ``fit.ar1_coefficient``); the physical
+    block of the covariance is ``fit.covariance``, each noise parameter's variance that of its
+    Gaussian likelihood on the window's n samples (Fisher information 2n / sigma² of the sd,
+    n / (1 - rho²) of the AR(1) coefficient, mapped to the internal coordinate), no cross terms.
+
+    The log posterior and the log evidence are NaN (the full model's at this point would need
+    the integration the averaged model avoids); ``warnings`` holds :data:`AVERAGED_NOTE`.
+    """
+    from beam.inference import NOISE_SD
+
+    d = fit.internal.size
+    n = problem.model.fit_data.size
+    lo, hi = problem.internal_bounds
+    z = np.empty(problem.ndim)
+    z[:d] = fit.internal
+    cov = np.zeros((problem.ndim, problem.ndim))
+    cov[:d, :d] = fit.covariance
+    for name in problem.noise_names:
+        i, prior = problem.names.index(name), problem.parameter(name).prior
+        value, information = ((fit.noise_sd, 2.0 * n / fit.noise_sd**2) if name == NOISE_SD else
+                              (fit.ar1_coefficient or 0.0, n / max(1.0 - (fit.ar1_coefficient or 0.0) ** 2, 1e-12)))
+        inside = 1e-9 * (hi[i] - lo[i]) if np.isfinite(hi[i] - lo[i]) else 0.0  # a logit coordinate: unbounded
+        z[i] = float(np.clip(prior.to_internal(value), lo[i] + inside, hi[i] - inside))
+        x = float(prior.from_internal(z[i]))
+        h = 1e-6 * max(abs(x), 1e-6)
+        slope = float(prior.to_internal(x + h) - prior.to_internal(x - h)) / (2.0 * h)  # d z / d x
+        cov[i, i] = slope**2 / information
+    values = {name: float(v[0]) for name, v in problem.from_internal(z[None, :]).items()}
+    found = MapResult(z=z, values=values, log_posterior=math.nan, gradient=np.full(problem.ndim, math.nan),
+                      hessian=-np.linalg.inv(cov), hessian_point=z.copy(), converged=True,
+                      message=f"averaged model: {fit.n_evaluations} residual evaluations", n_starts=1)
+    return LaplaceResult(problem=problem, map=found, mean=z.copy(), cov=cov, log_evidence=math.nan, ok=True,
+                         warnings=[fit.note], seconds=seconds)
+
+
+def _natural(problem: Problem, physical: list[str], z: np.ndarray) -> dict[str, float]:
+    """The physical parameters ``physical`` at internal ``z`` (d,), natural units."""
+    return {n: float(problem.parameter(n).prior.from_internal(z[i])) for i, n in enumerate(physical)}
 
 
 def _levenberg_marquardt(residuals, jacobian, x: np.ndarray, lower: np.ndarray, upper: np.ndarray,

@@ -439,7 +439,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         psi = self.model.parts.basis.evaluate(nodes, 0) @ shapes  # (G, m)
         kappa = 0.5 * AIR_DENSITY_KG_M3 * width * (weights @ np.abs(psi) ** 3)  # per unit C_d
         amplitudes = ProjectedFreeModel.fit(self, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
-        state = self.state_matrix(one) @ amplitudes[: 2 * m]
+        state = self.state_matrix({n: one[n] for n in self.names}) @ amplitudes[: 2 * m]
         start_amplitude = np.hypot(state[:m], state[m:] / omega)
         decay = np.array([one.get(r, 0.0) for r in ratios]) * omega * (self.fit_time_s[-1] - self.reference_s)
         mean = start_amplitude * np.where(decay > 1e-9, -np.expm1(-decay) / np.maximum(decay, 1e-300), 1.0)
@@ -479,7 +479,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         if not all(n in one for n in names):
             return []
         amplitudes = ProjectedFreeModel.fit(self, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
-        state = self.state_matrix(one) @ amplitudes[: 2 * m]
+        state = self.state_matrix({n: one[n] for n in self.names}) @ amplitudes[: 2 * m]
         omega2, _ = self.model.mode_shapes({n: one[n] for n in self.names}, m)
         if not (np.all(np.isfinite(state)) and omega2[0] > 0.0):
             return []

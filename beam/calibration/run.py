@@ -23,6 +23,7 @@ previous window's MAP) warm-starts it.
 from __future__ import annotations
 
 import io
+import logging
 import math
 import time
 from collections.abc import Iterable, Iterator, Mapping
@@ -33,6 +34,7 @@ import numpy as np
 
 from beam.calibration.bands import fast_predictive_bands
 from beam.calibration.fit import fast_map
+from beam.calibration.free_averaged import AVERAGED_NOTE, AveragedDragModel, averaged_laplace
 from beam.calibration.free_starts import nonlinear_free_starts, projected_starting_points
 from beam.calibration.records import decimate_measurement
 from beam.calibration.spec import CalibrationSpec
@@ -63,6 +65,7 @@ from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS
 from beam.io.text import atomic_write_texts
 
+LOGGER = logging.getLogger(__name__)
 #: The warning of a nonlinear free decay's calibration, which ends at its Laplace approximation.
 LAPLACE_ONLY = ("a free decay with a nonlinear effect is not sampled: the posterior is the Laplace approximation "
                 "at the MAP and the bands are linearised (one evaluation integrates the decay and refits its "
@@ -100,6 +103,14 @@ class CalibrationResult:
         Predictive bands on the whole record.
     seconds : float
         Wall time of the whole calibration (s).
+    approximation : str or None
+        None for a result of the model itself; else what stands in for it, in words: a preview of
+        a cheaper model (:data:`~beam.calibration.free_averaged.AVERAGED_NOTE`: the averaged drag
+        model, the first event of :func:`calibration_stream` on a free decay with the drag), whose
+        laplace, bands and MAP prediction are that model's. Never remembered as the model's MAP.
+    final : bool
+        True for the last result of :func:`calibration_stream`: after MCMC, or a nonlinear free
+        decay's Laplace result (which is not sampled, so ``is_preview`` stays True).
     """
 
     setup: BeamCalibrationSetup
@@ -113,6 +124,13 @@ class CalibrationResult:
     #: A screening fit (:func:`calibration_preview` with ``search=False``): the first of the engine's
     #: two stages only. Never remembered as the model's MAP (:func:`known_map` refuses it).
     screened: bool = False
+    approximation: str | None = None
+    final: bool = False
+
+    @property
+    def is_averaged(self) -> bool:
+        """Whether this is the averaged drag model's preview (:attr:`approximation`)."""
+        return self.approximation == AVERAGED_NOTE
 
     @property
     def spec(self) -> CalibrationSpec:
@@ -315,17 +333,24 @@ def prepare(
         if "patch_coupling_NmV" in setup.physical_names:
             chosen = engine.starting_points(problem, setup, warm_start, search=search)
         elif setup.is_free and setup.model.is_nonlinear:  # the linear sub-model's optimum, nested
-            linear_effects = tuple(e for e in setup.effects if not EFFECTS[e].nonlinear)
-            sub = calibration_preview(setup.measurement, window=setup.window, effects=linear_effects,
-                                      modes=setup.modes, likelihood=setup.likelihood, engine=engine)  # remembered by the engine
             # and every other remembered sub-model's (one with a nonlinear effect of its own), nested too
-            chosen = nonlinear_free_starts(problem, setup, sub.laplace.map.values, warm_start) + null_starts(
+            chosen = nonlinear_free_starts(problem, setup, linear_sub_map(setup, engine), warm_start) + null_starts(
                 problem, setup, engine)
         else:  # free response (initial state profiled out) or point force: no coupling to solve for
             chosen = projected_starting_points(problem, setup, warm_start) + null_starts(problem, setup, engine)
         return chosen + (best_guesses(problem, extra) if extra else [])
 
     return setup, build_problem(setup, initial_guesses=starts)
+
+
+def linear_sub_map(setup: BeamCalibrationSetup, engine: Engine) -> dict[str, float]:
+    """The MAP (natural units) of :func:`calibration_preview` of ``setup``'s model without its
+    nonlinear effects (same record, window, modes and likelihood; no bands), remembered by
+    ``engine``: the nested start of a nonlinear free decay's calibration and of its averaged drag
+    preview."""
+    linear_effects = tuple(e for e in setup.effects if not EFFECTS[e].nonlinear)
+    spec = CalibrationSpec(window=setup.window, effects=linear_effects, modes=setup.modes, likelihood=setup.likelihood)
+    return preview_map(setup.measurement, spec, engine=engine)[2].map.values
 
 
 def checked_start(start: Mapping[str, float], names: Iterable[str]) -> dict[str, float]:
@@ -593,10 +618,44 @@ def calibrate(measurement: Measurement, spec: CalibrationSpec | None = None, **o
     Takes the arguments of :func:`calibration_stream` and returns its final result.
     """
     final = None
-    for event in calibration_stream(measurement, spec, **options):
+    for event in calibration_stream(measurement, spec, averaged=False, **options):  # nobody watches its previews
         if isinstance(event, CalibrationResult) and (final is None or final.is_preview):
             final = event
     return final
+
+
+def averaged_preview(setup: BeamCalibrationSetup, problem: Problem, engine: Engine) -> CalibrationResult | None:
+    """The averaged drag model's preview of a free decay whose only nonlinear effect is
+    ``quadratic_drag`` (:class:`~beam.calibration.free_averaged.AveragedDragModel`, no integration),
+    or None for any other model or when the averaged model does not apply (a mode overdamped at
+    the start, a singular Laplace matrix) or fails: logged, never raised.
+
+    Its MAP and Laplace covariance are the averaged model's from the linear sub-model's optimum
+    (:func:`linear_sub_map`, remembered by ``engine``: the full calibration starts from it
+    too), as :func:`~beam.calibration.free_averaged.averaged_laplace`; its bands and MAP
+    prediction are the averaged model's, linearised
+    (:meth:`~beam.calibration.free_averaged.AveragedDragModel.bands`); it is labelled
+    (:attr:`CalibrationResult.approximation`, ``laplace.warnings``) with
+    :data:`~beam.calibration.free_averaged.AVERAGED_NOTE`.
+    """
+    if not (setup.is_free and tuple(e for e in setup.effects if EFFECTS[e].nonlinear) == ("quadratic_drag",)):
+        return None
+    t0 = time.perf_counter()
+    try:
+        model = AveragedDragModel(problem.model)
+        fit = model.fit_nested(problem, linear_sub_map(setup, engine))
+        bands = _lead_nan(setup, model.bands(fit, problem, setup.measurement.time_s[setup.free_start_indices[1]:]))
+        laplace_result = averaged_laplace(problem, fit, time.perf_counter() - t0)
+    except (BeamInputError, np.linalg.LinAlgError) as exc:  # the averaged model does not apply
+        LOGGER.info("no averaged drag preview for %s: %s", setup.measurement.name, exc)
+        return None
+    except Exception:  # an optional first look: its failure must not cost the calibration
+        LOGGER.warning("the averaged drag preview of %s failed", setup.measurement.name, exc_info=True)
+        return None
+    prediction = bands.mean.copy()
+    prediction.flags.writeable = False
+    return CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0,
+                             _map_output=prediction, approximation=fit.note)
 
 
 def calibration_stream(
@@ -606,10 +665,16 @@ def calibration_stream(
     every: int = 50,
     start: Mapping[str, float] | None = None,
     engine: Engine | None = None,
+    averaged: bool = True,
     **options,
 ) -> Iterator[CalibrationResult | Progress]:
     """The calibration as a generator: the preview result, then :class:`Progress` while sampling,
     then the final result. A caller (the dashboard) can stop at any point by leaving the loop.
+
+    On a free decay whose only nonlinear effect is ``quadratic_drag`` (and with ``averaged``), a
+    first event comes before the preview: the averaged drag model's (:func:`averaged_preview`,
+    :attr:`CalibrationResult.approximation` set, :data:`~beam.calibration.free_averaged.AVERAGED_NOTE`
+    among its Laplace warnings), while the full model's MAP, which integrates the decay, is searched.
 
     Parameters
     ----------
@@ -626,6 +691,8 @@ def calibration_stream(
         Warm start of the MAP search (see :func:`calibration_preview`).
     engine : Engine, optional
         The engine that searches and remembers (default: the process's, :func:`default_engine`).
+    averaged : bool
+        False to leave out the averaged drag preview (:func:`calibrate` does: nobody sees it).
 
     Notes
     -----
@@ -648,6 +715,10 @@ def calibration_stream(
     engine = default_engine() if engine is None else engine
     setup, problem = prepare(measurement, spec, start=start, search=False, engine=engine)
     recalled = _recalled_laplace(engine, problem, setup, cold=start is None)  # this model's MAP, found before
+    first = averaged_preview(setup, problem, engine) if averaged and recalled is None else None
+    if first is not None:  # seconds while the full model's MAP is searched
+        first.seconds = time.perf_counter() - t0
+        yield first
     laplace_result = _first_stage(engine, problem, setup, cold=False) if recalled is None else recalled
     preview = CalibrationResult(setup, problem, laplace_result, None, preview_bands(laplace_result, setup, seed),
                                 time.perf_counter() - t0)
@@ -660,7 +731,7 @@ def calibration_stream(
     if setup.is_free and setup.model.is_nonlinear:  # the Laplace posterior: see beam.calibration.free_nonlinear
         laplace_result.warnings.append(LAPLACE_ONLY)
         bands = preview.bands if laplace_result is preview.laplace else preview_bands(laplace_result, setup, seed)
-        yield CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0)
+        yield CalibrationResult(setup, problem, laplace_result, None, bands, time.perf_counter() - t0, final=True)
         return
     if walkers is not None and walkers < 2 * problem.ndim:
         raise BeamInputError(f"walkers must be at least 2 x {problem.ndim} parameters = {2 * problem.ndim}, got {walkers}")
@@ -672,4 +743,4 @@ def calibration_stream(
         yield from run.sample_to_ess(spec.target_ess, every=every, max_steps=spec.max_steps)
         posterior = run.result(target_ess=spec.target_ess)
     bands = record_bands(problem, setup, posterior.thinned_draws(BAND_DRAWS, seed))  # = posterior.predict
-    yield CalibrationResult(setup, problem, laplace_result, posterior, bands, time.perf_counter() - t0)
+    yield CalibrationResult(setup, problem, laplace_result, posterior, bands, time.perf_counter() - t0, final=True)

@@ -9,7 +9,8 @@ Pure Python on top of the public ``beam`` API (no UI import).
     checked by writing them to a temporary directory and reading them with
     :func:`beam.io.measurement.read_measurement`).
 :func:`calibration_run`
-    ``preview`` (MAP + Laplace), ``progress`` while emcee samples, ``final`` — the stages of
+    ``preview`` (MAP + Laplace; for a free decay with the air drag first the averaged drag
+    model's, :data:`AVERAGED_STATUS`), ``progress`` while emcee samples, ``final`` — the stages of
     :func:`beam.calibration.calibration_stream`. Leaving the generator cancels the sampler.
 
 The computations run in the worker processes of the pool: a calibration
@@ -49,10 +50,12 @@ from dashboard.runtime.caches import LRU, cached_stages
 
 __all__ = [
     "ASSETS",
+    "AVERAGED_STATUS",
     "CALIBRATIONS",
     "DIAGNOSES",
     "MAX_SIDECAR_UPLOAD_BYTES",
     "MAX_UPLOAD_BYTES",
+    "LAPLACE_STATUS",
     "REAL_DATASETS",
     "CalibrationKey",
     "bundled_datasets",
@@ -62,6 +65,7 @@ __all__ = [
     "load_bundled",
     "load_upload",
     "read_answer",
+    "stage_message",
     "upload_size_text",
     "warm_worker",
 ]
@@ -201,8 +205,21 @@ def load_upload(csv_name: str | None, csv_bytes: bytes | str | None, toml_name: 
 
 
 # -- calibration ------------------------------------------------------------------------------
-def _stage_message(result: CalibrationResult) -> str:
-    return "preview (MAP + Laplace)" if result.is_preview else "posterior (MCMC)"
+#: The status of the averaged drag preview (:attr:`CalibrationResult.approximation`), the first
+#: result of a free decay calibrated with the air drag.
+AVERAGED_STATUS = "averaged preview (slow-flow approximation of the drag) — full calibration running…"
+#: The status of a nonlinear free decay's final result: its Laplace approximation (not sampled).
+LAPLACE_STATUS = "Laplace posterior (a nonlinear free decay is not sampled by MCMC)"
+
+
+def stage_message(result: CalibrationResult) -> str:
+    """The status of a calibration's result in words: the averaged preview, the preview, the
+    Laplace posterior of a nonlinear free decay or the MCMC posterior."""
+    if result.approximation is not None:
+        return AVERAGED_STATUS
+    if not result.is_preview:
+        return "posterior (MCMC)"
+    return LAPLACE_STATUS if result.final else "preview (MAP + Laplace)"
 
 
 def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int = 25,
@@ -253,11 +270,12 @@ def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: 
             if isinstance(event, Progress):
                 done = max(done, min(event.step / max(event.total, 1), 0.99))
                 yield sch.progress(done, f"sampling: {event.step} of {event.total} ensemble steps")
-            elif event.is_preview:
-                yield sch.preview(event, _stage_message(event))
-                warm_up()  # the sampler's libraries, before the stream goes on to sample
-            else:
-                yield sch.final(event, _stage_message(event))
+            elif not event.final:  # the averaged drag preview (if any), then the model's preview
+                yield sch.preview(event, stage_message(event))
+                if event.approximation is None:
+                    warm_up()  # the sampler's libraries, before the stream goes on to sample
+            else:  # the posterior, or a nonlinear free decay's Laplace result (not sampled)
+                yield sch.final(event, stage_message(event))
     finally:
         stream.close()  # leaving the loop stops emcee
 

@@ -53,6 +53,22 @@ _STAGE_TEXT = {
     "final": "Posterior (MCMC) shown.",
     "error": "Could not calibrate with these inputs.",
 }
+#: The status line's text for a result that is not the stage's usual one (by :func:`stage_text`).
+_AVERAGED_TEXT = "Averaged preview (slow-flow approximation of the drag) shown; full calibration running…"
+_LAPLACE_TEXT = "Laplace posterior shown (a nonlinear free decay is not sampled by MCMC)."
+
+
+def stage_text(stage: str, result) -> str:
+    """The status line's text in bold: the stage's, or what the shown result is when the stage's
+    words do not fit it (the averaged drag preview; a nonlinear free decay's Laplace posterior)."""
+    if result is not None and stage in ("preview", "final"):
+        if result.approximation is not None:
+            return _AVERAGED_TEXT
+        if stage == "final" and result.is_preview:
+            return _LAPLACE_TEXT
+    return _STAGE_TEXT.get(stage, stage)
+
+
 #: Colour of a read-out's number by its judgement (:func:`dashboard.outputs.beam.judged_readouts`).
 KIND_COLOURS = {"good": "#1a7f37", "bad": "#c62828", "warn": "#a35200", "none": "#212529"}
 
@@ -84,6 +100,14 @@ def convergence_html(result) -> str:
     c = bs.convergence(result)
     if result is None:
         return alert_html("secondary", "No result yet.")
+    if result.approximation is not None:
+        return alert_html("secondary", "Averaged preview: the best fit of the drag's slow-flow approximation (each "
+                                       "mode's envelope averaged over a cycle, no integration), with its own error "
+                                       "estimate, which leaves out the approximation's error; the full model's fit "
+                                       "follows and replaces it.")
+    if not c["mcmc"] and result.final:
+        return alert_html("secondary", "Laplace posterior: the single best fit (MAP) with a Gaussian error estimate; "
+                                       "a free decay with a nonlinear effect is not sampled by MCMC.")
     if not c["mcmc"]:
         return alert_html("secondary", "Preview: the single best fit (MAP) with a quick error estimate; the full "
                                        "posterior (MCMC draws) follows, and is checked then.")
@@ -313,8 +337,9 @@ class BeamCalibrationView(pn.viewable.Viewer):
         def html(stage, status, requested, shown, result, dataset):
             r = bs.readouts(result)
             effects = "+".join(result.setup.effects) if result is not None else ""
-            return status_html("cal-status", stage, status, requested, shown, _STAGE_TEXT.get(stage, stage),
+            return status_html("cal-status", stage, status, requested, shown, stage_text(stage, result),
                                dataset=dataset, effects=effects, preview=int(result is None or result.is_preview),
+                               averaged=int(result is not None and result.approximation is not None),
                                rmse_prediction=f"{r['rmse_prediction']:.6g}", unit=r["unit"])
 
         p = beam.param

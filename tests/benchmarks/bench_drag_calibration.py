@@ -24,6 +24,7 @@ import dataclasses
 import os
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -32,27 +33,40 @@ sys.path.insert(0, str(ROOT))
 from beam.calibration import calibration_preview  # noqa: E402
 from beam.calibration.engine import Engine  # noqa: E402
 from beam.calibration.drag_preview import averaged_drag_preview  # noqa: E402
-from beam.io.measurement import read_measurement  # noqa: E402
+from beam.io.measurement import Measurement, read_measurement  # noqa: E402
 
 BASE = "modal_damping,sensor_mass"
 
 
-def main() -> None:
+def strip_records() -> tuple[argparse.Namespace, Iterator[tuple[Path, Measurement]]]:
+    """The command line (``records``, ``--width``, ``--window``) and its records, each read with
+    the width given when its sidecar has none (default: the shared strip runs beside the clone,
+    else the bundled ones)."""
     parser = argparse.ArgumentParser()
     parser.add_argument("records", nargs="*", type=Path)
     parser.add_argument("--width", type=float, default=0.05, help="strip width (m) when the sidecar has none")
     parser.add_argument("--window", type=float, default=5.0, help="end of the calibration window (s)")
     args = parser.parse_args()
     shared = ROOT.parent / "shared" / "real-data"
-    records = args.records or sorted((shared if shared.is_dir() else ROOT / "assets" / "real").glob("adxl_*.csv"))
+    paths = args.records or sorted((shared if shared.is_dir() else ROOT / "assets" / "real").glob("adxl_*.csv"))
+
+    def read():
+        for path in paths:
+            record = read_measurement(path)
+            if record.geometry.width_m is None:
+                record = dataclasses.replace(record, geometry=dataclasses.replace(record.geometry, width_m=args.width))
+            yield path, record
+
+    return args, read()
+
+
+def main() -> None:
+    args, records = strip_records()
     print("record  release_s  base_heldout  drag_heldout  gain  C_d  C_d_95%  zeta1(base)  zeta1(drag)  "
           "base_s  drag_s  ratio  base_cpu_s  drag_cpu_s  cpu_ratio  lp_base  lp_drag  avg_cpu_s  avg/base  avg_C_d  "
           "avg_zeta1  load")
     gains = []
-    for path in records:
-        record = read_measurement(path)
-        if record.geometry.width_m is None:
-            record = dataclasses.replace(record, geometry=dataclasses.replace(record.geometry, width_m=args.width))
+    for path, record in records:
         engine = Engine()
         clock, cpu = time.perf_counter(), time.process_time()
         base = calibration_preview(record, window=(0.0, args.window), effects=BASE, engine=engine)
