@@ -70,6 +70,9 @@ JOINT_STOP_SD = 0.01
 #: A coordinate within this fraction of its prior's internal range from a bound, the gradient
 #: pushing out, is held at the bound by the stopping rule (the search's own bound handling).
 JOINT_BOUND_FRACTION = 1e-4
+#: How far (internal scales of its prior) the noise search reaches from its start along an
+#: unbounded coordinate (the AR(1) coefficient's logit: ±10 of it is 0.99995 either way).
+UNBOUNDED_NOISE_REACH = 10.0
 #: Fractions of the sub-model's mode-1 damping ratio that the drag's equivalent viscous damping
 #: takes over in the equivalent starts (:meth:`NonlinearFreeModel.equivalent_starts`).
 EQUIVALENT_FRACTIONS = (0.5, 0.7, 0.85)
@@ -556,9 +559,13 @@ class NonlinearFreeModel(ProjectedFreeModel):
                 value = problem.log_posterior(point)[0]
                 return -value if np.isfinite(value) else 1e300
 
-            span = hi[i] - lo[i]
-            found = optimize.minimize_scalar(negative, bounds=(lo[i] + 1e-9 * span, hi[i] - 1e-9 * span),
-                                             method="bounded", options={"xatol": 1e-7})
+            if np.isfinite(lo[i]) and np.isfinite(hi[i]):
+                span = hi[i] - lo[i]
+                bounds = (lo[i] + 1e-9 * span, hi[i] - 1e-9 * span)
+            else:  # an unbounded coordinate (the AR(1) coefficient's logit): searched around its start
+                reach = UNBOUNDED_NOISE_REACH * problem.parameter(name).prior.internal_scale
+                bounds = (max(lo[i], z[i] - reach), min(hi[i], z[i] + reach))
+            found = optimize.minimize_scalar(negative, bounds=bounds, method="bounded", options={"xatol": 1e-7})
             z[i] = float(found.x)
         return z
 
