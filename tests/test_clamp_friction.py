@@ -106,7 +106,7 @@ def _modal_reference(model, values, eta, time, modes):
 def test_the_friction_matches_an_independent_integration_with_its_reversals_as_events():
     """Two retained modes released from 2 cm at the tip, the joint slipping over most of the
     swing (theta reaches 0.6 theta_s): the ETDRK4 response against DOP853 with the Masing
-    branch switched at each reversal found as an event (relative L2 <= 1e-3), while the
+    branch switched at each reversal found as an event (relative L2 <= 1e-4; 1e-6 measured), while the
     compliant clamp without the friction is much further away."""
     values = {"bending_stiffness_Nm2": EI, "damping_ratio_mode_1": 0.002, "damping_ratio_mode_2": 0.003,
               "clamp_friction_stiffness_Nm_rad": 300.0, "clamp_slip_moment_Nm": 2.0}
@@ -120,7 +120,7 @@ def test_the_friction_matches_an_independent_integration_with_its_reversals_as_e
     stuck = linear.free_response({k: v for k, v in values.items() if not k.startswith("clamp_")}
                                  | {"clamp_stiffness_Nm_rad": 300.0}, time, eta, modes=2, output="acceleration")
     error = _relative_l2(got, ref)
-    assert error <= 1e-3
+    assert error <= 1e-4
     assert _relative_l2(stuck, ref) > 20 * error
 
 
@@ -215,3 +215,13 @@ def test_a_simulated_slipping_clamp_is_recovered_and_predicted_to_the_noise():
     assert result.rmse_prediction == pytest.approx(0.05, rel=0.1)
     assert base.rmse_prediction > 2 * result.rmse_prediction
     assert result.laplace.map.log_posterior > base.laplace.map.log_posterior
+
+
+def test_a_driven_record_is_refused_the_friction_at_once():
+    from beam.calibration import make_setup
+    from beam.io.bundled import bundled_path
+    from beam.io.measurement import read_measurement
+
+    with pytest.raises(BeamInputError, match="clamp_friction is calibrated on free decays only"):
+        make_setup(read_measurement(bundled_path("lab_run_1")), window=(0.0, 0.5),
+                   effects="air_damping,clamp_friction", modes=2)

@@ -296,6 +296,9 @@ def make_setup(
     if "quadratic_drag" in effects and measurement.geometry.width_m is None:
         raise BeamInputError("quadratic_drag needs the strip's width: [beam] width_m and thickness_m in the sidecar, "
                              "or --width and --thickness")
+    if "clamp_friction" in effects and not measurement.is_free:
+        raise BeamInputError("clamp_friction is calibrated on free decays only (a record without input): its joint's "
+                             "history is taken from the swing at the window's start")
     nonlinear = ", ".join(e for e in effects if EFFECTS[e].nonlinear)
     if model.is_nonlinear and not measurement.is_free and (not measurement.uniform or measurement.output_kind != "displacement"):
         raise BeamInputError(
