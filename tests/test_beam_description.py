@@ -265,3 +265,21 @@ def test_the_dashboard_upload_reads_a_phyphox_export_with_a_described_beam():
     read = load_upload("Raw Data.csv", text.encode(), "Raw Data.toml", STRIP.encode())
     np.testing.assert_allclose(read.output, z, rtol=1e-9, atol=1e-12)
     assert read.nominal_origin["bending_stiffness_Nm2"].startswith("E b h³ / 12 from aluminium's E")
+
+
+def test_beam_flags_without_a_beam_file_add_to_the_records_own_sidecar(tmp_path):
+    """``--width`` and ``--thickness`` on a record whose sidecar has no width: the sidecar's length,
+    density, sensor and nominal stay, the flags add the width (as the drag needs)."""
+    import argparse
+
+    from beam.cli.record_arguments import add_record_arguments, measurement_from_args
+
+    path = _pair(tmp_path, "[beam]\nlength_m = 0.5\nlinear_density_kg_m = 0.27\n[sensor]\nposition_m = 0.44\n"
+                           "[nominal]\nbending_stiffness_Nm2 = 2.333\n")
+    parser = argparse.ArgumentParser()
+    parser.add_argument("data")
+    add_record_arguments(parser)
+    record = measurement_from_args(parser.parse_args([str(path), "--width", "0.05", "--thickness", "0.002"]))
+    assert record.geometry.width_m == 0.05 and record.geometry.length_m == 0.5
+    assert record.geometry.sensor_position_m == 0.44 and record.geometry.linear_density_kg_m == 0.27
+    assert record.nominal["bending_stiffness_Nm2"] == 2.333

@@ -7,8 +7,9 @@ The beam (a sidecar's keys, :mod:`beam.io.measurement`): ``--beam BEAM.toml`` an
 ``--length``, ``--width``, ``--thickness`` (m), ``--material NAME`` or ``--youngs-modulus``
 (Pa) and ``--density`` (kg/m³), ``--linear-density`` (kg/m), ``--sensor-at`` (m from the
 clamp), ``--sensor-mass KG`` (``~KG`` for an approximate mass), ``--sensor-range``. Flags
-override the same keys of ``--beam``; any of them makes the record be read by
-:mod:`beam.io.readers` with that description instead of a sidecar next to it.
+override the same keys of ``--beam``, or without it of the record's own sidecar (``NAME.toml``
+next to it: ``--width 0.05`` adds the width a sidecar lacks); the record is then read by
+:mod:`beam.io.readers` with that description.
 
 ``beam calibrate`` and ``beam diagnose`` take one record or several (a joint run):
 :func:`several_records` makes the checks they start with and tells the two apart.
@@ -97,7 +98,8 @@ def beam_flags_given(args: argparse.Namespace) -> bool:
 
 
 def beam_document(args: argparse.Namespace, default_sensor_at_tip: bool = False) -> dict[str, Any] | None:
-    """The sidecar document from ``--beam`` and the flags (flags win), None when neither is given."""
+    """The sidecar document from ``--beam`` (without it, the record's own sidecar when a flag is
+    given) and the flags (flags win), None when no flag and no ``--beam`` is given."""
     from beam.io.text import load_toml
 
     document: dict[str, Any] = {}
@@ -105,6 +107,9 @@ def beam_document(args: argparse.Namespace, default_sensor_at_tip: bool = False)
         document = load_toml(args.beam_file, "beam description")
     if not document and not beam_flags_given(args):
         return None
+    own = None if document else _own_sidecar(getattr(args, "data", None))
+    if own is not None:
+        document = load_toml(own, "beam description")
     document = {key: (dict(value) if isinstance(value, dict) else value) for key, value in document.items()}
     for _flag, dest, table, key, _metavar, _text in BEAM_FLAGS:
         value = getattr(args, dest, None)
@@ -121,6 +126,19 @@ def beam_document(args: argparse.Namespace, default_sensor_at_tip: bool = False)
     if default_sensor_at_tip and "position_m" not in document.get("sensor", {}) and isinstance(length, (int, float)):
         document.setdefault("sensor", {})["position_m"] = float(length)
     return document
+
+
+def _own_sidecar(data: Any):
+    """The sidecar ``NAME.toml`` next to the record ``data`` names (a path or a bundled run), if any."""
+    from pathlib import Path
+
+    from beam.io.bundled import resolve_data_path
+
+    if not isinstance(data, (str, Path)):
+        return None
+    path = Path(resolve_data_path(str(data)))
+    sidecar = path.with_suffix(".toml")
+    return sidecar if path.suffix.lower() != ".toml" and sidecar.is_file() else None
 
 
 def record_options(args: argparse.Namespace) -> dict[str, Any]:
