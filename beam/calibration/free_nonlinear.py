@@ -1,4 +1,4 @@
-"""Free decays with a nonlinear effect (``quadratic_drag``, ``tip_cubic_spring``): the initial
+"""Free decays with a nonlinear effect (``quadratic_drag``, ``clamp_friction``, ``tip_cubic_spring``): the initial
 state fitted by a Gauss–Newton inner solve, the MAP by a joint least-squares search.
 
 A linear free response is linear in its initial state, which :class:`~beam.calibration.free.ProjectedFreeModel`

@@ -13,38 +13,26 @@ friction's never lower), k_f, M_s and their 95 % intervals, and the ratio of the
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
 import os
 import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_drag_calibration import strip_records  # noqa: E402
 
 from beam.calibration import calibration_preview  # noqa: E402
 from beam.calibration.engine import Engine  # noqa: E402
-from beam.io.measurement import read_measurement  # noqa: E402
 
 BASE = "modal_damping,sensor_mass,quadratic_drag"
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("records", nargs="*", type=Path)
-    parser.add_argument("--width", type=float, default=0.05, help="strip width (m) when the sidecar has none")
-    parser.add_argument("--window", type=float, default=5.0, help="end of the calibration window (s)")
-    args = parser.parse_args()
-    shared = ROOT.parent / "shared" / "real-data"
-    records = args.records or sorted((shared if shared.is_dir() else ROOT / "assets" / "real").glob("adxl_*.csv"))
+    args, records = strip_records()
     print("record  base_heldout  friction_heldout  gain  lp_base  lp_friction  k_f  k_f_95%  M_s  M_s_95%  "
           "base_cpu_s  friction_cpu_s  cpu_ratio  load")
     gains = []
-    for path in records:
-        record = read_measurement(path)
-        if record.geometry.width_m is None:
-            record = dataclasses.replace(record, geometry=dataclasses.replace(record.geometry, width_m=args.width))
+    for path, record in records:
         engine = Engine()
         cpu = time.process_time()
         base = calibration_preview(record, window=(0.0, args.window), effects=BASE, engine=engine)
