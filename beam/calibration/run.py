@@ -333,9 +333,9 @@ def prepare(
         if "patch_coupling_NmV" in setup.physical_names:
             chosen = engine.starting_points(problem, setup, warm_start, search=search)
         elif setup.is_free and setup.model.is_nonlinear:  # the linear sub-model's optimum, nested
-            # and every other remembered sub-model's (one with a nonlinear effect of its own), nested too
-            chosen = nonlinear_free_starts(problem, setup, linear_sub_map(setup, engine), warm_start) + null_starts(
-                problem, setup, engine)
+            chosen = nonlinear_free_starts(problem, setup, linear_sub_map(setup, engine), warm_start)
+            if sum(EFFECTS[e].nonlinear for e in setup.effects) > 1:  # a sub-model with a nonlinear effect of its own
+                chosen += null_starts(problem, setup, engine)  # remembered (the drag's before the friction): nested too
         else:  # free response (initial state profiled out) or point force: no coupling to solve for
             chosen = projected_starting_points(problem, setup, warm_start) + null_starts(problem, setup, engine)
         return chosen + (best_guesses(problem, extra) if extra else [])
