@@ -43,7 +43,7 @@ from beam.calibration import (
 )
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
-from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, applicable, parse_effects
+from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, applicable, effect_needs, parse_effects
 from beam.residuals.envelope import RISING_DRIFT, decay_frequency_drift
 
 #: Evidence gain (nats) a candidate needs to count as a material improvement.
@@ -145,8 +145,12 @@ class Ranking:
 Explainer = Callable[[str, CalibrationResult, CalibrationResult], str]
 
 
-def record_features(measurement: Measurement) -> frozenset[str]:
-    """The features of a record that effects can need (:data:`beam.physics.effects.RECORD_FEATURES`)."""
+def record_features(measurement: Measurement, spectral: bool = True) -> frozenset[str]:
+    """The features of a record that effects can need (:data:`beam.physics.effects.RECORD_FEATURES`).
+
+    ``spectral=False`` leaves out ``rising_frequency``, the one read from the record's spectra
+    (~0.1 s on a 20 s, 4 kHz record), for a caller whose effects do not need it.
+    """
     features = set()
     features.add("patch" if measurement.geometry.has_patch else "no_patch")
     if not measurement.is_free:
@@ -161,7 +165,7 @@ def record_features(measurement: Measurement) -> frozenset[str]:
         features.add("width")
     if measurement.is_free:
         features.add("free")
-        if decay_frequency_drift(measurement.time_s, measurement.output) < -RISING_DRIFT:
+        if spectral and decay_frequency_drift(measurement.time_s, measurement.output) < -RISING_DRIFT:
             features.add("rising_frequency")
     return frozenset(features)
 
@@ -180,8 +184,10 @@ def candidate_effects(current: Iterable[str], measurement: Measurement | None = 
     present = set(parse_effects(current))
     offered = list(CANDIDATE_EFFECTS)
     if measurement is not None:
-        features = record_features(measurement)
-        offered = [e for e in [*offered, "sensor_mass"] if applicable(e, features)]
+        offered.append("sensor_mass")
+        spectral = any("rising_frequency" in effect_needs(e) for e in offered)
+        features = record_features(measurement, spectral=spectral)
+        offered = [e for e in offered if applicable(e, features)]
     return tuple(effect for effect in EFFECTS if effect in offered and effect not in present)
 
 
