@@ -12,7 +12,7 @@ method that is valid on the record's posterior, which is a flat ridge (one frequ
 and a clamp stiffness): :func:`one_mode_delta_log_evidence`. The Laplace approximation at a single
 record's MAP is not (its Hessian is singular along the ridge and is repaired, ``ok`` False, so its
 Occam factor depends on where on the ridge the search stopped: 0.6 nats in one run, 3.3 in
-another, for the same 50 cm record; docs/decisions-suggest.md).
+another, for the same 50 cm record; docs/decisions.md, several records).
 """
 
 from __future__ import annotations

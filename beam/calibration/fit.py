@@ -33,11 +33,8 @@ model and of scipy dominates. Here instead:
    Laplace evidence ranks candidate effects, and with missing physics the residual-curvature
    term that Gauss–Newton drops is not small).
 
-Measured against :func:`beam.inference.find_map` from the same starts: on the bundled records
-(windows ending at 30 and 35 %) the same MAP (log posterior within 1e-4 nats, or higher where
-find_map stopped at its iteration cap) from 150-500 model parameter sets instead of 500-2,100;
-on the 60 candidate fits of the diagnosis tests' 15 random records (every candidate effect),
-none worse by more than 0.1 nats, three better by 0.1-2.7 nats, 40 % less time.
+From the same starts it finds the MAPs of :func:`beam.inference.find_map` from a third or less
+of the parameter sets (the measurements: ``docs/decisions.md``, inference).
 """
 
 from __future__ import annotations
@@ -498,10 +495,8 @@ def _drop_worse_basins(lp: np.ndarray, predicted: np.ndarray, converged: np.ndar
     posterior ``reference`` already reached, when given): more than ``margin`` nats behind it and
     expected (Gauss–Newton) to gain less than ``factor`` x the gap and less than ``settled`` nats.
 
-    Measured (lab_run_1, 0-1.1 s, 8 modes, patch stiffening + tip mass): the quick stage's last
-    converged start had been dropped in a better start's basin, so two starts 4,400 nats behind
-    the best, expecting 5-7 nats, went on to a trust-region continuation each (0.17 s) and ended
-    where they were."""
+    Why: two starts 4,400 nats behind the best had each gone on to a 0.17 s trust-region
+    continuation and ended where they were (``docs/decisions.md``, calibration engine)."""
     if reference is None:
         if not np.any(converged):
             return

@@ -33,7 +33,7 @@ and their drag on the dominant one (second order in v_k / v_p), the beating of t
 its second-order frequency shift. It holds while the envelope changes little over one cycle
 and one mode dominates the velocity; with two comparable velocities it is not the drag's
 averaged model any more (the full integrator is). Its error against the full integrator on a
-strip decay (relative L2) is in ``docs/decisions-drag.md``; its Laplace intervals are those of
+strip decay (relative L2) is in ``docs/decisions.md`` (nonlinear free decays); its Laplace intervals are those of
 the averaged model and do not include that error.
 
 Why hand-written: the response is a closed form (no library evaluates it), and it is what makes
@@ -61,7 +61,7 @@ AVERAGED_NOTE = ("averaged (slow-flow) approximation of the quadratic drag: each
 
 #: The averaged model's search stops once its Gauss–Newton step is shorter than this (posterior
 #: sd): a tenth of the posterior's width, well below the averaged model's own bias (its MAP lies
-#: several posterior sd from the full model's; ``docs/decisions-drag.md``), which the full
+#: several posterior sd from the full model's; ``docs/decisions.md``), which the full
 #: calibration started from it removes.
 PREVIEW_STOP_SD = 0.1
 

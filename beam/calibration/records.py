@@ -7,9 +7,7 @@ samples t_0, t_q, t_2q, ... (the time stamps as given):
 
 * **displacement** (a point sample at t_k): zero-phase anti-alias FIR filter, then every q-th
   sample (:func:`scipy.signal.resample_poly`, ``padtype="antireflect"`` so that a sensor offset
-  or a record ending mid-oscillation makes no edge transient: within 0.2 % of the RMS over the
-  first and last ten samples, 5.5 % just after a sharp 5 ms pulse at t_0; scipy's ``decimate``
-  pads with zeros and was off there by 5-22 %, 47 % after the pulse). White sensor noise comes
+  or a record ending mid-oscillation makes no edge transient). White sensor noise comes
   out with its sd scaled by about sqrt(0.9 / q) (the filter keeps 0.9 of the new band), which
   the calibration then estimates;
 * **voltage** (held over each interval, zero-order hold): the same filter, then the **mean over
@@ -19,24 +17,9 @@ samples t_0, t_q, t_2q, ... (the time stamps as given):
   coarse step. Picking every q-th voltage sample instead holds V(t_jq) for the whole block, a
   delay of (q - 1) dt / 2 that the model cannot undo.
 
-Measured on the B1TAPIH beam (4 modes, air + Kelvin-Voigt damping) simulated at 4 kHz and
-decimated by 4 to 1 kHz, RMS difference between the model driven by the decimated voltage and
-the decimated true response, relative to that response's RMS:
-
-==========================  =========================  ======================
-excitation                  filtered block mean        every q-th sample
-                            (chosen)                   (plain block mean)
-==========================  =========================  ======================
-chirp 10 V, 2-250 Hz        1.0 %                      8.4 % (1.0 %)
-10 V pulse, 5.25 ms         0.4 %                      14.9 % (0.4 %)
-30 Hz burst, 5 cycles       0.5 %                      9.0 % (0.5 %)
-constant 5 V                0.02 %                     0.02 % (0.02 %)
-white-noise voltage         1.9 %                      271 % (9.2 %)
-==========================  =========================  ======================
-
-(``tests/test_reliability_limits.py`` re-measures the chirp and pulse rows.) The anti-alias
-filter before the block mean matters only for broadband voltage, whose content above the new
-Nyquist frequency a plain block mean folds back into the band.
+The measured errors of both choices (and of scipy's ``decimate``) are on the design decisions
+page (``docs/decisions.md``, records and files); ``tests/test_reliability_limits.py`` checks
+the chirp and pulse cases.
 
 The same holds for every kind of record: the output (displacement, velocity or acceleration,
 all point samples) is treated as the displacement above, the input (voltage or point force, both
@@ -48,9 +31,9 @@ each coarse interval [t_jq, t_(j+1)q), which keeps the impulse integral of u ove
 (the last sample is held for one median step).
 
 The anti-alias filter has 40 q + 1 taps (Hamming window) and its cutoff at 0.9 of the new
-Nyquist frequency: content up to 0.82 of the new Nyquist frequency is kept to within 1 % (0.3 %
-measured up to 0.8), and everything above the new Nyquist frequency is attenuated by at least 53 dB
-(54 dB measured at it, more above; ``tests/test_reliability_limits.py``). For the tip cubic spring (nonlinear)
+Nyquist frequency: content up to 0.82 of the new Nyquist frequency is kept to within 1 %, and
+everything above the new Nyquist frequency is attenuated by at least 53 dB
+(``tests/test_reliability_limits.py``). For the tip cubic spring (nonlinear)
 filtering the voltage and the displacement alike is an approximation in itself: a filter
 commutes only with a linear model.
 """

@@ -224,13 +224,10 @@ def rank_one_modes(factors: RankOneFactorisation, alpha: np.ndarray, count: int)
     1/rho + sum_j z_j² / (lambda_j - mu) = 0, z = Yᵀ e1, mu = 1/omega² (:func:`_secular_largest`,
     compiled), then one product with the stored back-transformation. Rows with rho <= 0 (no
     point mass) or a root that did not settle take LAPACK ``dstemr`` (MRRR) on their
-    tridiagonal matrix. Measured (CPU, one BLAS thread, 41 dof, 4 modes): 24 µs for one row
-    against 31 µs with ``dstemr`` and 120-200 µs for the dense path (Cholesky, inverse and
-    ``dsyevd`` of each mass matrix); 400 rows (the preview's band draws) 1.8 ms against 12 ms
-    with ``dstemr`` row by row; in the strip's sensor-mass preview (load ~4) 22 ms -> 3 ms of
-    ~0.23 s. Eigenvalues within 1e-13 and shapes within 1e-11 of a dense ``scipy.linalg.eigh``
-    (tests/test_physics_rank_one.py). Only the retained modes: all 41 would cost more than the
-    dense path.
+    tridiagonal matrix. Hand-written because a row costs 24 µs against 120-200 µs for the dense
+    path (41 dof, 4 modes; the measurements: ``docs/decisions.md``, the linear model); the same
+    modes as a dense ``scipy.linalg.eigh`` to round-off (tests/test_physics_rank_one.py). Only
+    the retained modes are solved.
 
     Returns
     -------
@@ -1116,15 +1113,10 @@ def ritz_basis(
     The subspace is spanned by the anchor's ``count + extra`` lowest undamped modes and by the
     ``count`` lowest modes of each member ``anchor + steps[k]`` (one snapshot per coefficient
     that varies; a forward difference spans each mode's first derivative in that coefficient),
-    made M-orthonormal at the anchor (directions below 1e-10 of the largest dropped).
-    Measured on lab_run_1's model (43 dofs, patch density and stiffness varying, 7 modes,
-    ``extra`` 2, r = 20 after the dependent directions are dropped): over 640 of its posterior
-    draws (0.4 % spread, 1-99 %) the Ritz modes agree with the dense solve of
-    :func:`undamped_modes` to 2.9e-10 in omega², 1.7e-9 in the sensor's modal values and 4.1e-9
-    in the shapes (largest entry), every draw passing the bound of :func:`ritz_modes` at 1e-7;
-    52 µs per draw (static gains included) against ~160-190 µs dense. ``extra`` 3 (r = 21):
-    3.4e-10 at the sensor, 67 µs per draw (the r x r eigen-solve dominates).
-    tests/test_physics_ritz.py checks the same against the dense solve.
+    made M-orthonormal at the anchor (directions below 1e-10 of the largest dropped). Why: on
+    lab_run_1's posterior draws 52 µs a member against ~160-190 µs dense, within 3e-10 in omega²
+    (the measurements: ``docs/decisions.md``, the linear model); tests/test_physics_ritz.py
+    checks the modes against the dense solve.
 
     Parameters
     ----------

@@ -6,7 +6,7 @@ for as long (measured 27 s on the class machine). :func:`start` runs those impor
 processes' start and the process set-up on a background thread, and :func:`loading_page` is a
 light page (Panel only) that says what is being loaded, second by second; once everything is
 imported it reloads itself, and the app opens. ``panel serve dashboard/app.py --warm`` starts
-the same thread before the first visitor arrives (``docs/class-guide.md``).
+the same thread before the first visitor arrives (``docs/dashboard.md``).
 
 This module imports nothing but Panel: everything heavy is named in :data:`STEPS` and imported
 by :func:`start`'s thread.

@@ -33,7 +33,7 @@ MIN_PX = 14.0
 
 #: ``__deepAll`` (the harness's: shadow roots included) and the helpers below; ``__shown`` leaves
 #: out what is hidden. A function that returns nothing: as a script its value, the last function
-#: it defines, costs Playwright tens of seconds per evaluation (docs/decisions-ci.md).
+#: it defines, costs Playwright tens of seconds per evaluation (docs/decisions.md, CI time).
 HELPERS_JS = "() => {" + DEEP_JS + """
 window.__shown = (sel) => window.__deepAll(sel).filter((e) => getComputedStyle(e).visibility !== 'hidden');
 window.__label = (e) => (typeof e.className === 'string' && e.className ? e.className : e.tagName) + ': '
