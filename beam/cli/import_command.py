@@ -61,6 +61,8 @@ def run(args: argparse.Namespace) -> int:
     columns = measurement.columns
     sidecar = {"title": document.get("title") or f"{Path(args.data).name}, imported"}
     sidecar.update({key: value for key, value in document.items() if key != "title"})
+    if measurement.arbitrary_units:  # the project's CSV names the quantity; the sidecar says its scale is unknown
+        sidecar["sensor"] = {**sidecar.get("sensor", {}), "unit": "arbitrary"}
     atomic_write_texts({
         csv_path: measurement_csv_text(*(getattr(measurement, c) for c in columns), names=columns),
         toml_path: dump_toml(sidecar, header_comment=f"The beam of {Path(args.data).name}, as described to beam import."),

@@ -9,7 +9,11 @@ header; :mod:`beam.io.readers.binary`: ``.npy``, ``.npz``, ``.mat`` v5 and v7.3,
 :func:`read_phyphox_zip`: phyphox's zip export), and :mod:`beam.io.readers.signal` does the
 rest the same way for all: units to SI, time, the signal, the stamps, the plucks.
 
-Every error is a :class:`beam.errors.BeamInputError` naming the file and what was expected.
+Every error is a :class:`beam.errors.BeamInputError` naming the file and what was expected;
+one that a reading option resolves is a :class:`beam.io.readers.findings.ReadingError` (the
+problem, the option, what was found), which each front end phrases in its own words. A file
+that is no record at all (an image, a PDF, a spreadsheet workbook) is named as what it is.
+What the reader decided is in :attr:`Record.findings`.
 """
 
 from __future__ import annotations
@@ -22,12 +26,14 @@ from beam.errors import BeamInputError
 from beam.io.limits import MAX_MEASUREMENT_BYTES
 from beam.io.readers.binary import read_mat, read_npy, read_npz, read_tdms
 from beam.io.readers.delimited import read_delimited
+from beam.io.readers.findings import COMMAND_LINE, Finding, Hint, Phrasing, ReadingError
 from beam.io.readers.lvm import LVM_MAGIC, read_lvm
 from beam.io.readers.signal import Record, Segment, build_record
 from beam.io.readers.table import RawRecord
 from beam.io.text import read_text_file
 
-__all__ = ["FORMATS", "Record", "Segment", "detect_format", "read_raw", "read_record"]
+__all__ = ["COMMAND_LINE", "FORMATS", "Finding", "Hint", "Phrasing", "ReadingError", "Record", "Segment", "detect_format",
+           "read_raw", "read_record"]
 
 #: ``format=`` names and what each reads.
 FORMATS: dict[str, str] = {
@@ -48,6 +54,12 @@ _MAGIC = (
     (b"TDSm", "tdms"),
 )
 _SUFFIX = {".zip": "phyphox-zip", ".npy": "npy", ".npz": "npz", ".mat": "mat", ".tdms": "tdms", ".lvm": "text"}
+#: First bytes of files that are no record, and what they are.
+_NOT_RECORDS = ((b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"GIF8", "a GIF image"),
+                (b"%PDF", "a PDF document"), (b"\xd0\xcf\x11\xe0", "an old Office document (.xls/.doc)"))
+#: Members of a zip that make it an office document, not a phyphox export.
+_OFFICE_MEMBERS = {"xl/workbook.xml": "an Excel workbook (.xlsx): save the sheet as CSV",
+                   "word/document.xml": "a Word document", "content.xml": "an OpenDocument file: save the sheet as CSV"}
 
 
 def detect_format(path: str | os.PathLike[str]) -> str:
@@ -84,7 +96,9 @@ def read_raw(path: str | os.PathLike[str], format: str | None = None) -> RawReco
     path = Path(path)
     name = format or detect_format(path)
     if name not in FORMATS:
-        raise BeamInputError(f"--format {name!r}: unknown; expected one of {', '.join(FORMATS)}")
+        raise ReadingError(None, "unknown", Hint("expected", tuple(FORMATS)), option="format", value=repr(name))
+    if format is None:
+        _refuse_non_record(path)
     try:
         return _read_raw(path, name)
     except BeamInputError:
@@ -92,6 +106,23 @@ def read_raw(path: str | os.PathLike[str], format: str | None = None) -> RawReco
     except Exception as exc:  # a library's own error on a malformed file: one line naming the file
         raise BeamInputError(f"{path}: not a readable {FORMATS[name]} file ({type(exc).__name__}: "
                              f"{' '.join(str(exc).split())[:160]})") from None
+
+
+def _refuse_non_record(path: Path) -> None:
+    """A file that is no record (an image, a document) named as what it is, never echoed."""
+    with open(path, "rb") as handle:
+        head = handle.read(16)
+    what = next((kind for magic, kind in _NOT_RECORDS if head.startswith(magic)), None)
+    if what is None and head.startswith(b"PK\x03\x04"):
+        try:
+            with zipfile.ZipFile(path) as archive:
+                members = set(archive.namelist())
+        except (zipfile.BadZipFile, OSError):
+            return
+        what = next((kind for member, kind in _OFFICE_MEMBERS.items() if member in members), None)
+    if what is not None:
+        raise BeamInputError(f"{path}: binary content ({what}), not a record; expected a record file "
+                             f"({', '.join(FORMATS)})")
 
 
 def _read_raw(path: Path, name: str) -> RawRecord:
@@ -120,6 +151,9 @@ def read_phyphox_zip(path: Path) -> RawRecord:
     except (zipfile.BadZipFile, OSError) as exc:
         raise BeamInputError(f"{path}: not a readable zip archive ({exc})") from None
     with archive:
+        office = next((kind for member, kind in _OFFICE_MEMBERS.items() if member in archive.namelist()), None)
+        if office is not None:
+            raise BeamInputError(f"{path}: {office}, not a record")
         members = [m for m in archive.infolist() if m.filename.lower().endswith(".csv") and not m.is_dir()
                    and not m.filename.split("/")[-2:-1] == ["meta"] and "/meta/" not in f"/{m.filename}"]
         if not members:
@@ -142,8 +176,9 @@ def read_phyphox_zip(path: Path) -> RawRecord:
 
 
 def read_record(
-    path: str | os.PathLike[str], *, format: str | None = None, column: str | None = None, axis: str | None = None,
-    rate: float | None = None, time_unit: str | None = None, unit: str | None = None, segment: int | None = None,
+    path: str | os.PathLike[str], *, format: str | None = None, record: str | int | None = None,
+    column: str | None = None, axis: str | None = None, rate: float | None = None, time_unit: str | None = None,
+    unit: str | None = None, segment: int | None = None,
 ) -> Record:
     """Read a record from any supported file (module notes).
 
@@ -153,6 +188,9 @@ def read_record(
         The file.
     format : str, optional
         A key of :data:`FORMATS` (default: recognised).
+    record : str or int, optional
+        For a file holding several records (a MATLAB file's structs, an HDF5 file's groups): which,
+        by name or 1-based position (default: the longest; all are listed in the findings).
     column : str, optional
         The signal's column, by name or 1-based position.
     axis : {"x", "y", "z"}, optional
@@ -162,19 +200,24 @@ def read_record(
     time_unit : {"s", "ms", "us"}, optional
         Unit of the time column.
     unit : str, optional
-        Unit of the signal column (g, m/s^2, mm/s, m, µm, ...).
+        Unit of the signal column (g, m/s^2, mm/s, m, µm, microstrain, ...;
+        :data:`beam.io.readers.units.SIGNAL_UNITS`), or ``"arbitrary"`` for a signal of unknown
+        scale (``"arbitrary-acceleration"`` when the column's name does not say what it measures).
     segment : int, optional
         1-based pluck or file segment to use (default: the strongest).
 
     Returns
     -------
     Record
-        Time (s, from 0), the signal (SI) and everything done to them.
+        Time (s, from 0), the signal (SI, or arbitrary units), what was decided and why
+        (:attr:`Record.findings`) and everything done to them.
 
     Raises
     ------
     BeamInputError
-        One line naming the file and what was expected.
+        One line naming the file and what was expected (a :class:`ReadingError` when a
+        reading option resolves it).
     """
     raw = read_raw(path, format)
-    return build_record(raw, column=column, axis=axis, rate=rate, time_unit=time_unit, unit=unit, segment=segment)
+    return build_record(raw, record=record, column=column, axis=axis, rate=rate, time_unit=time_unit, unit=unit,
+                        segment=segment)
