@@ -114,7 +114,7 @@ def _blocks_from_groups(path: Path, groups: Mapping[str, Mapping[str, np.ndarray
     for group, named in groups.items():
         names, arrays = _columns_of(named)
         rate = _rate_of(named) or shared_rate
-        lengths = sorted({a.size for a in arrays}, reverse=True)
+        lengths = list(dict.fromkeys(a.size for a in arrays))  # in the file's order
         for length in lengths:
             kept = [(n, a) for n, a in zip(names, arrays) if a.size == length]
             if length < MIN_RECORD_SAMPLES:

@@ -179,8 +179,11 @@ class Phrasing:
         return self.hints[hint.kind].format(values=self.values(hint.values), listed=listing(hint.values, self))
 
     def why(self, finding: Finding) -> str:
-        """Why a choice was made."""
-        return self.given.format(option=self.option(finding.option)) if finding.given else finding.why
+        """Why a choice was made (a choice given: :attr:`given`, then what it means, if anything)."""
+        if not finding.given:
+            return finding.why
+        given = self.given.format(option=self.option(finding.option))
+        return f"{given}; {finding.why}" if finding.why else given
 
     def finding(self, finding: Finding, *, title: bool = True, change: bool = False) -> str:
         """``"signal: gFz: the most vibration power"`` (with the option that changes it when

@@ -60,6 +60,7 @@ from beam.io.readers.units import (
     ColumnMeaning,
     arbitrary_spelling,
     column_meaning,
+    display_unit,
     is_known_unit,
     normalise_unit,
 )
@@ -226,10 +227,10 @@ def _time_axis(record: RawRecord, block: Block, rate: float | None, time_unit: s
     """(time (s), the note saying where it came from, the finding) of a block (module notes, step 2)."""
     path = record.path
     n = block.columns[0].values.size
-    context = {"findings": findings, "format": record.format, "columns": _channel_listing(block)}
+    context = {"findings": findings, "format": record.format, "columns": channel_listing(block)}
     if rate is not None:
         return (np.arange(n) / float(rate), f"time from --rate {rate:g} Hz",
-                Finding("time", f"{rate:g} Hz", option="rate", given=True,
+                Finding("time", f"a sampling rate of {rate:g} Hz", option="rate", given=True,
                         found=f"column {block.time.name!r} left aside" if block.time is not None else ""))
     if block.time is not None:
         values = block.time.values
@@ -237,10 +238,12 @@ def _time_axis(record: RawRecord, block: Block, rate: float | None, time_unit: s
         factor = meaning.factor if meaning.quantity == "time" else None
         if time_unit is not None:
             factor = TIME_UNITS[time_unit]
-            finding = Finding("time", f"column {block.time.name!r} in {time_unit}", option="time_unit", given=True)
+            finding = Finding("time", f"column {block.time.name!r}", f"in {display_unit(time_unit)}", option="time_unit",
+                              given=True)
         elif factor is not None:
-            finding = Finding("time", f"column {block.time.name!r} in {meaning.unit}",
-                              f"{'from ' if meaning.unit_source in ('its name', 'the file') else ''}{meaning.unit_source}",
+            source = meaning.unit_source
+            why = f"from {source}" if source in ("its name", "the file's unit field") else source
+            finding = Finding("time", f"column {block.time.name!r}", f"in {display_unit(meaning.unit)}, {why}",
                               option="time_unit")
         else:
             finite = values[np.isfinite(values)]
@@ -256,7 +259,7 @@ def _time_axis(record: RawRecord, block: Block, rate: float | None, time_unit: s
                     f"({1.0 / typical:.3g} samples per second), too slow for a vibrating strip: milliseconds?",
                     Hint("time_unit", ("ms", "us")), **context)
             factor = 1.0
-            finding = Finding("time", f"column {block.time.name!r} in s", "assumed: its name gives no unit",
+            finding = Finding("time", f"column {block.time.name!r}", "in s, assumed (its name gives no unit)",
                               option="time_unit")
         where = f"time from column {block.time.name!r}" + (f" in {time_unit}" if time_unit else "")
         return values * factor, where, finding
@@ -266,7 +269,7 @@ def _time_axis(record: RawRecord, block: Block, rate: float | None, time_unit: s
     raise ReadingError(path, "no time column and no sampling rate in the file", Hint("rate"), **context)
 
 
-def _channel_listing(block: Block) -> list[str]:
+def channel_listing(block: Block) -> list[str]:
     """``"2: gFx (acceleration in g)"``, one line per column of the block."""
     out = []
     for column in block.columns:
@@ -314,8 +317,8 @@ def _with_unit(column: Column, unit: str | None) -> Column:
 
 
 def _context(record: RawRecord, block: Block, findings: Sequence[Finding]) -> dict:
-    return {"findings": tuple(findings), "format": record.format, "columns": _channel_listing(block),
-            "records": [b.label for b in record.blocks] if _holds_records(record) else ()}
+    return {"findings": tuple(findings), "format": record.format, "columns": channel_listing(block),
+            "records": [b.label for b in record.blocks] if holds_records(record) else ()}
 
 
 def choose_signal(record: RawRecord, block: Block, time_s: np.ndarray, *, column: str | None, axis: str | None,
@@ -381,7 +384,8 @@ def _checked(record: RawRecord, column: Column, context: dict) -> Column:
 def _unit_finding(column: Column, unit: str | None, original: ColumnMeaning | None) -> Finding:
     """Where the signal's unit comes from (and, for arbitrary units, what that means)."""
     meaning = column.meaning
-    scale = "arbitrary units: the values as the file holds them, their scale unknown" if meaning.arbitrary else ""
+    scale = ("arbitrary units: the values as the file holds them, their scale unknown (nothing that depends on the "
+             "amplitude can be calibrated)") if meaning.arbitrary else ""
     if unit is not None and meaning.unit_source == "given":
         found = f"its name says {original.unit}" if original is not None and original.unit and original.unit != unit else ""
         return Finding("unit", unit, scale, found=found, option="unit", given=True)
@@ -480,7 +484,7 @@ def find_segments(time_s: np.ndarray, values: np.ndarray) -> list[Segment]:
     return segments
 
 
-def _holds_records(raw: RawRecord) -> bool:
+def holds_records(raw: RawRecord) -> bool:
     """Whether the file's blocks are separate records (:attr:`Block.kind`), not one acquisition's parts."""
     return len(raw.blocks) > 1 and all(b.kind == "record" for b in raw.blocks)
 
@@ -559,7 +563,7 @@ def build_record(raw: RawRecord, *, record: str | int | None = None, column: str
     notes = list(raw.notes)
     findings: list[Finding] = []
     blocks = raw.blocks
-    records = [b.label for b in blocks] if _holds_records(raw) else []
+    records = [b.label for b in blocks] if holds_records(raw) else []
     if records:
         index, chosen_record = _pick_record(raw, record)
         findings.append(chosen_record)
@@ -649,7 +653,7 @@ def build_record(raw: RawRecord, *, record: str | int | None = None, column: str
     return Record(
         path=raw.path, format=raw.format, time_s=np.ascontiguousarray(time_s), output_column=OUTPUT_COLUMN_OF[chosen.meaning.quantity],
         output=np.ascontiguousarray(output), signal=COMMAND_LINE.finding(signal_finding, title=False),
-        channels=_channel_listing(block),
+        channels=channel_listing(block),
         input_column=INPUT_COLUMN_OF[input_column.meaning.quantity] if input_column is not None else None,
         input=np.ascontiguousarray(input_values) if input_values is not None else None,
         segments=segments, segment_index=segment_index, notes=notes, findings=findings, cleaning=cleaning,

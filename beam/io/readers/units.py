@@ -282,7 +282,8 @@ def column_meaning(name: str, unit: str | None = None, unit_source: str = "given
         elif is_arbitrary(found_unit):
             quantity, factor, arbitrary = arbitrary_quantity(found_unit), 1.0, True
     named = next((q for q, names in QUANTITY_WORDS.items() if any(w in names for w in words)), None)
-    if any(w in TIME_WORDS for w in words) and (quantity in (None, "time")) and not arbitrary:
+    timed = any(w in TIME_WORDS or re.fullmatch(r"(?:t|time)\d+", w) for w in words)  # "t", "t1": run 1's time
+    if timed and (quantity in (None, "time")) and not arbitrary:
         quantity = "time"
     elif quantity is None:
         quantity = named
