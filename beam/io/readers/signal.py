@@ -274,7 +274,7 @@ def channel_listing(block: Block) -> list[str]:
     out = []
     for column in block.columns:
         meaning = column.meaning
-        what = meaning.quantity or "unknown quantity"
+        what = "time" if column is block.time else (meaning.quantity or "unknown quantity")
         if meaning.arbitrary:
             unit = " in arbitrary units" + (f" ({meaning.unit})" if not _canonical_arbitrary(meaning.unit) else "")
         else:
