@@ -10,6 +10,7 @@ and every decision with the reason the file gives for it.
 
 from __future__ import annotations
 
+import pickle
 import re
 
 import h5py
@@ -115,6 +116,8 @@ def test_a_signal_of_unknown_scale_is_read_as_arbitrary_units(records):
     with pytest.raises(ReadingError) as refused:  # nothing says what 'Quantisation level' measures, nor its unit
         read_record(arduino)
     assert refused.value.hint.kind == "unit_and_quantity"
+    again = pickle.loads(pickle.dumps(refused.value))  # from a worker process, whole
+    assert str(again) == str(refused.value) and again.columns == refused.value.columns
     message = str(refused.value)
     assert message.startswith(f"{arduino}: column 'Quantisation level' has no unit the reader knows; give it with --unit")
     assert "arbitrary-acceleration" in message and "ADC counts" in message
@@ -209,3 +212,19 @@ def test_a_file_that_is_no_record_is_named_and_never_echoed(tmp_path):
     with pytest.raises(BeamInputError) as refused:
         read_record(png)
     assert "binary content (a PNG image), not a record" in str(refused.value) and "PNG'" not in str(refused.value)
+
+
+def test_an_hdf5_file_of_several_runs_lists_them(tmp_path):
+    """A lab's own HDF5 (h5py, row-major): a group per run, its sampling rate an attribute."""
+    t = np.arange(0, 2, 1e-3)
+    with h5py.File(tmp_path / "runs.h5", "w") as handle:
+        for k in (1, 2):
+            group = handle.create_group(f"run{k}")
+            group.create_dataset("acc_m_s2", data=_decay(t, float(k), 6.0))
+            group.attrs["fs"] = 1000.0
+    first = read_record(tmp_path / "runs.h5")
+    assert first.format == "HDF5" and first.records == ["run1", "run2"]
+    assert _finding(first, "record").why == "the first of the longest"
+    second = read_record(tmp_path / "runs.h5", record="run2")
+    np.testing.assert_allclose(second.output, _decay(t, 2.0, 6.0), rtol=1e-15)
+    assert second.rate_Hz == pytest.approx(1000.0, rel=1e-9) and "sampling rate 1000 Hz" in second.notes[0]

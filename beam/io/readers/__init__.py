@@ -5,7 +5,7 @@ HDF5, TDMS, LabVIEW's header) and, for text, from its suffix and header; ``forma
 reader. One small reader per format turns the file into named columns
 (:mod:`beam.io.readers.delimited`: phyphox, Physics Toolbox Sensor Suite, LabVIEW's headerless
 text, any CSV/TSV/whitespace table; :mod:`beam.io.readers.lvm`: LabVIEW ``.lvm`` with its
-header; :mod:`beam.io.readers.binary`: ``.npy``, ``.npz``, ``.mat`` v5 and v7.3, ``.tdms``;
+header; :mod:`beam.io.readers.binary`: ``.npy``, ``.npz``, ``.mat`` v5 and v7.3, HDF5, ``.tdms``;
 :func:`read_phyphox_zip`: phyphox's zip export), and :mod:`beam.io.readers.signal` does the
 rest the same way for all: units to SI, time, the signal, the stamps, the plucks.
 
@@ -24,7 +24,7 @@ from pathlib import Path
 
 from beam.errors import BeamInputError
 from beam.io.limits import MAX_MEASUREMENT_BYTES
-from beam.io.readers.binary import read_mat, read_npy, read_npz, read_tdms
+from beam.io.readers.binary import read_hdf5, read_mat, read_npy, read_npz, read_tdms
 from beam.io.readers.delimited import read_delimited
 from beam.io.readers.findings import COMMAND_LINE, Finding, Hint, Phrasing, ReadingError
 from beam.io.readers.lvm import LVM_MAGIC, read_lvm
@@ -42,6 +42,7 @@ FORMATS: dict[str, str] = {
     "lvm": "LabVIEW .lvm with the standard header",
     "tdms": "NI .tdms (npTDMS)",
     "mat": "MATLAB .mat, v5 (scipy) or v7.3 (h5py)",
+    "hdf5": "HDF5 (h5py): a group of named arrays per record",
     "npy": "NumPy .npy",
     "npz": "NumPy .npz",
 }
@@ -50,10 +51,11 @@ _MAGIC = (
     (b"PK\x03\x04", "phyphox-zip"),
     (b"\x93NUMPY", "npy"),
     (b"MATLAB", "mat"),
-    (b"\x89HDF", "mat"),
+    (b"\x89HDF", "hdf5"),  # a MATLAB v7.3 file starts with its text header (a 512-byte user block)
     (b"TDSm", "tdms"),
 )
-_SUFFIX = {".zip": "phyphox-zip", ".npy": "npy", ".npz": "npz", ".mat": "mat", ".tdms": "tdms", ".lvm": "text"}
+_SUFFIX = {".zip": "phyphox-zip", ".npy": "npy", ".npz": "npz", ".mat": "mat", ".tdms": "tdms", ".lvm": "text",
+           ".h5": "hdf5", ".hdf5": "hdf5"}
 #: First bytes of files that are no record, and what they are.
 _NOT_RECORDS = ((b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"GIF8", "a GIF image"),
                 (b"%PDF", "a PDF document"), (b"\xd0\xcf\x11\xe0", "an old Office document (.xls/.doc)"))
@@ -132,6 +134,8 @@ def _read_raw(path: Path, name: str) -> RawRecord:
         return read_npz(path)
     if name == "mat":
         return read_mat(path)
+    if name == "hdf5":
+        return read_hdf5(path)
     if name == "tdms":
         return read_tdms(path)
     if name == "phyphox-zip":

@@ -1,8 +1,9 @@
-"""Binary records: NumPy ``.npy``/``.npz``, MATLAB ``.mat`` (v5 and v7.3), NI ``.tdms``.
+"""Binary records: NumPy ``.npy``/``.npz``, MATLAB ``.mat`` (v5 and v7.3), HDF5, NI ``.tdms``.
 
 Every reader is a maintained library: :func:`numpy.load` (no pickles), :func:`scipy.io.loadmat`
 (MATLAB v4-v7.2), :mod:`h5py` (MATLAB v7.3 is HDF5; MATLAB stores arrays column-major, so a
-MATLAB n x k matrix appears as k x n and is transposed back), :mod:`nptdms` (NI TDMS).
+MATLAB n x k matrix appears as k x n and is transposed back; any other HDF5 file is read as
+NumPy wrote it), :mod:`nptdms` (NI TDMS).
 
 What the arrays mean:
 
@@ -214,25 +215,44 @@ def read_mat(path: Path) -> RawRecord:
 def _read_mat73(path: Path) -> RawRecord:
     """MATLAB v7.3 (HDF5): a struct is a group; text (``MATLAB_class`` char), logical and cell
     datasets and MATLAB's own ``#refs#``/``#subsystem#`` are not data."""
+    return _read_hdf5(path, matlab=True)
+
+
+def read_hdf5(path: Path) -> RawRecord:
+    """An HDF5 file (h5py): each group of numeric datasets is a record; a group's numeric scalar
+    attributes (``fs``, ``dt``) count as its variables (arrays are row-major, as NumPy writes them)."""
+    return _read_hdf5(path, matlab=False)
+
+
+def _read_hdf5(path: Path, matlab: bool) -> RawRecord:
     import h5py
 
     groups: dict[str, dict[str, np.ndarray]] = {}
 
     def visit(name: str, item) -> None:
+        if isinstance(item, h5py.Group) and not matlab:
+            scalars = {key: np.asarray(value) for key, value in item.attrs.items()
+                       if np.asarray(value).dtype.kind in "fiu" and np.asarray(value).size == 1}
+            if scalars:
+                groups.setdefault(name.replace("/", "."), {}).update(scalars)
+            return
         if not isinstance(item, h5py.Dataset) or name.startswith("#") or item.dtype.kind not in "fiu":
             return
         kind = item.attrs.get("MATLAB_class", b"double")
         if (kind.decode() if isinstance(kind, bytes) else str(kind)) in ("char", "logical", "cell"):
             return
         group, _, leaf = name.rpartition("/")
-        groups.setdefault(group.replace("/", "."), {})[leaf] = np.asarray(item[()]).T  # column-major: transpose back
+        value = np.asarray(item[()])
+        groups.setdefault(group.replace("/", "."), {})[leaf] = value.T if matlab else value  # MATLAB: column-major
+    what = "MATLAB v7.3" if matlab else "HDF5"
     try:
         with h5py.File(path, "r") as handle:
             handle.visititems(visit)
     except OSError as exc:
-        raise BeamInputError(f"{path}: not a readable MATLAB v7.3 file ({' '.join(str(exc).split())[:120]})") from None
+        raise BeamInputError(f"{path}: not a readable {what} file ({' '.join(str(exc).split())[:120]})") from None
     notes: list[str] = []
-    return RawRecord(path, "MATLAB .mat (v7.3, HDF5)", _blocks_from_groups(path, groups, "MATLAB file", notes), notes)
+    blocks = _blocks_from_groups(path, groups, f"{what} file", notes)
+    return RawRecord(path, "MATLAB .mat (v7.3, HDF5)" if matlab else "HDF5", blocks, notes)
 
 
 def read_tdms(path: Path) -> RawRecord:

@@ -114,6 +114,10 @@ class ReadingError(BeamInputError):
         self.value = value
         super().__init__(self.phrased(COMMAND_LINE))
 
+    def __reduce__(self):  # pickled whole (a worker process's error reaches its caller with its data)
+        return (_rebuilt, (self.path, self.problem, self.hint, self.findings, self.format, self.columns, self.records,
+                           self.option, self.value))
+
     def phrased(self, phrasing: Phrasing, path_text: str | None = None) -> str:
         """The message in ``phrasing``'s words: ``FILE: [OPTION VALUE: ]problem; hint (read as
         FORMAT: findings)``; ``path_text`` names the file instead of its path."""
@@ -131,10 +135,10 @@ class ReadingError(BeamInputError):
             parts.append(f" ({'; '.join(context)})")
         return (f"{where}: " if where else "") + "".join(parts)
 
-    def with_path(self, path) -> ReadingError:
-        """The same error for another path (an upload's name instead of a temporary file)."""
-        return ReadingError(path, self.problem, self.hint, findings=self.findings, format=self.format,
-                            columns=self.columns, records=self.records, option=self.option, value=self.value)
+
+def _rebuilt(path, problem, hint, findings, format, columns, records, option, value) -> ReadingError:
+    return ReadingError(path, problem, hint, findings=findings, format=format, columns=columns, records=records,
+                        option=option, value=value)
 
 
 @dataclass(frozen=True)

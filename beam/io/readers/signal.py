@@ -227,7 +227,7 @@ def _time_axis(record: RawRecord, block: Block, rate: float | None, time_unit: s
     """(time (s), the note saying where it came from, the finding) of a block (module notes, step 2)."""
     path = record.path
     n = block.columns[0].values.size
-    context = {"findings": findings, "format": record.format, "columns": channel_listing(block)}
+    context = _context(record, block, findings)
     if rate is not None:
         return (np.arange(n) / float(rate), f"time from --rate {rate:g} Hz",
                 Finding("time", f"a sampling rate of {rate:g} Hz", option="rate", given=True,
