@@ -744,7 +744,11 @@ def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record
     # the CSV's header first: it says which sidecar tables are required ([patch], [force])
     text = read_text_file(csv_path, "measurement CSV", MAX_MEASUREMENT_BYTES)
     lines = _lines(text)
-    input_column = next((c for c in _check_header(csv_path, lines[0]) if c in INPUT_COLUMNS), None) if lines else None
+    try:
+        header = _check_header(csv_path, lines[0]) if lines else ()
+    except BeamInputError as exc:
+        raise BeamInputError(f"{exc}{_readable_otherwise(csv_path)}") from None
+    input_column = next((c for c in header if c in INPUT_COLUMNS), None)
     sidecar = load_sidecar(toml_path, input_kind=INPUT_COLUMNS.get(input_column))
     table = _table_from_lines(csv_path, lines, sidecar.sensor_range)
     nominal, origin = anchored(sidecar, table.time_s, table.output, OUTPUT_COLUMNS[table.output_column],
@@ -756,6 +760,19 @@ def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record
         nominal_origin=origin, arbitrary_units=sidecar.arbitrary_units,
         **{name: values for name, values in table.arrays().items() if name != "time_s"},
     )
+
+
+def _readable_otherwise(path: Path) -> str:
+    """For a CSV that names the project's columns but breaks its header rule: the way to read it
+    as a table in its own units (``--format text``) when the readers can ('' otherwise)."""
+    from beam.io.readers import read_record
+
+    try:
+        record = read_record(path, format="text")
+    except BeamInputError:
+        return ""
+    signal = next((f.chosen for f in record.findings if f.topic == "signal"), record.output_column)
+    return f"; or read it as a table in its own units with --format text (its signal: {signal})"
 
 
 def true_unit_problem(measurement: Measurement, effects) -> str | None:

@@ -194,7 +194,9 @@ def record_arrays(record) -> dict[str, np.ndarray]:
 
 
 def _psd(time_s: np.ndarray, values: np.ndarray):
-    """(frequency, Welch PSD, lowest vibration frequency) of finite samples on the median step, or None.
+    """(frequency, Welch PSD of values / peak, lowest vibration frequency, peak) of finite samples on
+    the median step, or None; peak = max |value| (the PSD is of the values scaled to at most 1, so
+    that no square overflows: a file may hold values near the float range).
 
     Segments of about a quarter of the record (at most 2^16 samples); stamps need not be
     uniform for a ranking or a block length."""
@@ -203,23 +205,26 @@ def _psd(time_s: np.ndarray, values: np.ndarray):
     if y.size < 8:
         return None
     step = float(np.median(np.diff(t)))
-    if not step > 0:
+    peak = float(np.max(np.abs(y)))
+    if not step > 0 or not peak > 0:
         return None
-    frequency, density = welch(y - np.mean(y), fs=1.0 / step, nperseg=int(min(y.size, max(64, min(2**16, y.size // 4)))))
-    return frequency, density, max(VIBRATION_LOW_HZ, 4.0 / max(float(t[-1] - t[0]), step))
+    z = y / peak
+    frequency, density = welch(z - np.mean(z), fs=1.0 / step, nperseg=int(min(y.size, max(64, min(2**16, y.size // 4)))))
+    return frequency, density, max(VIBRATION_LOW_HZ, 4.0 / max(float(t[-1] - t[0]), step)), peak
 
 
 def vibration_power(time_s: np.ndarray, values: np.ndarray) -> float:
     """Power of ``values`` above max(:data:`VIBRATION_LOW_HZ`, 4 / duration) (unit²), from
-    Welch's estimate (:func:`_psd`)."""
+    Welch's estimate (:func:`_psd`); inf when it exceeds the float range."""
     spectrum = _psd(time_s, values)
     if spectrum is None:
         return 0.0
-    frequency, density, low = spectrum
+    frequency, density, low, peak = spectrum
     band = frequency >= low
     if not np.any(band):
         return 0.0
-    return float(np.sum(density[band]) * (frequency[1] - frequency[0]))
+    with np.errstate(over="ignore"):
+        return float(np.sum(density[band]) * (frequency[1] - frequency[0]) * np.float64(peak) ** 2)
 
 
 def _time_axis(record: RawRecord, block: Block, rate: float | None, time_unit: str | None,
@@ -394,6 +399,18 @@ def _unit_finding(column: Column, unit: str | None, original: ColumnMeaning | No
     return Finding("unit", meaning.unit or "", f"{why}; {scale}" if scale else why, option="unit")
 
 
+def _in_si(raw: RawRecord, block: Block, column: Column, findings: Sequence[Finding]) -> np.ndarray:
+    """A column's values in SI; a value that its unit's factor carries beyond the float range is refused."""
+    with np.errstate(over="ignore"):
+        values = column.values * column.meaning.factor
+    beyond = np.isinf(values) & np.isfinite(column.values)
+    if np.any(beyond):
+        first = float(column.values[np.flatnonzero(beyond)[0]])
+        raise ReadingError(raw.path, f"column {column.name!r} holds {first:g} {column.meaning.unit}, beyond the range of "
+                           "numbers in SI units", **_context(raw, block, findings))
+    return values
+
+
 def _input_column(block: Block, chosen: Column) -> Column | None:
     inputs = [c for c in block.data_columns if c is not chosen and c.meaning.quantity in INPUT_COLUMN_OF
               and c.meaning.factor is not None]
@@ -433,7 +450,7 @@ def dominant_frequency(time_s: np.ndarray, values: np.ndarray) -> float | None:
     spectrum = _psd(time_s, values)
     if spectrum is None:
         return None
-    frequency, density, low = spectrum
+    frequency, density, low, _peak = spectrum
     band = frequency >= low
     if not np.any(band) or not np.any(density[band] > 0):
         return None
@@ -580,8 +597,8 @@ def build_record(raw: RawRecord, *, record: str | int | None = None, column: str
         for candidate in blocks:
             t, _, _ = _time_axis(raw, candidate, rate, time_unit, findings)
             chosen, _ = choose_signal(raw, candidate, t, column=column, axis=axis, unit=unit, findings=findings)
-            factor = chosen.meaning.factor
-            scored.append((candidate, t, vibration_power(t, chosen.values * factor), float(np.nanmax(np.abs(chosen.values * factor)))))
+            values = _in_si(raw, candidate, chosen, findings)
+            scored.append((candidate, t, vibration_power(t, values), float(np.nanmax(np.abs(values)))))
         block_segments = [Segment(float(t[0]), float(t[-1]), peak) for _, t, _, peak in scored]
         if segment is not None:
             if not 1 <= segment <= len(blocks):
@@ -604,12 +621,12 @@ def build_record(raw: RawRecord, *, record: str | int | None = None, column: str
             notes.append(f"the unit given ({unit}) is for a column without one; {chosen.name} says {chosen.meaning.unit}")
     original = next((c.meaning for c in block.columns if c.position == chosen.position), None)
     findings += [signal_finding, _unit_finding(chosen, unit, original)]
-    output = chosen.values * chosen.meaning.factor
+    output = _in_si(raw, block, chosen, findings)
     input_column = _input_column(block, chosen)
     if input_column is not None:
         findings.append(Finding("input", input_column.name, f"a {input_column.meaning.quantity} beside the signal: "
                                 "what drives the beam"))
-    input_values = input_column.values * input_column.meaning.factor if input_column is not None else None
+    input_values = _in_si(raw, block, input_column, findings) if input_column is not None else None
     cleaning = list(raw.notes)
     keep, dropped = clean_stamps(time_s, output, *([input_values] if input_values is not None else []))
     if dropped:
