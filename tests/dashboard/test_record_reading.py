@@ -162,3 +162,22 @@ def test_the_reading_options_menus_follow_the_file_and_offer_strain(session, tmp
     assert session.wait(60) and session.record.read.record.output_column == "displacement_m"
     assert list(menus["record-signal-column"].options) == ["(the most vibration power)",
                                                             "2: disp_mm (displacement in mm)"]
+
+
+def test_adc_counts_are_read_as_arbitrary_units_on_the_page(session, tmp_path):
+    r = session.record
+    t = np.arange(0, 5, 1 / 500)
+    counts = np.round(512 + 200 * np.exp(-0.3 * t) * np.sin(2 * np.pi * 7 * t))
+    path = tmp_path / "arduino.csv"
+    path.write_text("Quantisation level,Time\n" + "".join(f"{int(c)},{x:.4f}\n" for c, x in zip(counts, t)))
+    _read(session, path.name, path.read_bytes())
+    assert r.stage == "error" and "arbitrary units of acceleration, velocity, displacement or strain" in r.error
+    _page_words(r.error)
+    r.signal_unit = "arbitrary-acceleration"
+    assert session.wait(60) and r.stage == "read"
+    np.testing.assert_array_equal(r.read.record.output, counts)
+    unit = next(text for title, text, _ in r.read.summary()["findings"] if title == "Unit")
+    assert unit.startswith("arbitrary units of acceleration: your choice under Reading options; arbitrary units")
+    r.param.update(**STRIP)
+    assert session.wait(60) and r.described is not None
+    assert r.described.measurement.arbitrary_units and r.described.measurement.output_unit == "a.u."
