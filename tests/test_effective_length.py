@@ -58,6 +58,7 @@ def test_frequencies_follow_the_closed_form_of_the_free_length():
 
 
 def test_positions_keep_their_distance_from_the_tip():
+    """Points in the outer half (and the patch) keep their distance from the tip."""
     shorter = PATCHED.with_free_length(0.365)
     shift = 0.365 - STATED
     assert shorter.length_m == 0.365
@@ -67,7 +68,11 @@ def test_positions_keep_their_distance_from_the_tip():
     assert shorter.patch_end_m == pytest.approx(PATCHED.patch_end_m + shift)
     assert PATCHED.with_free_length(STATED) is PATCHED
     with pytest.raises(BeamInputError, match="sensor .* inside the clamp"):
-        BeamGeometry(STATED, DENSITY, None, None, 0.05).with_free_length(0.3)
+        BeamGeometry(STATED, DENSITY, None, None, 0.3).with_free_length(0.1)
+    # a sensor in the root half keeps its distance from the clamp instead (test_a_root_strain_gauge_...)
+    assert BeamGeometry(STATED, DENSITY, None, None, 0.05).with_free_length(0.3).sensor_position_m == 0.05
+    with pytest.raises(BeamInputError, match="sensor .* beyond the tip"):
+        BeamGeometry(STATED, DENSITY, None, None, 0.05).with_free_length(0.04)
     # the model of a free length is the model assembled for that geometry
     parameters = {"bending_stiffness_Nm2": EI, "patch_coupling_NmV": 0.02, **DAMPING}
     direct = BeamModel(shorter, ["air_damping", "kelvin_voigt"])
@@ -75,6 +80,45 @@ def test_positions_keep_their_distance_from_the_tip():
     u = np.sin(np.arange(400) / 40.0)
     np.testing.assert_array_equal(via.response(dict(parameters, effective_length_m=0.365), u, 5e-4, 4),
                                   direct.response(parameters, u, 5e-4, 4))
+
+
+def _clamped_curvature_over_tip(length: float, x: float, k: int) -> float:
+    """phi_k''(x) / phi_k(L) of the exact Euler-Bernoulli clamped-free beam (1/m²)."""
+    from scipy.optimize import brentq
+
+    guess = (k - 0.5) * np.pi
+    beta_l = brentq(lambda b: 1 + np.cos(b) * np.cosh(b), guess - 0.5, guess + 0.5)
+    beta = beta_l / length
+    sigma = (np.cosh(beta_l) + np.cos(beta_l)) / (np.sinh(beta_l) + np.sin(beta_l))
+    curvature = beta**2 * (np.cosh(beta * x) + np.cos(beta * x) - sigma * (np.sinh(beta * x) + np.sin(beta * x)))
+    tip = np.cosh(beta_l) - np.cos(beta_l) - sigma * (np.sinh(beta_l) - np.sin(beta_l))
+    return float(curvature / tip)
+
+
+def test_a_root_strain_gauge_keeps_its_distance_from_the_clamp_and_reads_the_exact_strain():
+    """#38: a gauge 30 mm from the clamp of a stated 419 mm bar that vibrates as if 365 mm long reads
+    the strain 30 mm from the clamp of a 365 mm cantilever: mode by mode, the model's strain at the
+    gauge per unit tip displacement is the exact clamped-beam -(h/2) phi''(x) / phi(L_eff)."""
+    h, gauge = 0.0048, 0.03
+    geometry = BeamGeometry(STATED, 7850 * 0.025 * h, None, None, gauge, width_m=0.025, thickness_m=h)
+    model = BeamModel(geometry, ["effective_length"], input_kind=None)
+    stiffness = 200e9 * 0.025 * h**3 / 12
+    for length in (0.365, 0.40, 0.45):
+        assert geometry.with_free_length(length).sensor_position_m == gauge
+        shorter = model.free_length_model(length)
+        _, shapes = shorter.mode_shapes({"bending_stiffness_Nm2": stiffness}, 3)
+        per_tip = -0.5 * h * (shorter.parts.sensor_curvatures @ shapes) / (shorter.parts.tip_values @ shapes)
+        exact = [-0.5 * h * _clamped_curvature_over_tip(length, gauge, k) for k in (1, 2, 3)]
+        # the Galerkin mesh's error grows with the mode: 1e-6, 1e-4, 1e-3 on modes 1-3
+        assert np.all(np.abs(per_tip / np.array(exact) - 1) <= [1e-5, 3e-4, 3e-3]), (length, per_tip, exact)
+    # the strain output of the model of that length is the gauge's
+    free = {"bending_stiffness_Nm2": stiffness, "effective_length_m": 0.365}
+    t = np.arange(200) / 4000.0
+    direct = BeamModel(BeamGeometry(0.365, geometry.linear_density_kg_m, None, None, gauge, width_m=0.025, thickness_m=h),
+                       [], input_kind=None)
+    state = np.array([1e-3, 2e-4, 0, 0])
+    np.testing.assert_array_equal(model.free_response(free, t, state, output="strain"),
+                                  direct.free_response({"bending_stiffness_Nm2": stiffness}, t, state, output="strain"))
 
 
 def test_a_batch_of_lengths_equals_one_call_per_length():

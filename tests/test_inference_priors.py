@@ -162,3 +162,18 @@ def test_log_uniform_round_trip_and_flat_internal_density(lo, ratio, frac):
     z = prior.to_internal(x)
     assert prior.from_internal(z) == pytest.approx(x, rel=1e-9)
     assert prior.log_density_internal(z) == pytest.approx(-math.log(math.log(ratio)), rel=1e-9)
+
+
+def test_the_log_coordinate_saturates_beyond_the_float_range_without_a_warning():
+    """An interval end exp(z) of a parameter the data do not identify (z = centre ± a huge spread)
+    is inf or 0, as the exact exponential rounds, and no RuntimeWarning reaches the user (#38)."""
+    import warnings
+
+    prior = LogUniform(1e-6, 1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        z = np.array([-1e4, -800.0, 0.0, 709.0, 800.0, 1e4])
+        x = prior.from_internal(z)
+    assert x[0] == 0.0 and x[1] == 0.0 and x[2] == 1.0 and x[-2] == math.inf and x[-1] == math.inf
+    assert x[3] == pytest.approx(math.exp(709.0), rel=1e-15)
+    assert prior.from_internal(prior.to_internal(0.37)) == pytest.approx(0.37, rel=1e-15)

@@ -99,7 +99,7 @@ def spec_of(args: argparse.Namespace) -> CalibrationSpec:
 def run(args: argparse.Namespace) -> int:
     if several_records(args):
         return run_joint(args)
-    measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
+    measurement = measurement_from_args(args, effects=args.effects)  # a bad file fails before the heavy imports
     from beam.calibration import calibrate
     result = calibrate(measurement, spec_of(args))
     summary = result.to_json()
@@ -124,7 +124,7 @@ def run_joint(args: argparse.Namespace) -> int:
     """``beam calibrate A B ...``: the joint calibration (:func:`beam.calibration.joint.joint_calibrate`)."""
     from beam.cli.record_arguments import measurements_from_args
 
-    measurements = measurements_from_args(args)  # bad files fail before the heavy imports
+    measurements = measurements_from_args(args, effects=args.effects)  # bad files fail before the heavy imports
     from beam.calibration.joint import joint_calibrate
 
     result = joint_calibrate(measurements, spec_of(args), per_record=args.per_record, shared=args.shared)

@@ -124,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
     check_suggest_arguments(args)
     if several_records(args):
         return run_joint(args)
-    measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
+    measurement = measurement_from_args(args, effects=args.base)  # a bad file fails before the heavy imports
     progress = TerminalProgress(sys.stderr) if wants_progress(args) else None
     if progress is not None:
         progress(f"loading the calibration engine ({measurement.name})")
@@ -167,7 +167,7 @@ def run_joint(args: argparse.Namespace) -> int:
         from beam.errors import BeamInputError
 
         raise BeamInputError("--mcmc takes one record; a joint diagnosis ranks by the joint Laplace evidence")
-    measurements = measurements_from_args(args)  # bad files fail before the heavy imports
+    measurements = measurements_from_args(args, effects=args.base)  # bad files fail before the heavy imports
     from beam.discovery.joint import joint_diagnose
 
     report = joint_diagnose(measurements, window=args.window, modes=args.modes, base=args.base,

@@ -61,6 +61,8 @@ def run(args: argparse.Namespace) -> int:
     columns = measurement.columns
     sidecar = {"title": document.get("title") or f"{Path(args.data).name}, imported"}
     sidecar.update({key: value for key, value in document.items() if key != "title"})
+    if measurement.arbitrary_units:  # the project's CSV names the quantity; the sidecar says its scale is unknown
+        sidecar["sensor"] = {**sidecar.get("sensor", {}), "unit": "arbitrary"}
     atomic_write_texts({
         csv_path: measurement_csv_text(*(getattr(measurement, c) for c in columns), names=columns),
         toml_path: dump_toml(sidecar, header_comment=f"The beam of {Path(args.data).name}, as described to beam import."),
@@ -106,8 +108,12 @@ def format_import(measurement) -> str:
              f"{measurement.min_interval_s * 1e3:.4g}-{measurement.max_interval_s * 1e3:.4g} ms)"]
     lines += [f"  {line}" for line in measurement.source]
     output = measurement.output
-    lines.append(f"output {measurement.output_column}: {output.min():.4g} to {output.max():.4g} {measurement.output_unit}, "
-                 f"mean {output.mean():.4g} (gravity and bias stay: the calibration's offset takes them); "
+    shown, unit = output, measurement.output_unit
+    if measurement.output_kind == "strain" and not measurement.arbitrary_units:
+        shown, unit = output * 1e6, "µε"  # read as a gauge shows it; the files keep SI (m/m)
+    stays = "gravity and bias stay" if measurement.output_kind == "acceleration" else "the sensor's offset stays"
+    lines.append(f"output {measurement.output_column}: {shown.min():.4g} to {shown.max():.4g} {unit}, "
+                 f"mean {shown.mean():.4g} ({stays}: the calibration's offset takes {'them' if 'bias' in stays else 'it'}); "
                  f"clipped samples: {measurement.clipped_count}")
     lines.append(f"beam: L = {geometry.length_m:g} m, {geometry.linear_density_kg_m:.4g} kg/m, sensor at "
                  f"{geometry.sensor_position_m:g} m")

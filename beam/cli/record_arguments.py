@@ -1,8 +1,10 @@
 """Flags that read any record file and describe its beam, shared by ``beam import``, ``beam
 calibrate`` and ``beam diagnose``.
 
-Reading (:func:`beam.io.readers.read_record`): ``--format``, ``--column NAME|INDEX``,
-``--axis x|y|z``, ``--rate HZ``, ``--time-unit s|ms|us``, ``--unit UNIT``, ``--segment K``.
+Reading (:func:`beam.io.readers.read_record`): ``--format``, ``--record NAME|INDEX`` (a file
+holding several records), ``--column NAME|INDEX``, ``--axis x|y|z``, ``--rate HZ``,
+``--time-unit s|ms|us``, ``--unit UNIT`` (``arbitrary`` for a signal of unknown scale),
+``--segment K``.
 The beam (a sidecar's keys, :mod:`beam.io.measurement`): ``--beam BEAM.toml`` and/or
 ``--length``, ``--width``, ``--thickness`` (m), ``--material NAME`` or ``--youngs-modulus``
 (Pa) and ``--density`` (kg/m³), ``--linear-density`` (kg/m), ``--sensor-at`` (m from the
@@ -38,7 +40,7 @@ BEAM_FLAGS: tuple[tuple[str, str, str, str, str, str], ...] = (
 )
 
 #: Reading options: dest -> keyword of read_record.
-RECORD_OPTIONS = {"record_format": "format", "column": "column", "axis": "axis", "rate": "rate",
+RECORD_OPTIONS = {"record_format": "format", "record": "record", "column": "column", "axis": "axis", "rate": "rate",
                   "time_unit": "time_unit", "unit": "unit", "segment": "segment"}
 
 
@@ -63,10 +65,14 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the reading and beam flags (module notes) to ``parser``."""
     from beam.io.materials import MATERIALS
     from beam.io.readers import FORMATS
+    from beam.io.readers.signal import UNIT_HINT_VALUES
 
     reading = parser.add_argument_group("reading a record in another format (phyphox, LabVIEW, MATLAB, NumPy, TDMS, any CSV)")
     reading.add_argument("--format", dest="record_format", choices=tuple(FORMATS), default=None,
                          help="force the reader (default: recognised from the file)")
+    reading.add_argument("--record", default=None, metavar="NAME|INDEX",
+                         help="for a file holding several records (MATLAB structs, HDF5 groups): which, by name or "
+                         "position (default: the longest; the summary lists them all)")
     which = reading.add_mutually_exclusive_group()
     which.add_argument("--column", default=None, metavar="NAME|INDEX",
                        help="the signal's column, by name or position (1 = the first column)")
@@ -77,7 +83,10 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     when.add_argument("--time-unit", choices=("s", "ms", "us"), default=None,
                       help="unit of the time column (an Arduino's micros() is us)")
     reading.add_argument("--unit", default=None, metavar="UNIT",
-                         help="unit of the signal column when its name has none (g, m/s^2, mm/s, m/s, µm, mm, m)")
+                         help=f"unit of the signal column when its name has none ({', '.join(UNIT_HINT_VALUES[:-1])}); "
+                         "arbitrary for a signal of unknown scale (ADC counts, an uncalibrated sensor's volts: "
+                         "arbitrary-acceleration, -velocity, -displacement or -strain when the column's name does not say "
+                         "what it measures); the effects that depend on the amplitude then refuse it")
     reading.add_argument("--segment", type=positive_int, default=None, metavar="K",
                          help="use pluck/tap (or file segment) K (default: the strongest)")
     beam = parser.add_argument_group("the beam, in a student's words (or --beam BEAM.toml)")
@@ -146,16 +155,24 @@ def record_options(args: argparse.Namespace) -> dict[str, Any]:
     return {keyword: getattr(args, dest) for dest, keyword in RECORD_OPTIONS.items() if getattr(args, dest, None) is not None}
 
 
-def measurement_from_args(args: argparse.Namespace, default_sensor_at_tip: bool = False):
-    """The measurement ``args.data`` names, read with the reading flags and the beam flags."""
-    from beam.io.measurement import read_measurement
+def measurement_from_args(args: argparse.Namespace, default_sensor_at_tip: bool = False, effects=None):
+    """The measurement ``args.data`` names, read with the reading flags and the beam flags;
+    with ``effects`` (ids or a comma-separated string), refused when one of them needs the
+    signal's true unit and the record is in arbitrary units
+    (:func:`beam.io.measurement.true_unit_problem`)."""
+    from beam.errors import BeamInputError
+    from beam.io.measurement import read_measurement, true_unit_problem
 
     document = beam_document(args, default_sensor_at_tip)
     where = getattr(args, "beam_file", None) or "the beam flags"
     beam = None
     if document is not None:
         beam = _Described(document, where)
-    return read_measurement(args.data, beam=beam, **record_options(args))
+    measurement = read_measurement(args.data, beam=beam, **record_options(args))
+    problem = true_unit_problem(measurement, effects) if effects is not None else None
+    if problem is not None:
+        raise BeamInputError(problem)
+    return measurement
 
 
 def check_joint_arguments(args: argparse.Namespace) -> None:
@@ -189,7 +206,7 @@ def several_records(args: argparse.Namespace) -> bool:
     return False
 
 
-def measurements_from_args(args: argparse.Namespace) -> list:
+def measurements_from_args(args: argparse.Namespace, effects=None) -> list:
     """Every record ``args.data`` names (a list of paths), each read as :func:`measurement_from_args`
     reads one (the same reading and beam flags; a record's own sidecar otherwise)."""
     paths = list(args.data)
@@ -197,7 +214,7 @@ def measurements_from_args(args: argparse.Namespace) -> list:
     try:
         for path in paths:
             args.data = path
-            out.append(measurement_from_args(args))
+            out.append(measurement_from_args(args, effects=effects))
     finally:
         args.data = paths
     return out

@@ -179,7 +179,8 @@ def candidate_effects(current: Iterable[str], measurement: Measurement | None = 
     ``sensor_mass`` joins where it applies (an accelerometer is a contact sensor whose mass loads
     the beam where it measures; a laser's displacement or velocity has none). So: no patch effect
     without a patch, no input effect without an input, the tip's cubic spring (nonlinear) only on
-    a driven displacement record on uniform stamps.
+    a driven displacement record on uniform stamps; and no effect whose force depends on the
+    amplitude on a record in arbitrary units (:func:`beam.io.measurement.true_unit_problem`).
     """
     present = set(parse_effects(current))
     offered = list(CANDIDATE_EFFECTS)
@@ -188,6 +189,8 @@ def candidate_effects(current: Iterable[str], measurement: Measurement | None = 
         spectral = any("rising_frequency" in effect_needs(e) for e in offered)
         features = record_features(measurement, spectral=spectral)
         offered = [e for e in offered if applicable(e, features)]
+        if getattr(measurement, "arbitrary_units", False):  # no amplitude without the scale (true_unit_problem)
+            offered = [e for e in offered if not EFFECTS[e].nonlinear]
     return tuple(effect for effect in EFFECTS if effect in offered and effect not in present)
 
 

@@ -84,9 +84,18 @@ class Prior:
         return x
 
     def from_internal(self, z):
-        """Map internal values ``z`` back to natural values ``x``."""
+        """Map internal values ``z`` back to natural values ``x``.
+
+        Total on the reals: in the log coordinate a ``z`` beyond the float range (above about
+        709.78, e.g. the end of an interval of a parameter the data do not identify, centre ± a
+        huge spread) maps to ``inf`` and one far below to ``0.0``, the saturated values, without a
+        floating-point warning.
+        """
         z = np.asarray(z, dtype=float)
-        return np.exp(z) if self.log_coordinate else z
+        if not self.log_coordinate:
+            return z
+        with np.errstate(over="ignore"):
+            return np.exp(z)
 
     @cached_property
     def internal_bounds(self) -> tuple[float, float]:

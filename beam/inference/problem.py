@@ -208,7 +208,8 @@ class Problem:
         z = np.atleast_2d(np.asarray(z, dtype=float))
         x = z.copy()
         if self._log_idx.size:
-            x[:, self._log_idx] = np.exp(z[:, self._log_idx])
+            with np.errstate(over="ignore"):  # saturated as Prior.from_internal: beyond the float range is inf
+                x[:, self._log_idx] = np.exp(z[:, self._log_idx])
         if self._logit_idx.size:
             x[:, self._logit_idx] = self._logit_lo + self._logit_width * special.expit(z[:, self._logit_idx])
         out = {n: x[:, i] for i, n in enumerate(self._names)}

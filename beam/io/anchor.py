@@ -88,7 +88,7 @@ def spectral_peaks(time_s: np.ndarray, values: np.ndarray, output_kind: str = "d
     if spectrum is None:
         return []
     frequency, density, low, high = spectrum
-    floor = max(float(density.max()), np.finfo(float).tiny) * 1e-30
+    floor = max(float(density.max()) * 1e-30, np.finfo(float).tiny)  # > 0: a flat (all-zero) column has no log of 0
     log_psd = 10 * np.log10(np.maximum(density, floor))
     indices, properties = scipy.signal.find_peaks(log_psd, prominence=PEAK_PROMINENCE_DB)
     keep = (frequency[indices] >= low) & (frequency[indices] <= high)

@@ -44,8 +44,10 @@
     Optional ``title`` (string); ``[beam]`` ``length_m``, ``linear_density_kg_m``; ``[patch]``
     ``start_m``, ``end_m`` (required with ``voltage_V``, optional otherwise: a patch on the beam
     still adds its mass and stiffness); ``[force]`` ``position_m`` (required with ``force_N``);
-    ``[sensor]`` ``position_m`` and optional ``range`` (the sensor's full scale, in the output
-    column's unit, e.g. 98.0665 for a ±10 g accelerometer), with the length and density within
+    ``[sensor]`` ``position_m``, optional ``range`` (the sensor's full scale, in the output
+    column's unit, e.g. 98.0665 for a ±10 g accelerometer) and optional ``unit = "arbitrary"``
+    (the output column holds values proportional to its quantity in an unknown unit: ADC counts,
+    an uncalibrated sensor's volts; :attr:`Measurement.arbitrary_units`), with the length and density within
     :data:`beam.io.limits.LENGTH_RANGE_M` (0.01-100 m) and
     :data:`beam.io.limits.LINEAR_DENSITY_RANGE_KG_M` (1e-3 to 1e4 kg/m), where the model is finite;
     optional ``[nominal]`` prior centres keyed by parameter names of
@@ -116,6 +118,8 @@ OUTPUT_COLUMNS: dict[str, str] = {
 }
 #: Every column a CSV may hold, in the order a header lists them.
 ALL_COLUMNS: tuple[str, ...] = ("time_s", *INPUT_COLUMNS, *OUTPUT_COLUMNS)
+#: The unit a record in arbitrary units shows (:attr:`Measurement.output_unit`).
+ARBITRARY_UNIT = "a.u."
 #: Unit of each column (for labels).
 COLUMN_UNITS: dict[str, str] = {
     "time_s": "s", "voltage_V": "V", "force_N": "N", "displacement_m": "m", "velocity_m_s": "m/s",
@@ -152,13 +156,13 @@ SIDECAR_TABLES: dict[str, tuple[str, ...]] = {
              "density_kg_m3"),
     "patch": ("start_m", "end_m"),
     "force": ("position_m",),
-    "sensor": ("position_m", "range", "mass_kg", "mass_approximate"),
+    "sensor": ("position_m", "range", "mass_kg", "mass_approximate", "unit"),
 }
 #: Sidecar keys that describe the beam or the sensor but are not geometry (read by :func:`read_description`).
 DESCRIPTION_KEYS: frozenset[tuple[str, str]] = frozenset({
     ("beam", "width_m"), ("beam", "thickness_m"), ("beam", "material"), ("beam", "youngs_modulus_Pa"),
     ("beam", "density_kg_m3"), ("sensor", "range"), ("sensor", "mass_kg"), ("sensor", "mass_approximate"),
-    ("sensor", "output"),
+    ("sensor", "output"), ("sensor", "unit"),
 })
 #: Log standard deviation of the prior of a sensor mass that was weighed (``[sensor] mass_kg``).
 KNOWN_MASS_LOG_SD = 0.02
@@ -217,6 +221,12 @@ class Measurement:
         beam's description, or the record's lowest strong spectral peak).
     source : tuple of str
         For a record read from another format: what was read and done, one line each.
+    arbitrary_units : bool
+        True when the output is in arbitrary units: proportional to its quantity (the output
+        column's), the scale unknown (ADC counts, an uncalibrated sensor's volts). A linear
+        calibration of a free decay does not need the scale (the initial state and the offset
+        absorb it); an effect whose force depends on the amplitude does
+        (:func:`true_unit_problem`).
 
     Raises
     ------
@@ -244,6 +254,7 @@ class Measurement:
     nominal_spread: dict[str, float] = field(default_factory=dict)
     nominal_origin: dict[str, str] = field(default_factory=dict)
     source: tuple[str, ...] = ()
+    arbitrary_units: bool = False
     uniform: bool = field(init=False, repr=False)
     clipped: np.ndarray = field(init=False, repr=False)
 
@@ -306,6 +317,7 @@ class Measurement:
         object.__setattr__(self, "nominal_spread", spread)
         object.__setattr__(self, "nominal_origin", dict(self.nominal_origin))
         object.__setattr__(self, "source", tuple(str(line) for line in self.source))
+        object.__setattr__(self, "arbitrary_units", bool(self.arbitrary_units))
 
     # ------------------------------------------------------------------ columns
     @property
@@ -354,8 +366,9 @@ class Measurement:
 
     @property
     def output_unit(self) -> str:
-        """``"m"``, ``"m/s"``, ``"m/s²"`` or ``"1"`` (strain)."""
-        return COLUMN_UNITS[self.output_column]
+        """``"m"``, ``"m/s"``, ``"m/s²"`` or ``"1"`` (strain); :data:`ARBITRARY_UNIT` for a record in
+        arbitrary units."""
+        return ARBITRARY_UNIT if self.arbitrary_units else COLUMN_UNITS[self.output_column]
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -651,6 +664,7 @@ class Sidecar:
     sensor_range: float | None = None
     nominal_spread: dict[str, float] = field(default_factory=dict)
     nominal_origin: dict[str, str] = field(default_factory=dict)
+    arbitrary_units: bool = False
 
 
 def measurement_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
@@ -712,9 +726,11 @@ def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record
                 raise
             try:
                 _check_header(Path(path), header)
-            except BeamInputError as project:  # say both: the project's rule and the other formats' reason
+            except BeamInputError as project:  # say both: first what the reader found and the option that helps
                 reason = str(exc).removeprefix(f"{path}: ")
-                raise BeamInputError(f"{project}; read as another format: {reason}") from None
+                rule = str(project).removeprefix(f"{path}: ")
+                raise BeamInputError(f"{path}: read as another format: {reason}; not the project's own CSV either "
+                                     f"({rule})") from None
             raise
         return measurement_from_record(record, beam)
     csv_path, toml_path = measurement_paths(path)
@@ -728,7 +744,11 @@ def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record
     # the CSV's header first: it says which sidecar tables are required ([patch], [force])
     text = read_text_file(csv_path, "measurement CSV", MAX_MEASUREMENT_BYTES)
     lines = _lines(text)
-    input_column = next((c for c in _check_header(csv_path, lines[0]) if c in INPUT_COLUMNS), None) if lines else None
+    try:
+        header = _check_header(csv_path, lines[0]) if lines else ()
+    except BeamInputError as exc:
+        raise BeamInputError(f"{exc}{_readable_otherwise(csv_path)}") from None
+    input_column = next((c for c in header if c in INPUT_COLUMNS), None)
     sidecar = load_sidecar(toml_path, input_kind=INPUT_COLUMNS.get(input_column))
     table = _table_from_lines(csv_path, lines, sidecar.sensor_range)
     nominal, origin = anchored(sidecar, table.time_s, table.output, OUTPUT_COLUMNS[table.output_column],
@@ -737,8 +757,45 @@ def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record
         name=csv_path.stem, title=sidecar.title if sidecar.title is not None else csv_path.stem,
         geometry=sidecar.geometry, time_s=table.time_s, nominal=nominal, csv_path=csv_path,
         toml_path=toml_path, sensor_range=sidecar.sensor_range, nominal_spread=sidecar.nominal_spread,
-        nominal_origin=origin, **{name: values for name, values in table.arrays().items() if name != "time_s"},
+        nominal_origin=origin, arbitrary_units=sidecar.arbitrary_units,
+        **{name: values for name, values in table.arrays().items() if name != "time_s"},
     )
+
+
+def _readable_otherwise(path: Path) -> str:
+    """For a CSV that names the project's columns but breaks its header rule: the way to read it
+    as a table in its own units (``--format text``) when the readers can ('' otherwise)."""
+    from beam.io.readers import read_record
+
+    try:
+        record = read_record(path, format="text")
+    except BeamInputError:
+        return ""
+    signal = next((f.chosen for f in record.findings if f.topic == "signal"), record.output_column)
+    return f"; or read it as a table in its own units with --format text (its signal: {signal})"
+
+
+def true_unit_problem(measurement: Measurement, effects) -> str | None:
+    """Why ``effects`` (ids, or a comma-separated string) cannot be calibrated on ``measurement``,
+    None when they can.
+
+    A record in arbitrary units (:attr:`Measurement.arbitrary_units`) fits every linear model of
+    a free decay (the initial state and the offset take the scale), but an effect whose force
+    depends on the amplitude (a nonlinear one: :attr:`beam.physics.effects.Effect.nonlinear`,
+    the air drag, the clamp's friction, the tip's cubic spring) reads a size in metres from the
+    signal, which an unknown scale does not give.
+    """
+    from beam.physics.effects import EFFECTS, parse_effects
+
+    if not measurement.arbitrary_units:
+        return None
+    needing = [e for e in parse_effects(effects) if EFFECTS[e].nonlinear]
+    if not needing:
+        return None
+    verb = "needs" if len(needing) == 1 else "need"
+    return (f"{', '.join(needing)} {verb} the signal in its true unit: {'its force depends' if len(needing) == 1 else 'their forces depend'} "
+            f"on the amplitude, and measurement {measurement.name} is in arbitrary units (its scale unknown); give "
+            "the signal's unit (--unit), or calibrate without it (a linear model does not need the scale)")
 
 
 def anchored(sidecar: Sidecar, time_s: np.ndarray, output: np.ndarray, output_kind: str,
@@ -851,8 +908,12 @@ def _sidecar(reader: TomlReader, input_kind: str | None) -> Sidecar:
     geometry = read_geometry(reader, tables=SIDECAR_TABLES, input_kind=input_kind, description=description)
     sensor = reader.table("sensor")
     sensor_range = reader.number("sensor", sensor, "range", required=False)
+    unit = reader.string("sensor", sensor, "unit", required=False)
+    if unit is not None and unit != "arbitrary":
+        raise reader.fail("[sensor] unit", f"must be \"arbitrary\" (a signal of unknown scale; the output column's name "
+                          f"gives the SI unit otherwise), got {short_repr(unit)}")
     nominal, spread, origin = described_nominal(read_nominal(reader), description)
-    return Sidecar(title, geometry, nominal, sensor_range, spread, origin)
+    return Sidecar(title, geometry, nominal, sensor_range, spread, origin, unit == "arbitrary")
 
 
 def described_nominal(nominal: Mapping[str, float], description: Mapping[str, Any]
@@ -1136,6 +1197,8 @@ def _check_header(path: Path, header: str) -> tuple[str, ...]:
     shown = header.strip()
     if len(shown) > 80:
         shown = shown[:77] + "..."
+    if "\ufffd" in shown or any(ord(c) < 32 and c != "\t" for c in shown):  # never echo binary bytes
+        raise BeamInputError(f"{path}: line 1: header must be exactly {HEADER_RULE}, got binary content")
     raise BeamInputError(f"{path}: line 1: header must be exactly {HEADER_RULE}, got {shown!r} ({detail})")
 
 
@@ -1267,16 +1330,24 @@ def measurement_from_record(record: Any, beam: Any = None) -> Measurement:
         time_s=record.time_s, nominal=nominal, csv_path=None, toml_path=toml_path,
         sensor_range=sidecar.sensor_range, nominal_spread=sidecar.nominal_spread, nominal_origin=origin,
         source=tuple(describe_record(record)),
+        arbitrary_units=bool(getattr(record, "arbitrary_units", False)) or sidecar.arbitrary_units,
         **{column: values for column, values in record.arrays().items() if column != "time_s"},
     )
 
 
-def describe_record(record: Any) -> list[str]:
-    """What was read, one line each (format, signal, time, everything done to the data)."""
-    lines = [f"read as {record.format}", f"signal: {record.signal}"]
+def describe_record(record: Any, phrasing: Any = None) -> list[str]:
+    """What was read, one line each, in ``phrasing``'s words (default the command line's,
+    :data:`beam.io.readers.findings.COMMAND_LINE`): the format, then every decision of the
+    reader with why and the option that changes it (:attr:`beam.io.readers.Record.findings`),
+    what was done to the data, the segments."""
+    from beam.io.readers.findings import COMMAND_LINE
+
+    phrasing = phrasing or COMMAND_LINE
+    lines = [f"read as {record.format}"]
+    lines += [phrasing.finding(finding, change=True) for finding in record.findings]
     if record.input_column:
         lines.append(f"input: {record.input_column}")
-    lines += record.notes
+    lines += record.cleaning
     if record.segments:
         for k, segment in enumerate(record.segments, start=1):
             mark = " (used)" if record.segment_index == k - 1 else ""
@@ -1303,9 +1374,10 @@ def measurement_csv_text(time_s: np.ndarray, *columns: np.ndarray, names: tuple[
 
 
 def sidecar_document(
-    title: str, geometry: BeamGeometry, nominal: Mapping[str, float], sensor_range: float | None = None
+    title: str, geometry: BeamGeometry, nominal: Mapping[str, float], sensor_range: float | None = None,
+    arbitrary_units: bool = False,
 ) -> dict[str, Any]:
-    """The sidecar TOML content (title, geometry, sensor range and, if any, nominal values) as a document."""
+    """The sidecar TOML content (title, geometry, sensor range and unit and, if any, nominal values) as a document."""
     document: dict[str, Any] = {
         "title": title,
         "beam": {"length_m": float(geometry.length_m), "linear_density_kg_m": float(geometry.linear_density_kg_m)},
@@ -1320,6 +1392,8 @@ def sidecar_document(
     document["sensor"] = {"position_m": float(geometry.sensor_position_m)}
     if sensor_range is not None:
         document["sensor"]["range"] = float(sensor_range)
+    if arbitrary_units:
+        document["sensor"]["unit"] = "arbitrary"
     if nominal:
         document["nominal"] = {name: float(value) for name, value in nominal.items()}
     return document
@@ -1411,7 +1485,8 @@ def write_measurement(
     contents: dict[str | os.PathLike[str], str] = {
         csv_path: csv_text,
         toml_path: dump_toml(
-            sidecar_document(measurement.title, measurement.geometry, measurement.nominal, measurement.sensor_range),
+            sidecar_document(measurement.title, measurement.geometry, measurement.nominal, measurement.sensor_range,
+                             measurement.arbitrary_units),
             header_comment="Measurement sidecar: what the lab knows about the beam (geometry, sensor, "
             "nominal values).\nThe samples are in the CSV file of the same name.",
         ),

@@ -36,7 +36,9 @@ class BeamGeometry:
     Notes
     -----
     Positions (patch, sensor, force) are measured from the clamp. :meth:`with_free_length`
-    moves the clamp's edge and keeps every position's distance from the free tip.
+    changes the free length; a sensor or force point keeps its distance from the end it is
+    nearer (a strain gauge near the root from the clamp's edge, an accelerometer near the tip
+    from the tip), the patch its distance from the tip.
     """
 
     length_m: float
@@ -100,29 +102,32 @@ class BeamGeometry:
         return self.linear_density_kg_m * self.length_m
 
     def with_free_length(self, length_m: float) -> "BeamGeometry":
-        """The same strip clamped so that ``length_m`` (m) of it is free (the ``effective_length`` effect).
+        """The same strip with ``length_m`` (m) of it free (the ``effective_length`` effect).
 
-        A clamp's edge is where the uncertainty lies: the free tip, and everything bonded to the
-        strip (patch, sensor, force point), stay where they are on the strip, so every position
-        keeps its distance from the tip and shifts by ``length_m - self.length_m`` from the
-        clamp. A patch reaching into the clamp is cut at its edge (the part held does not bend).
+        The sensor and the force point keep their distance from the end of the stated free
+        length they are nearer: one in the outer half (an accelerometer near the tip) keeps its
+        distance from the tip and shifts by ``length_m - self.length_m`` from the clamp; one in
+        the root half (a strain gauge near the clamp) keeps its distance from the clamp's edge.
+        A position is measured from the end it is near, and that is where it is known: a gauge
+        bonded 5 mm from the jaw reads the strain 5 mm from where the bar is held whatever the
+        free length the record's modes call for (moving it with the tip put a root gauge of a
+        419 mm bar vibrating as if 365 mm long inside the clamp). The patch keeps its distance
+        from the tip; one reaching into the clamp is cut at its edge (the part held does not bend).
 
         Raises
         ------
         BeamInputError
-            ``length_m`` not a positive finite number; the sensor or the force point (or the
-            whole patch) would lie inside the clamp.
+            ``length_m`` not a positive finite number; the sensor or the force point would lie
+            inside the clamp or beyond the tip, or the whole patch inside the clamp.
         """
         if isinstance(length_m, bool) or not isinstance(length_m, (int, float)) or not math.isfinite(length_m) or length_m <= 0:
             raise BeamInputError(f"effective_length_m must be a positive finite number, got {length_m!r}")
         shift = float(length_m) - self.length_m
         if shift == 0.0:
             return self
-        if self.sensor_position_m + shift <= 0:
-            raise BeamInputError(f"effective_length_m = {length_m:g} m puts the sensor ({self.length_m - self.sensor_position_m:g} m "
-                                 "from the tip) inside the clamp")
-        if self.force_position_m is not None and self.force_position_m + shift <= 0:
-            raise BeamInputError(f"effective_length_m = {length_m:g} m puts the force point inside the clamp")
+        sensor = self._kept_position("sensor", self.sensor_position_m, float(length_m))
+        force = None if self.force_position_m is None else self._kept_position("force point", self.force_position_m,
+                                                                                 float(length_m))
         start = end = None
         if self.has_patch:
             end = self.patch_end_m + shift
@@ -130,9 +135,21 @@ class BeamGeometry:
                 raise BeamInputError(f"effective_length_m = {length_m:g} m puts the whole patch inside the clamp")
             start = max(self.patch_start_m + shift, 0.0)
         return replace(
-            self, length_m=float(length_m), patch_start_m=start, patch_end_m=end,
-            sensor_position_m=self.sensor_position_m + shift,
-            force_position_m=None if self.force_position_m is None else self.force_position_m + shift,
+            self, length_m=float(length_m), patch_start_m=start, patch_end_m=end, sensor_position_m=sensor,
+            force_position_m=force,
             width_m=None if self.width_m is None else min(self.width_m, float(length_m)),
             thickness_m=None if self.thickness_m is None else min(self.thickness_m, float(length_m)),
         )
+
+    def _kept_position(self, what: str, position_m: float, length_m: float) -> float:
+        """Where a point at ``position_m`` (m from the clamp) lies on the strip with ``length_m``
+        free (:meth:`with_free_length`): its distance from the nearer end kept."""
+        from_root = position_m <= 0.5 * self.length_m
+        moved = position_m if from_root else length_m - (self.length_m - position_m)
+        if moved <= 0:
+            raise BeamInputError(f"effective_length_m = {length_m:g} m puts the {what} ({self.length_m - position_m:g} m "
+                                 "from the tip) inside the clamp")
+        if moved > length_m:
+            raise BeamInputError(f"effective_length_m = {length_m:g} m puts the {what} ({position_m:g} m from the clamp) "
+                                 "beyond the tip")
+        return moved

@@ -271,8 +271,9 @@ class BeamModel:
 
     def free_length_model(self, length_m: float) -> "BeamModel":
         """The model (without ``effective_length``) of this strip with a free length ``length_m`` (m):
-        :meth:`beam.physics.geometry.BeamGeometry.with_free_length` (positions keep their distance
-        from the tip), the same mesh, knots, input and other effects. Cached per length."""
+        :meth:`beam.physics.geometry.BeamGeometry.with_free_length` (the sensor and force point keep
+        their distance from the end they are nearer, the patch from the tip), the same mesh,
+        knots, input and other effects. Cached per length."""
         key = float(length_m)
         model = self._length_models.get(key)
         if model is None:

@@ -6,8 +6,13 @@ Param only (no panel import), tested without a server or a browser. The flow:
    (:func:`dashboard.jobs.record.read_job`, off the event loop); ``read`` then holds what was read
    and its spectrum. A file that cannot be read sets ``error`` and keeps the previous record.
    A file that does not say everything (no time column, a column without its unit, several
-   channels of different kinds) is read again whenever a reading option changes
-   (:data:`READ_OPTIONS`: the signal column, its unit, the sampling rate, the time unit, the pluck).
+   channels of different kinds, several records) is read again whenever a reading option
+   changes (:data:`READ_OPTIONS`: the record in the file, the signal column, its unit, the
+   sampling rate, the time unit, the pluck). Each new file starts from its own reading: every
+   reading option is cleared when it is dropped, ``file_records`` and ``file_columns`` list
+   its own records and columns (as soon as its columns are read, also when it then needs a
+   choice), and the beam described for the previous file is kept but said to be
+   (``beam_kept_from``) until the form is touched.
 2. The form (the inputs below, units in every label) describes the beam. As soon as every
    required input is filled and a record is read, the ``record-beam`` slot builds the
    measurement and the ideal beam's modes (:func:`dashboard.jobs.record.describe_job`):
@@ -25,8 +30,9 @@ from functools import partial as bind
 import param
 
 from beam.io.materials import MATERIALS
+from beam.io.readers.units import SIGNAL_UNITS
 from beam.io.text import dump_toml
-from dashboard.jobs.record import Described, RecordRead, beam_document, describe_job, read_job
+from dashboard.jobs.record import Described, FileContents, RecordRead, beam_document, describe_job, read_job
 from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState
@@ -39,10 +45,11 @@ FORM_INPUTS = ("length_m", "width_m", "thickness_m", "material", "sensor_positio
                "sensor_mass_approximate")
 _REQUIRED = ("length_m", "width_m", "thickness_m", "material", "sensor_position_m")
 #: The reading options (parameters) and the keywords of :func:`beam.io.readers.read_record` they give.
-READ_OPTIONS = {"signal_column": "column", "signal_unit": "unit", "rate_Hz": "rate", "time_unit": "time_unit",
-                "segment": "segment"}
-#: Units offered for a signal column without one (as :mod:`beam.io.readers.units` spells them).
-OFFERED_UNITS = ("g", "mg", "m/s^2", "mm/s", "m/s", "µm", "mm", "m")
+READ_OPTIONS = {"record_name": "record", "signal_column": "column", "signal_unit": "unit", "rate_Hz": "rate",
+                "time_unit": "time_unit", "segment": "segment"}
+#: Units offered for a signal column without one (:data:`beam.io.readers.units.SIGNAL_UNITS`: strain
+#: and microstrain among them, and arbitrary units for a signal of unknown scale).
+OFFERED_UNITS = SIGNAL_UNITS
 #: Units of a time column (the readers' ``time_unit``).
 TIME_UNITS = ("s", "ms", "us")
 STAGES = ("idle", "reading", "read", "error")
@@ -75,6 +82,8 @@ class RecordState(param.Parameterized):
                                             doc="Give sensor_mass a wide prior instead of a fixed value.")
 
     # -- reading options (a file that does not say) -------------------------------------------
+    record_name = param.String(None, allow_None=True, label="Record in the file",
+                               doc="For a file holding several records (a MATLAB file's structs): which (None: the longest).")
     signal_column = param.String(None, allow_None=True, label="Signal column",
                                  doc="1-based column of the file to use (None: the one with the most vibration power).")
     signal_unit = param.Selector(default=None, objects=list(OFFERED_UNITS), allow_None=True,
@@ -99,6 +108,13 @@ class RecordState(param.Parameterized):
     described = param.ClassSelector(class_=Described, default=None, allow_None=True, constant=True,
                                     doc="The record with its beam, when the form is complete.")
     form_error = param.String("", constant=True, doc="Why the description is refused, or ''.")
+    file_records = param.List(default=[], constant=True, doc="The records of the file last dropped, when it holds several.")
+    file_columns = param.List(default=[], constant=True,
+                              doc="The columns of the file last dropped (of its record in use), as the reader lists "
+                                  "them ('2: gFx (acceleration in g)'); empty until they are read.")
+    beam_kept_from = param.String("", constant=True,
+                                  doc="The file the beam in the form was described for, while a new file is shown "
+                                      "with it and the form is not touched; ''.")
     loaded = param.String("", constant=True, doc="Dataset id of the latest record handed to the beam calibration.")
     requested = param.Integer(0, constant=True, doc="Id of the latest upload request.")
 
@@ -108,6 +124,8 @@ class RecordState(param.Parameterized):
         self._beam_slot: sch.RunSlot | None = None
         self._loaded_from: Described | None = None
         self._file: tuple[str | None, bytes | str | None] | None = None  # the latest file dropped
+        self._contents: FileContents | None = None  # its records and columns, once read
+        self._record_shown: str | None = None  # the record whose columns file_columns lists
         self._quiet = False
 
     @classmethod
@@ -121,15 +139,26 @@ class RecordState(param.Parameterized):
 
     # -- the file --------------------------------------------------------------------------------
     def upload(self, file_name: str | None, data: bytes | str | None) -> int:
-        """Read a dropped file (off the event loop) with the reading options (the column and the
-        pluck chosen for the previous file are dropped); returns the request id."""
+        """Read a dropped file (off the event loop) from its own reading: every reading option
+        chosen for the previous file is cleared (the file's own names and units decide, and
+        what they decide is shown); returns the request id."""
+        described = any(getattr(self, name) is not None for name in _REQUIRED)
+        kept = self.read.file_name if self.read is not None and described else ""
         self._file = (file_name, data)
+        self._contents = None
         self._quiet = True
         try:
-            self.param.update(signal_column=None, segment=None)
+            self.param.update(**{name: None for name in READ_OPTIONS})
         finally:
             self._quiet = False
+        with editing(self):
+            self.param.update(file_records=[], file_columns=[], beam_kept_from=kept)
         return self._read()
+
+    @property
+    def dropped_name(self) -> str:
+        """The name of the file dropped last ('' before any)."""
+        return (self._file[0] or "") if self._file is not None else ""
 
     def options(self) -> dict:
         """The reading options given, as keywords of :func:`beam.io.readers.read_record`."""
@@ -137,9 +166,25 @@ class RecordState(param.Parameterized):
         return {keyword: value for keyword, value in values.items() if value is not None}
 
     @param.depends(*READ_OPTIONS, watch=True)
-    def _options_changed(self) -> None:
-        if self._file is not None and not self._quiet:
-            self._read()
+    def _options_changed(self, *events) -> None:
+        if self._file is None or self._quiet:
+            return
+        if self.record_name != self._record_shown and self._contents is not None:
+            # another record of the file: its own columns (a column chosen in the other one is dropped)
+            self._quiet = True
+            try:
+                self.signal_column = None
+            finally:
+                self._quiet = False
+            self._show_contents()
+        self._read()
+
+    def _show_contents(self) -> None:
+        contents = self._contents
+        self._record_shown = self.record_name
+        record = self.record_name if self.record_name in contents.records else contents.default_record
+        with editing(self):
+            self.param.update(file_records=list(contents.records), file_columns=list(contents.columns.get(record, ())))
 
     def _read(self) -> int:
         file_name, data = self._file
@@ -151,6 +196,10 @@ class RecordState(param.Parameterized):
     def on_read_update(self, update: sch.Update) -> None:
         """The read slot's callback."""
         if update.kind == "progress":
+            return
+        if update.kind == "partial":  # the file's records and columns, before any choice
+            self._contents = update.value
+            self._show_contents()
             return
         with editing(self):
             if update.kind == "error":
@@ -193,6 +242,9 @@ class RecordState(param.Parameterized):
 
     @param.depends(*FORM_INPUTS, watch=True)
     def _form_changed(self) -> None:
+        if self.beam_kept_from:
+            with editing(self):
+                self.param.update(beam_kept_from="")
         self._describe()
 
     def _describe(self) -> None:

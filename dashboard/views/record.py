@@ -21,6 +21,7 @@ import io
 import panel as pn
 import param
 
+from beam.io.readers.units import display_unit
 from dashboard.jobs.beam import MAX_UPLOAD_BYTES, upload_size_text
 from dashboard.plots.record import BeamSketch, SpectrumPlot
 from dashboard.runtime.staging import run_steps
@@ -70,12 +71,20 @@ def _row(label: str, value: str) -> str:
     return f"<tr><th style='text-align:left;padding-right:12px;vertical-align:top'>{html.escape(label)}</th><td>{value}</td></tr>"
 
 
-def read_html(summary: dict | None) -> str:
-    """What was read (:meth:`dashboard.jobs.record.RecordRead.summary`) as an HTML table."""
+def read_html(summary: dict | None, pending: str = "") -> str:
+    """What was read (:meth:`dashboard.jobs.record.RecordRead.summary`) as an HTML table: the
+    file, its format, every decision of the reader with why and the control under *Reading
+    options* that changes it, the channels, rate, duration, plucks and cleaning. ``pending``
+    names a file dropped since that is not (yet) read: the table then says it is the previous
+    file's."""
     if summary is None:
         return "<div class='record-read'><i>No record yet.</i></div>"
     esc = html.escape
     channels = "<br>".join(esc(c) for c in summary["channels"])
+    decisions = [_row(title, f"{'<b>' if title == 'Signal used' else ''}{esc(text)}"
+                             f"{'</b>' if title == 'Signal used' else ''}"
+                             + (f" <span class='record-change'>(another: {esc(control)})</span>" if control else ""))
+                 for title, text, control in summary["findings"]]
     if summary["segments"]:
         segments = "<br>".join(
             f"{k}: {a:.3f}–{b:.3f} s, peak {p:.3g}" + (" <b>(used)</b>" if summary["segment_used"] == k - 1 else "")
@@ -83,17 +92,19 @@ def read_html(summary: dict | None) -> str:
     else:
         segments = "one (the whole record)"
     notes = "<br>".join(esc(n) for n in summary["notes"]) or "nothing dropped"
+    previous = (f"<p class='record-previous'><b>Still the previous file's record:</b> {esc(pending)} was not read "
+                "(see the message above).</p>") if pending and pending != summary["file"] else ""
     rows = [
         _row("File", f"{esc(summary['file'])} ({upload_size_text(summary['size_bytes'])})"),
         _row("Read as", esc(summary["format"])),
+        *decisions,
         _row("Channels", channels),
-        _row("Signal used", f"<b>{esc(summary['signal'])}</b>"),
         _row("Rate", f"{summary['rate_Hz']:.6g} Hz"),
         _row("Duration", f"{summary['duration_s']:.3f} s ({summary['samples']:,} samples)"),
         _row("Plucks / segments", segments),
         _row("Cleaning", notes),
     ]
-    return f"<table class='record-read' style='font-size:inherit'>{''.join(rows)}</table>"
+    return f"{previous}<table class='record-read' style='font-size:inherit;overflow-wrap:anywhere'>{''.join(rows)}</table>"
 
 
 class RecordView(pn.viewable.Viewer):
@@ -153,9 +164,12 @@ class RecordView(pn.viewable.Viewer):
             Markdown(INTRO, sizing_mode="stretch_width", margin=(0, 10)),
             HTML(pn.bind(status, p.stage, p.status, p.requested, p.read, p.described, p.loaded, p.form_error),
                  sizing_mode="stretch_width", margin=(0, 10)),
-            HTML(pn.bind(lambda e: alert_html("danger", f"<b>Error:</b> {html.escape(e)}") if e else "", p.error),
+            HTML(pn.bind(lambda e: alert_html("danger", f"<span style='overflow-wrap:anywhere'><b>Error:</b> "
+                                                        f"{html.escape(e)}</span>") if e else "", p.error),
                  sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-error"]),
-            pn.Card(HTML(pn.bind(lambda read: read_html(read.summary() if read is not None else None), p.read),
+            pn.Card(HTML(pn.bind(lambda read, _stage: read_html(read.summary() if read is not None else None,
+                                                                r.dropped_name),
+                                 p.read, p.stage),
                          sizing_mode="stretch_width", css_classes=["record-what"]),
                     title="What was read", collapsible=False, sizing_mode="stretch_width"),
         ])
@@ -184,19 +198,30 @@ class RecordView(pn.viewable.Viewer):
         self._left.append(self._reading_options())
 
     def _reading_options(self) -> pn.Card:
-        """The reading options, collapsed until a file needs one (its error names them)."""
+        """The reading options, collapsed until a file needs one (its error names them). The
+        menus offer the file last dropped's own records and columns (``file_records``,
+        ``file_columns``), never another file's."""
         r = self._record
+        record = _select(r, "record_name", {"(the longest)": NOT_GIVEN}, "record-record-name")
         column = _select(r, "signal_column", {"(the most vibration power)": NOT_GIVEN}, "record-signal-column")
 
+        def records(*_) -> None:
+            record.options = {"(the longest)": NOT_GIVEN, **{f"{k}: {name}": name for k, name in
+                                                              enumerate(r.file_records, start=1)}}
+            record.value = r.record_name if r.record_name in record.options.values() else NOT_GIVEN
+            record.visible = bool(r.file_records)
+
         def channels(*_) -> None:
-            listed = r.read.record.channels if r.read is not None else []
             column.options = {"(the most vibration power)": NOT_GIVEN,
-                              **{c: c.split(":", 1)[0] for c in listed if ":" in c and "(time" not in c}}
+                              **{c: c.split(":", 1)[0] for c in r.file_columns if ":" in c and "(time" not in c}}
             column.value = r.signal_column if r.signal_column in column.options.values() else NOT_GIVEN
 
+        records()
         channels()
-        r.param.watch(channels, "read")
-        unit = _select(r, "signal_unit", {"(from the file)": NOT_GIVEN, **{u: u for u in r.param.signal_unit.objects}},
+        r.param.watch(records, "file_records")
+        r.param.watch(channels, "file_columns")
+        unit = _select(r, "signal_unit", {"(from the file)": NOT_GIVEN,
+                                          **{display_unit(u): u for u in r.param.signal_unit.objects}},
                        "record-signal-unit")
         time_unit = _select(r, "time_unit", {"(from the file)": NOT_GIVEN, "s": "s", "ms": "ms", "µs": "us"},
                             "record-time-unit")
@@ -206,7 +231,7 @@ class RecordView(pn.viewable.Viewer):
                                                  css_classes=["record-segment"])
         card = pn.Card(Markdown("Only when the file does not say: the error above names the option to give.",
                                 margin=(0, 10)),
-                       column, unit, rate, time_unit, segment, title="Reading options", collapsible=True,
+                       record, column, unit, rate, time_unit, segment, title="Reading options", collapsible=True,
                        collapsed=True, sizing_mode="stretch_width")
 
         opened_here = []  # opened for an error: closed again once a file is read
@@ -244,8 +269,12 @@ class RecordView(pn.viewable.Viewer):
                            margin=(0, 10), css_classes=["record-missing"])
         form_error = HTML(pn.bind(lambda e: alert_html("warning", html.escape(e)) if e else "", r.param.form_error),
                           sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-form-error"])
+        kept = HTML(pn.bind(lambda name: alert_html("warning", f"The beam below is the one described for <b>{html.escape(name)}"
+                                                    "</b>: check it is this record's (any change confirms it).")
+                            if name else "", r.param.beam_kept_from),
+                    sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-beam-kept"])
         self._left.append(pn.Card(
-            numbers["length_m"], numbers["width_m"], numbers["thickness_m"], material, numbers["sensor_position_m"],
+            kept, numbers["length_m"], numbers["width_m"], numbers["thickness_m"], material, numbers["sensor_position_m"],
             numbers["sensor_mass_kg"], guess, missing, form_error,
             title="2. Your beam", collapsible=False, sizing_mode="stretch_width"))
 

@@ -5,11 +5,15 @@ HDF5, TDMS, LabVIEW's header) and, for text, from its suffix and header; ``forma
 reader. One small reader per format turns the file into named columns
 (:mod:`beam.io.readers.delimited`: phyphox, Physics Toolbox Sensor Suite, LabVIEW's headerless
 text, any CSV/TSV/whitespace table; :mod:`beam.io.readers.lvm`: LabVIEW ``.lvm`` with its
-header; :mod:`beam.io.readers.binary`: ``.npy``, ``.npz``, ``.mat`` v5 and v7.3, ``.tdms``;
+header; :mod:`beam.io.readers.binary`: ``.npy``, ``.npz``, ``.mat`` v5 and v7.3, HDF5, ``.tdms``;
 :func:`read_phyphox_zip`: phyphox's zip export), and :mod:`beam.io.readers.signal` does the
 rest the same way for all: units to SI, time, the signal, the stamps, the plucks.
 
-Every error is a :class:`beam.errors.BeamInputError` naming the file and what was expected.
+Every error is a :class:`beam.errors.BeamInputError` naming the file and what was expected;
+one that a reading option resolves is a :class:`beam.io.readers.findings.ReadingError` (the
+problem, the option, what was found), which each front end phrases in its own words. A file
+that is no record at all (an image, a PDF, a spreadsheet workbook) is named as what it is.
+What the reader decided is in :attr:`Record.findings`.
 """
 
 from __future__ import annotations
@@ -20,14 +24,16 @@ from pathlib import Path
 
 from beam.errors import BeamInputError
 from beam.io.limits import MAX_MEASUREMENT_BYTES
-from beam.io.readers.binary import read_mat, read_npy, read_npz, read_tdms
+from beam.io.readers.binary import read_hdf5, read_mat, read_npy, read_npz, read_tdms
 from beam.io.readers.delimited import read_delimited
+from beam.io.readers.findings import COMMAND_LINE, Finding, Hint, Phrasing, ReadingError
 from beam.io.readers.lvm import LVM_MAGIC, read_lvm
 from beam.io.readers.signal import Record, Segment, build_record
 from beam.io.readers.table import RawRecord
 from beam.io.text import read_text_file
 
-__all__ = ["FORMATS", "Record", "Segment", "detect_format", "read_raw", "read_record"]
+__all__ = ["COMMAND_LINE", "FORMATS", "Finding", "Hint", "Phrasing", "ReadingError", "Record", "Segment", "detect_format",
+           "read_raw", "read_record"]
 
 #: ``format=`` names and what each reads.
 FORMATS: dict[str, str] = {
@@ -36,6 +42,7 @@ FORMATS: dict[str, str] = {
     "lvm": "LabVIEW .lvm with the standard header",
     "tdms": "NI .tdms (npTDMS)",
     "mat": "MATLAB .mat, v5 (scipy) or v7.3 (h5py)",
+    "hdf5": "HDF5 (h5py): a group of named arrays per record",
     "npy": "NumPy .npy",
     "npz": "NumPy .npz",
 }
@@ -44,10 +51,17 @@ _MAGIC = (
     (b"PK\x03\x04", "phyphox-zip"),
     (b"\x93NUMPY", "npy"),
     (b"MATLAB", "mat"),
-    (b"\x89HDF", "mat"),
+    (b"\x89HDF", "hdf5"),  # a MATLAB v7.3 file starts with its text header (a 512-byte user block)
     (b"TDSm", "tdms"),
 )
-_SUFFIX = {".zip": "phyphox-zip", ".npy": "npy", ".npz": "npz", ".mat": "mat", ".tdms": "tdms", ".lvm": "text"}
+_SUFFIX = {".zip": "phyphox-zip", ".npy": "npy", ".npz": "npz", ".mat": "mat", ".tdms": "tdms", ".lvm": "text",
+           ".h5": "hdf5", ".hdf5": "hdf5"}
+#: First bytes of files that are no record, and what they are.
+_NOT_RECORDS = ((b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"GIF8", "a GIF image"),
+                (b"%PDF", "a PDF document"), (b"\xd0\xcf\x11\xe0", "an old Office document (.xls/.doc)"))
+#: Members of a zip that make it an office document, not a phyphox export.
+_OFFICE_MEMBERS = {"xl/workbook.xml": "an Excel workbook (.xlsx): save the sheet as CSV",
+                   "word/document.xml": "a Word document", "content.xml": "an OpenDocument file: save the sheet as CSV"}
 
 
 def detect_format(path: str | os.PathLike[str]) -> str:
@@ -84,7 +98,9 @@ def read_raw(path: str | os.PathLike[str], format: str | None = None) -> RawReco
     path = Path(path)
     name = format or detect_format(path)
     if name not in FORMATS:
-        raise BeamInputError(f"--format {name!r}: unknown; expected one of {', '.join(FORMATS)}")
+        raise ReadingError(None, "unknown", Hint("expected", tuple(FORMATS)), option="format", value=repr(name))
+    if format is None:
+        _refuse_non_record(path)
     try:
         return _read_raw(path, name)
     except BeamInputError:
@@ -94,6 +110,23 @@ def read_raw(path: str | os.PathLike[str], format: str | None = None) -> RawReco
                              f"{' '.join(str(exc).split())[:160]})") from None
 
 
+def _refuse_non_record(path: Path) -> None:
+    """A file that is no record (an image, a document) named as what it is, never echoed."""
+    with open(path, "rb") as handle:
+        head = handle.read(16)
+    what = next((kind for magic, kind in _NOT_RECORDS if head.startswith(magic)), None)
+    if what is None and head.startswith(b"PK\x03\x04"):
+        try:
+            with zipfile.ZipFile(path) as archive:
+                members = set(archive.namelist())
+        except (zipfile.BadZipFile, OSError):
+            return
+        what = next((kind for member, kind in _OFFICE_MEMBERS.items() if member in members), None)
+    if what is not None:
+        raise BeamInputError(f"{path}: binary content ({what}), not a record; expected a record file "
+                             f"({', '.join(FORMATS)})")
+
+
 def _read_raw(path: Path, name: str) -> RawRecord:
     if name == "npy":
         return read_npy(path)
@@ -101,6 +134,8 @@ def _read_raw(path: Path, name: str) -> RawRecord:
         return read_npz(path)
     if name == "mat":
         return read_mat(path)
+    if name == "hdf5":
+        return read_hdf5(path)
     if name == "tdms":
         return read_tdms(path)
     if name == "phyphox-zip":
@@ -120,6 +155,9 @@ def read_phyphox_zip(path: Path) -> RawRecord:
     except (zipfile.BadZipFile, OSError) as exc:
         raise BeamInputError(f"{path}: not a readable zip archive ({exc})") from None
     with archive:
+        office = next((kind for member, kind in _OFFICE_MEMBERS.items() if member in archive.namelist()), None)
+        if office is not None:
+            raise BeamInputError(f"{path}: {office}, not a record")
         members = [m for m in archive.infolist() if m.filename.lower().endswith(".csv") and not m.is_dir()
                    and not m.filename.split("/")[-2:-1] == ["meta"] and "/meta/" not in f"/{m.filename}"]
         if not members:
@@ -142,8 +180,9 @@ def read_phyphox_zip(path: Path) -> RawRecord:
 
 
 def read_record(
-    path: str | os.PathLike[str], *, format: str | None = None, column: str | None = None, axis: str | None = None,
-    rate: float | None = None, time_unit: str | None = None, unit: str | None = None, segment: int | None = None,
+    path: str | os.PathLike[str], *, format: str | None = None, record: str | int | None = None,
+    column: str | None = None, axis: str | None = None, rate: float | None = None, time_unit: str | None = None,
+    unit: str | None = None, segment: int | None = None,
 ) -> Record:
     """Read a record from any supported file (module notes).
 
@@ -153,6 +192,9 @@ def read_record(
         The file.
     format : str, optional
         A key of :data:`FORMATS` (default: recognised).
+    record : str or int, optional
+        For a file holding several records (a MATLAB file's structs, an HDF5 file's groups): which,
+        by name or 1-based position (default: the longest; all are listed in the findings).
     column : str, optional
         The signal's column, by name or 1-based position.
     axis : {"x", "y", "z"}, optional
@@ -162,19 +204,24 @@ def read_record(
     time_unit : {"s", "ms", "us"}, optional
         Unit of the time column.
     unit : str, optional
-        Unit of the signal column (g, m/s^2, mm/s, m, µm, ...).
+        Unit of the signal column (g, m/s^2, mm/s, m, µm, microstrain, ...;
+        :data:`beam.io.readers.units.SIGNAL_UNITS`), or ``"arbitrary"`` for a signal of unknown
+        scale (``"arbitrary-acceleration"`` when the column's name does not say what it measures).
     segment : int, optional
         1-based pluck or file segment to use (default: the strongest).
 
     Returns
     -------
     Record
-        Time (s, from 0), the signal (SI) and everything done to them.
+        Time (s, from 0), the signal (SI, or arbitrary units), what was decided and why
+        (:attr:`Record.findings`) and everything done to them.
 
     Raises
     ------
     BeamInputError
-        One line naming the file and what was expected.
+        One line naming the file and what was expected (a :class:`ReadingError` when a
+        reading option resolves it).
     """
     raw = read_raw(path, format)
-    return build_record(raw, column=column, axis=axis, rate=rate, time_unit=time_unit, unit=unit, segment=segment)
+    return build_record(raw, record=record, column=column, axis=axis, rate=rate, time_unit=time_unit, unit=unit,
+                        segment=segment)

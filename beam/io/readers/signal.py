@@ -2,12 +2,18 @@
 
 The steps, the same for every format:
 
+0. *Record.* A file holding several records (the structs of a MATLAB file, the groups of an
+   HDF5 file, arrays of different lengths: :attr:`Block.kind` ``"record"``) uses ``record=``
+   (``--record NAME|INDEX``) or the longest (the first of equal length); all are listed.
 1. *Block.* A file with several blocks (LVM segments, TDMS groups) uses ``--segment K`` or
    the block whose signal has the most vibration power; the others are listed.
 2. *Time.* The time column (its unit from its name, or ``--time-unit``), else the file's rate,
    else ``--rate``; a file with neither is refused with the flag to give. Time is shifted to
    start at 0 (phones and loggers stamp with clocks); a column of whole numbers stepping by
-   >= 1 with no unit is refused unless ``--time-unit`` says ms or us (Arduino's ``micros()``).
+   >= 1 with no unit is refused unless ``--time-unit`` says ms or us (Arduino's ``micros()``),
+   and so is one without a unit that, read as seconds, gives fewer than
+   :data:`MIN_ASSUMED_RATE_HZ` samples per second (milliseconds); otherwise a time column
+   without a unit is read as seconds, and the finding says so.
 3. *Signal.* ``--column NAME|INDEX`` (INDEX counts the file's columns from 1), else ``--axis``,
    else, among the columns measuring motion (acceleration, velocity, displacement; a magnitude
    such as phyphox's "Absolute acceleration" only when asked for), the one with the most
@@ -16,7 +22,8 @@ The steps, the same for every format:
    drift are not vibration). Columns of different quantities are not compared: the choice
    must then be given. A voltage or force column beside the signal is the record's input.
    Units become SI; gravity and the sensor's bias stay in the signal (the calibration's offset
-   parameter takes them).
+   parameter takes them). A signal in arbitrary units (``--unit arbitrary``, a column named
+   in counts) keeps its values and marks the record (:attr:`Record.arbitrary_units`).
 4. *Stamps.* Samples whose stamp repeats or goes back (phone apps do both) are dropped, keeping
    the first of each stamp and a strictly increasing time; what was dropped is reported.
    Rows with a missing value in the time or the signal are dropped too.
@@ -28,19 +35,35 @@ The steps, the same for every format:
    :data:`ONSET_PEAK_FRACTION` of the loudest block. With two or more onsets the record is
    split at them; the segment with the loudest block (or ``--segment K``) is kept from
    one block before its onset, and every segment is listed.
+
+Every decision is a :class:`beam.io.readers.findings.Finding` (:attr:`Record.findings`), every
+refusal a :class:`beam.io.readers.findings.ReadingError` naming the option that resolves it.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.signal import welch
 
 from beam.errors import BeamInputError
+from beam.io.readers.findings import COMMAND_LINE, Finding, Hint, ReadingError
 from beam.io.readers.table import Block, Column, RawRecord
-from beam.io.readers.units import INPUT_COLUMN_OF, OUTPUT_COLUMN_OF, UNITS, column_meaning, normalise_unit
+from beam.io.readers.units import (
+    ARBITRARY,
+    INPUT_COLUMN_OF,
+    OUTPUT_COLUMN_OF,
+    SIGNAL_UNITS,
+    ColumnMeaning,
+    arbitrary_spelling,
+    column_meaning,
+    display_unit,
+    is_known_unit,
+    normalise_unit,
+)
 
 #: Lowest frequency counted as vibration (Hz).
 VIBRATION_LOW_HZ = 1.0
@@ -58,6 +81,12 @@ ONSET_PEAK_FRACTION = 0.1
 MIN_SEGMENT_S = 0.5
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+#: A time column without a unit is read as seconds only when that makes at least this many samples
+#: per second (Hz): fewer cannot follow a vibrating strip (the stamps are then milliseconds or
+#: microseconds; ``time_unit="s"`` still reads them as seconds).
+MIN_ASSUMED_RATE_HZ = 20.0
+#: Units a hint lists for a column without one (``"arbitrary"`` last).
+UNIT_HINT_VALUES = ("g", "m/s^2", "mm/s", "m/s", "µm", "mm", "m", "microstrain", "strain", ARBITRARY)
 
 
 @dataclass(frozen=True)
@@ -107,7 +136,19 @@ class Record:
     segment_index : int or None
         0-based index of the segment kept (None: the whole record).
     notes : list of str
-        Everything done to the data (stamps dropped, time shifted, blocks skipped).
+        Everything done to the data (stamps dropped, time shifted, blocks skipped), in the
+        command line's words; the first says where the time came from.
+    findings : list of Finding
+        The reader's decisions (record, block, time, signal, unit, input, pluck), each with why
+        and the reading option that changes it (:mod:`beam.io.readers.findings`).
+    cleaning : list of str
+        What was done to the data and what the file says beside it (stamps dropped, time shifted,
+        a comment line, the zip member read), in words that name no front end.
+    records : list of str
+        The records of a file holding several (empty for one); ``findings`` says which was used.
+    arbitrary_units : bool
+        True when the signal is in arbitrary units (its scale unknown: ADC counts, an
+        uncalibrated sensor's volts); ``output`` then holds the values as the file does.
     """
 
     path: object
@@ -122,6 +163,10 @@ class Record:
     segments: list[Segment] = field(default_factory=list)
     segment_index: int | None = None
     notes: list[str] = field(default_factory=list)
+    findings: list[Finding] = field(default_factory=list)
+    cleaning: list[str] = field(default_factory=list)
+    records: list[str] = field(default_factory=list)
+    arbitrary_units: bool = False
 
     @property
     def rate_Hz(self) -> float:
@@ -149,7 +194,9 @@ def record_arrays(record) -> dict[str, np.ndarray]:
 
 
 def _psd(time_s: np.ndarray, values: np.ndarray):
-    """(frequency, Welch PSD, lowest vibration frequency) of finite samples on the median step, or None.
+    """(frequency, Welch PSD of values / peak, lowest vibration frequency, peak) of finite samples on
+    the median step, or None; peak = max |value| (the PSD is of the values scaled to at most 1, so
+    that no square overflows: a file may hold values near the float range).
 
     Segments of about a quarter of the record (at most 2^16 samples); stamps need not be
     uniform for a ranking or a block length."""
@@ -158,63 +205,95 @@ def _psd(time_s: np.ndarray, values: np.ndarray):
     if y.size < 8:
         return None
     step = float(np.median(np.diff(t)))
-    if not step > 0:
+    peak = float(np.max(np.abs(y)))
+    if not step > 0 or not peak > 0:
         return None
-    frequency, density = welch(y - np.mean(y), fs=1.0 / step, nperseg=int(min(y.size, max(64, min(2**16, y.size // 4)))))
-    return frequency, density, max(VIBRATION_LOW_HZ, 4.0 / max(float(t[-1] - t[0]), step))
+    z = y / peak
+    frequency, density = welch(z - np.mean(z), fs=1.0 / step, nperseg=int(min(y.size, max(64, min(2**16, y.size // 4)))))
+    return frequency, density, max(VIBRATION_LOW_HZ, 4.0 / max(float(t[-1] - t[0]), step)), peak
 
 
 def vibration_power(time_s: np.ndarray, values: np.ndarray) -> float:
     """Power of ``values`` above max(:data:`VIBRATION_LOW_HZ`, 4 / duration) (unit²), from
-    Welch's estimate (:func:`_psd`)."""
+    Welch's estimate (:func:`_psd`); inf when it exceeds the float range."""
     spectrum = _psd(time_s, values)
     if spectrum is None:
         return 0.0
-    frequency, density, low = spectrum
+    frequency, density, low, peak = spectrum
     band = frequency >= low
     if not np.any(band):
         return 0.0
-    return float(np.sum(density[band]) * (frequency[1] - frequency[0]))
+    with np.errstate(over="ignore"):
+        return float(np.sum(density[band]) * (frequency[1] - frequency[0]) * np.float64(peak) ** 2)
 
 
-def _time_axis(record: RawRecord, block: Block, rate: float | None, time_unit: str | None) -> tuple[np.ndarray, str]:
+def _time_axis(record: RawRecord, block: Block, rate: float | None, time_unit: str | None,
+               findings: Sequence[Finding] = ()) -> tuple[np.ndarray, str, Finding]:
+    """(time (s), the note saying where it came from, the finding) of a block (module notes, step 2)."""
     path = record.path
     n = block.columns[0].values.size
+    context = _context(record, block, findings)
     if rate is not None:
-        return np.arange(n) / float(rate), f"time from --rate {rate:g} Hz"
+        return (np.arange(n) / float(rate), f"time from --rate {rate:g} Hz",
+                Finding("time", f"a sampling rate of {rate:g} Hz", option="rate", given=True,
+                        found=f"column {block.time.name!r} left aside" if block.time is not None else ""))
     if block.time is not None:
         values = block.time.values
-        factor = block.time.meaning.factor if block.time.meaning.quantity == "time" else None
+        meaning = block.time.meaning
+        factor = meaning.factor if meaning.quantity == "time" else None
         if time_unit is not None:
             factor = TIME_UNITS[time_unit]
-        if factor is None:
+            finding = Finding("time", f"column {block.time.name!r}", f"in {display_unit(time_unit)}", option="time_unit",
+                              given=True)
+        elif factor is not None:
+            source = meaning.unit_source
+            why = f"from {source}" if source in ("its name", "the file's unit field") else source
+            finding = Finding("time", f"column {block.time.name!r}", f"in {display_unit(meaning.unit)}, {why}",
+                              option="time_unit")
+        else:
             finite = values[np.isfinite(values)]
             steps = np.diff(finite)
             typical = float(np.median(steps[steps > 0])) if np.any(steps > 0) else 0.0
             if finite.size and np.all(finite == np.round(finite)) and typical >= 1:
-                raise BeamInputError(
-                    f"{path}: time column {block.time.name!r} holds whole numbers stepping by {typical:g} with no unit "
-                    "(an Arduino's micros() or millis()?); give --time-unit ms|us, or --time-unit s if they are seconds")
+                raise ReadingError(
+                    path, f"time column {block.time.name!r} holds whole numbers stepping by {typical:g} with no unit "
+                    "(an Arduino's micros() or millis()?)", Hint("time_unit", ("ms", "us")), **context)
+            if 0 < typical and 1.0 / typical < MIN_ASSUMED_RATE_HZ:
+                raise ReadingError(
+                    path, f"time column {block.time.name!r} has no unit; read as seconds its stamps step by {typical:g} s "
+                    f"({1.0 / typical:.3g} samples per second), too slow for a vibrating strip: milliseconds?",
+                    Hint("time_unit", ("ms", "us")), **context)
             factor = 1.0
+            finding = Finding("time", f"column {block.time.name!r}", "in s, assumed (its name gives no unit)",
+                              option="time_unit")
         where = f"time from column {block.time.name!r}" + (f" in {time_unit}" if time_unit else "")
-        return values * factor, where
+        return values * factor, where, finding
     if block.rate_Hz is not None:
-        return block.start_s + np.arange(n) / block.rate_Hz, f"time from the file's sampling rate {block.rate_Hz:g} Hz"
-    raise BeamInputError(f"{path}: no time column and no sampling rate in the file; give the sampling rate "
-                         "with --rate HZ (or a time column named time, t or 'Time (s)')")
+        return (block.start_s + np.arange(n) / block.rate_Hz, f"time from the file's sampling rate {block.rate_Hz:g} Hz",
+                Finding("time", f"the file's sampling rate {block.rate_Hz:g} Hz", "no time column", option="rate"))
+    raise ReadingError(path, "no time column and no sampling rate in the file", Hint("rate"), **context)
 
 
-def _channel_listing(block: Block) -> list[str]:
+def channel_listing(block: Block) -> list[str]:
+    """``"2: gFx (acceleration in g)"``, one line per column of the block."""
     out = []
     for column in block.columns:
         meaning = column.meaning
-        what = meaning.quantity or "unknown quantity"
-        unit = f" in {meaning.unit}" if meaning.unit else ""
+        what = "time" if column is block.time else (meaning.quantity or "unknown quantity")
+        if meaning.arbitrary:
+            unit = " in arbitrary units" + (f" ({meaning.unit})" if not _canonical_arbitrary(meaning.unit) else "")
+        else:
+            unit = f" in {meaning.unit}" if meaning.unit else ""
         out.append(f"{column.position}: {column.name} ({what}{unit})")
     return out
 
 
-def _pick_column(record: RawRecord, block: Block, column: str | None) -> Column:
+def _canonical_arbitrary(unit: str | None) -> bool:
+    """Whether ``unit`` is the canonical word for arbitrary units (nothing more to show)."""
+    return unit is not None and unit.strip().lower().startswith(ARBITRARY)
+
+
+def _pick_column(record: RawRecord, block: Block, column: str | None, context: dict) -> Column:
     if column is None:
         raise AssertionError  # pragma: no cover
     text = str(column).strip()
@@ -223,14 +302,16 @@ def _pick_column(record: RawRecord, block: Block, column: str | None) -> Column:
         index = int(text)
         match = next((c for c in block.columns if c.position == index), None)
         if match is None:
-            raise BeamInputError(f"{record.path}: --column {index}: the file has columns 1 to {len(block.columns)}")
+            raise ReadingError(record.path, f"the file has columns 1 to {len(block.columns)}", option="column",
+                               value=index, **context)
         return match
     lowered = text.lower()
     match = next((c for c in data if c.name.lower() == lowered), None) or next(
         (c for c in data if c.name.lower().startswith(lowered)), None)
     if match is None:
         names = ", ".join(repr(c.name) for c in block.columns)
-        raise BeamInputError(f"{record.path}: --column {text!r}: no such column; the file has {names}")
+        raise ReadingError(record.path, f"no such column; the file has {names}", option="column", value=repr(text),
+                           **context)
     return match
 
 
@@ -240,51 +321,94 @@ def _with_unit(column: Column, unit: str | None) -> Column:
     return Column(column.name, column.values, column_meaning(column.name, unit), column.position)
 
 
+def _context(record: RawRecord, block: Block, findings: Sequence[Finding]) -> dict:
+    return {"findings": tuple(findings), "format": record.format, "columns": channel_listing(block),
+            "records": [b.label for b in record.blocks] if holds_records(record) else ()}
+
+
 def choose_signal(record: RawRecord, block: Block, time_s: np.ndarray, *, column: str | None, axis: str | None,
-                  unit: str | None) -> tuple[Column, str]:
-    """The signal column of a block and why it was chosen (module notes, step 3)."""
-    if unit is not None and normalise_unit(unit) not in UNITS:
-        raise BeamInputError(f"--unit {unit!r}: unknown unit; expected one of g, m/s^2, mm/s, m/s, mm, µm, m, V, N")
+                  unit: str | None, findings: Sequence[Finding] = ()) -> tuple[Column, Finding]:
+    """The signal column of a block (its unit applied) and the finding saying why it was chosen
+    (module notes, step 3); ``findings`` are the reader's earlier ones, for its messages."""
+    context = _context(record, block, findings)
+    if unit is not None and not is_known_unit(unit):
+        raise ReadingError(record.path, "unknown unit", Hint("expected", SIGNAL_UNITS), option="unit",
+                           value=repr(unit), **context)
     if column is not None:
-        chosen = _with_unit(_pick_column(record, block, column), unit)
-        return _checked(record, chosen), f"{chosen.name}: chosen with --column"
+        chosen = _with_unit(_pick_column(record, block, column, context), unit)
+        return _checked(record, chosen, context), Finding("signal", chosen.name, option="column", given=True)
     candidates = [_with_unit(c, unit) if c.meaning.factor is None else c for c in block.data_columns]
     motion = [c for c in candidates if c.meaning.quantity in OUTPUT_COLUMN_OF or c.meaning.quantity is None]
     if axis is not None:
         on_axis = [c for c in motion if c.meaning.axis == axis.lower()]
         if not on_axis:
             axes = sorted({c.meaning.axis for c in motion if c.meaning.axis in ("x", "y", "z")})
-            raise BeamInputError(f"{record.path}: --axis {axis}: no column on that axis (axes: {', '.join(axes) or 'none named'}); "
-                                 "use --column NAME|INDEX")
+            raise ReadingError(record.path, f"no column on that axis (axes: {', '.join(axes) or 'none named'})",
+                               Hint("axis"), option="axis", value=axis, **context)
         motion = on_axis
     signed = [c for c in motion if not c.meaning.is_total] or motion
     if not signed:
-        listing = "; ".join(_channel_listing(block))
-        raise BeamInputError(f"{record.path}: no column measures motion (acceleration, velocity or displacement); "
-                             f"columns: {listing}; choose one with --column and its unit with --unit")
+        raise ReadingError(record.path, "no column measures motion (acceleration, velocity, displacement or strain)",
+                           Hint("column_and_unit", UNIT_HINT_VALUES), **context)
     kinds = {c.meaning.quantity for c in signed}
     if len(signed) == 1:
-        return _checked(record, signed[0]), f"{signed[0].name}: the only signal"
+        how = Finding("signal", signed[0].name, "the only signal", option="column", given=axis is not None)
+        if axis is not None:
+            how = Finding("signal", signed[0].name, option="axis", given=True)
+        return _checked(record, signed[0], context), how
     if len(kinds) > 1:
         names = ", ".join(f"{c.name!r} ({c.meaning.quantity or 'unknown'})" for c in signed)
-        raise BeamInputError(f"{record.path}: columns of different quantities ({names}) cannot be compared; "
-                             "choose one with --column NAME|INDEX")
+        raise ReadingError(record.path, f"columns of different quantities ({names}) cannot be compared",
+                           Hint("column"), **context)
     powers = [vibration_power(time_s, c.values * (c.meaning.factor or 1.0)) for c in signed]
     best = int(np.argmax(powers))
     chosen = signed[best]
     ranked = ", ".join(f"{c.name} {p:.3g}" for c, p in sorted(zip(signed, powers), key=lambda cp: -cp[1]))
-    return _checked(record, chosen), f"{chosen.name}: the most vibration power (SI units²: {ranked})"
+    units = "arbitrary units²" if chosen.meaning.arbitrary else "SI units²"
+    return _checked(record, chosen, context), Finding("signal", chosen.name, "the most vibration power",
+                                                      f"{units}: {ranked}", option="column")
 
 
-def _checked(record: RawRecord, column: Column) -> Column:
+def _checked(record: RawRecord, column: Column, context: dict) -> Column:
     meaning = column.meaning
     if meaning.quantity in INPUT_COLUMN_OF:
-        raise BeamInputError(f"{record.path}: column {column.name!r} is a {meaning.quantity} (an input, in "
-                             f"{meaning.unit}); if it is the sensor's output give its unit with --unit (g, m/s^2, mm, ...)")
+        raise ReadingError(record.path, f"column {column.name!r} is a {meaning.quantity} (an input, in {meaning.unit})",
+                           Hint("output_unit", UNIT_HINT_VALUES[:-1]), **context)
+    if meaning.arbitrary and meaning.quantity not in OUTPUT_COLUMN_OF:
+        raise ReadingError(record.path, f"column {column.name!r} is read in arbitrary units ({meaning.unit}), but its name "
+                           "does not say what the sensor measures",
+                           Hint("quantity", tuple(arbitrary_spelling(q) for q in OUTPUT_COLUMN_OF)), **context)
     if meaning.factor is None or meaning.quantity not in OUTPUT_COLUMN_OF:
-        raise BeamInputError(f"{record.path}: column {column.name!r} has no unit the reader knows; give it with "
-                             "--unit (g, m/s^2, mm/s, m/s, µm, mm, m)")
+        said = f" (its name says {meaning.unit!r})" if meaning.unit else ""
+        kind = "unit" if meaning.quantity in OUTPUT_COLUMN_OF else "unit_and_quantity"
+        raise ReadingError(record.path, f"column {column.name!r} has no unit the reader knows{said}",
+                           Hint(kind, UNIT_HINT_VALUES[:-1]), **context)
     return column
+
+
+def _unit_finding(column: Column, unit: str | None, original: ColumnMeaning | None) -> Finding:
+    """Where the signal's unit comes from (and, for arbitrary units, what that means)."""
+    meaning = column.meaning
+    scale = ("arbitrary units: the values as the file holds them, their scale unknown (nothing that depends on the "
+             "amplitude can be calibrated)") if meaning.arbitrary else ""
+    if unit is not None and meaning.unit_source == "given":
+        found = f"its name says {original.unit}" if original is not None and original.unit and original.unit != unit else ""
+        return Finding("unit", unit, scale, found=found, option="unit", given=True)
+    source = meaning.unit_source or "its name"
+    why = f"from {source}" if source in ("its name", "the file's unit field") else source
+    return Finding("unit", meaning.unit or "", f"{why}; {scale}" if scale else why, option="unit")
+
+
+def _in_si(raw: RawRecord, block: Block, column: Column, findings: Sequence[Finding]) -> np.ndarray:
+    """A column's values in SI; a value that its unit's factor carries beyond the float range is refused."""
+    with np.errstate(over="ignore"):
+        values = column.values * column.meaning.factor
+    beyond = np.isinf(values) & np.isfinite(column.values)
+    if np.any(beyond):
+        first = float(column.values[np.flatnonzero(beyond)[0]])
+        raise ReadingError(raw.path, f"column {column.name!r} holds {first:g} {column.meaning.unit}, beyond the range of "
+                           "numbers in SI units", **_context(raw, block, findings))
+    return values
 
 
 def _input_column(block: Block, chosen: Column) -> Column | None:
@@ -326,7 +450,7 @@ def dominant_frequency(time_s: np.ndarray, values: np.ndarray) -> float | None:
     spectrum = _psd(time_s, values)
     if spectrum is None:
         return None
-    frequency, density, low = spectrum
+    frequency, density, low, _peak = spectrum
     band = frequency >= low
     if not np.any(band) or not np.any(density[band] > 0):
         return None
@@ -377,14 +501,57 @@ def find_segments(time_s: np.ndarray, values: np.ndarray) -> list[Segment]:
     return segments
 
 
-def build_record(raw: RawRecord, *, column: str | None = None, axis: str | None = None, rate: float | None = None,
-                 time_unit: str | None = None, unit: str | None = None, segment: int | None = None) -> Record:
+def holds_records(raw: RawRecord) -> bool:
+    """Whether the file's blocks are separate records (:attr:`Block.kind`), not one acquisition's parts."""
+    return len(raw.blocks) > 1 and all(b.kind == "record" for b in raw.blocks)
+
+
+def default_record(raw: RawRecord) -> int:
+    """0-based index of the record used when none is chosen: the one with the most samples, the
+    first of those in the file's order."""
+    sizes = [b.columns[0].values.size for b in raw.blocks]
+    return int(np.argmax(sizes))
+
+
+def _pick_record(raw: RawRecord, record: str | int | None) -> tuple[int, Finding]:
+    labels = [b.label for b in raw.blocks]
+    found = f"{len(labels)} records in the file: " + ", ".join(
+        f"{k}: {b.label} ({len(b.columns)} column(s), {b.columns[0].values.size} samples)" for k, b in enumerate(raw.blocks, 1))
+    context = {"format": raw.format, "records": labels}
+    if record is None:
+        index = default_record(raw)
+        sizes = [b.columns[0].values.size for b in raw.blocks]
+        why = "the longest" if sizes.count(max(sizes)) == 1 else "the first of the longest"
+        return index, Finding("record", labels[index], why, found, option="record")
+    text = str(record).strip()
+    if text.isdigit():
+        index = int(text) - 1
+        if not 0 <= index < len(labels):
+            raise ReadingError(raw.path, f"the file holds records 1 to {len(labels)} ({', '.join(labels)})",
+                               option="record", value=text, **context)
+    else:
+        matches = [k for k, label in enumerate(labels) if label.lower() == text.lower()] or [
+            k for k, label in enumerate(labels) if label.lower().startswith(text.lower())]
+        if len(matches) != 1:
+            raise ReadingError(raw.path, f"{'no such record' if not matches else 'names several records'}; the file "
+                               f"holds {', '.join(repr(label) for label in labels)}", option="record", value=repr(text),
+                               **context)
+        index = matches[0]
+    return index, Finding("record", labels[index], found=found, option="record", given=True)
+
+
+def build_record(raw: RawRecord, *, record: str | int | None = None, column: str | None = None, axis: str | None = None,
+                 rate: float | None = None, time_unit: str | None = None, unit: str | None = None,
+                 segment: int | None = None) -> Record:
     """One record from a file's columns (module notes).
 
     Parameters
     ----------
     raw : RawRecord
         What the format reader found.
+    record : str or int, optional
+        For a file holding several records (MATLAB structs, HDF5 groups, arrays of different
+        lengths): which, by name (or a name's beginning) or 1-based position (default: the longest).
     column : str, optional
         The signal's column, by name (or a name's beginning) or 1-based position.
     axis : {"x", "y", "z"}, optional
@@ -394,64 +561,96 @@ def build_record(raw: RawRecord, *, column: str | None = None, axis: str | None 
     time_unit : {"s", "ms", "us"}, optional
         Unit of the time column.
     unit : str, optional
-        Unit of the signal column (for a column whose name has none).
+        Unit of the signal column (for a column whose name has none; given with ``column``, it
+        wins over the name's); :data:`beam.io.readers.units.SIGNAL_UNITS` lists the common ones,
+        ``"arbitrary"`` reads a signal of unknown scale.
     segment : int, optional
         1-based segment (block or pluck) to keep.
 
     Raises
     ------
-    BeamInputError
-        Anything that keeps the file from being one record; one line naming the file.
+    ReadingError
+        Anything that keeps the file from being one record without a choice; one line naming
+        the file, the problem and the option that resolves it.
     """
     if rate is not None and not (math.isfinite(rate) and rate > 0):
         raise BeamInputError(f"--rate must be a positive number of Hz, got {rate!r}")
     if time_unit is not None and time_unit not in TIME_UNITS:
         raise BeamInputError(f"--time-unit must be one of {', '.join(TIME_UNITS)}, got {time_unit!r}")
     notes = list(raw.notes)
+    findings: list[Finding] = []
     blocks = raw.blocks
+    records = [b.label for b in blocks] if holds_records(raw) else []
+    if records:
+        index, chosen_record = _pick_record(raw, record)
+        findings.append(chosen_record)
+        notes.append(f"{len(blocks)} records in the file ({', '.join(records)}); using {blocks[index].label}"
+                     + (f" ({chosen_record.why})" if chosen_record.why else ""))
+        blocks = [blocks[index]]
+    elif record is not None and not (str(record).strip() in ("1", blocks[0].label) and len(blocks) == 1):
+        raise ReadingError(raw.path, "the file holds one record" + (f" ({blocks[0].label})" if blocks[0].label else ""),
+                           option="record", value=repr(str(record)), format=raw.format)
     block = blocks[0]
     block_segments: list[Segment] = []
     if len(blocks) > 1:
         scored = []
         for candidate in blocks:
-            t, _ = _time_axis(raw, candidate, rate, time_unit)
-            chosen, _ = choose_signal(raw, candidate, t, column=column, axis=axis, unit=unit)
-            factor = chosen.meaning.factor
-            scored.append((candidate, t, vibration_power(t, chosen.values * factor), float(np.nanmax(np.abs(chosen.values * factor)))))
+            t, _, _ = _time_axis(raw, candidate, rate, time_unit, findings)
+            chosen, _ = choose_signal(raw, candidate, t, column=column, axis=axis, unit=unit, findings=findings)
+            values = _in_si(raw, candidate, chosen, findings)
+            scored.append((candidate, t, vibration_power(t, values), float(np.nanmax(np.abs(values)))))
         block_segments = [Segment(float(t[0]), float(t[-1]), peak) for _, t, _, peak in scored]
         if segment is not None:
             if not 1 <= segment <= len(blocks):
-                raise BeamInputError(f"{raw.path}: --segment {segment}: the file has segments 1 to {len(blocks)}")
+                raise ReadingError(raw.path, f"the file has segments 1 to {len(blocks)}", option="segment", value=segment,
+                                   format=raw.format)
             index = segment - 1
         else:
             index = int(np.argmax([power for _, _, power, _ in scored]))
         block = blocks[index]
+        findings.append(Finding("block", block.label, "the most vibration power" if segment is None else "",
+                                f"{len(blocks)} blocks: {', '.join(b.label for b in blocks)}", option="segment",
+                                given=segment is not None))
         notes.append(f"{len(blocks)} blocks in the file ({', '.join(b.label for b in blocks)}); "
                      f"using {block.label}" + (" (the most vibration power)" if segment is None else ""))
-    time_s, time_source = _time_axis(raw, block, rate, time_unit)
-    chosen, why = choose_signal(raw, block, time_s, column=column, axis=axis, unit=unit)
-    output = chosen.values * chosen.meaning.factor
+    time_s, time_source, time_finding = _time_axis(raw, block, rate, time_unit, findings)
+    findings.append(time_finding)
+    chosen, signal_finding = choose_signal(raw, block, time_s, column=column, axis=axis, unit=unit, findings=findings)
+    if unit is not None and chosen.meaning.unit_source != "given":  # the given unit is for a column without one
+        if column is None and chosen.meaning.unit and normalise_unit(chosen.meaning.unit) != normalise_unit(unit):
+            notes.append(f"the unit given ({unit}) is for a column without one; {chosen.name} says {chosen.meaning.unit}")
+    original = next((c.meaning for c in block.columns if c.position == chosen.position), None)
+    findings += [signal_finding, _unit_finding(chosen, unit, original)]
+    output = _in_si(raw, block, chosen, findings)
     input_column = _input_column(block, chosen)
-    input_values = input_column.values * input_column.meaning.factor if input_column is not None else None
+    if input_column is not None:
+        findings.append(Finding("input", input_column.name, f"a {input_column.meaning.quantity} beside the signal: "
+                                "what drives the beam"))
+    input_values = _in_si(raw, block, input_column, findings) if input_column is not None else None
+    cleaning = list(raw.notes)
     keep, dropped = clean_stamps(time_s, output, *([input_values] if input_values is not None else []))
     if dropped:
         notes.append(dropped)
+        cleaning.append(dropped)
     time_s, output = time_s[keep], output[keep]
     input_values = input_values[keep] if input_values is not None else None
     if time_s.size < 2:
-        raise BeamInputError(f"{raw.path}: fewer than 2 usable samples in column {chosen.name!r}")
+        raise ReadingError(raw.path, f"fewer than 2 usable samples in column {chosen.name!r}", **_context(raw, block, findings))
     if time_s[0] != 0:
-        notes.append(f"time shifted by {-time_s[0]:+.9g} s to start at 0")
+        shifted = f"time shifted by {-time_s[0]:+.9g} s to start at 0"
+        notes.append(shifted)
+        cleaning.append(shifted)
         time_s = time_s - time_s[0]
     notes.insert(0, time_source)
     segments = block_segments
-    segment_index = blocks.index(block) if len(blocks) > 1 else None
+    segment_index = raw.blocks.index(block) if len(blocks) > 1 else None
     if len(blocks) == 1:
         segments = find_segments(time_s, output)
         if segments:
             if segment is not None:
                 if not 1 <= segment <= len(segments):
-                    raise BeamInputError(f"{raw.path}: --segment {segment}: the record has segments 1 to {len(segments)}")
+                    raise ReadingError(raw.path, f"the record has segments 1 to {len(segments)}", option="segment",
+                                       value=segment, **_context(raw, block, findings))
                 segment_index = segment - 1
             else:
                 segment_index = int(np.argmax([s.peak for s in segments]))
@@ -459,15 +658,21 @@ def build_record(raw: RawRecord, *, column: str | None = None, axis: str | None 
             inside = (time_s >= kept.start_s) & (time_s <= kept.end_s)
             time_s, output = time_s[inside] - kept.start_s, output[inside]
             input_values = input_values[inside] if input_values is not None else None
+            findings.append(Finding("pluck", f"segment {segment_index + 1} ({kept.start_s:.3f}-{kept.end_s:.3f} s)",
+                                    "the strongest" if segment is None else "", f"{len(segments)} plucks/taps found",
+                                    option="segment", given=segment is not None))
             notes.append(f"{len(segments)} plucks/taps found; using segment {segment_index + 1} "
                          f"({kept.start_s:.3f}-{kept.end_s:.3f} s of the record)"
                          + (" (the strongest)" if segment is None else ""))
         elif segment is not None and segment != 1:
-            raise BeamInputError(f"{raw.path}: --segment {segment}: the record holds one pluck")
+            raise ReadingError(raw.path, "the record holds one pluck", option="segment", value=segment,
+                               **_context(raw, block, findings))
     return Record(
         path=raw.path, format=raw.format, time_s=np.ascontiguousarray(time_s), output_column=OUTPUT_COLUMN_OF[chosen.meaning.quantity],
-        output=np.ascontiguousarray(output), signal=why, channels=_channel_listing(block),
+        output=np.ascontiguousarray(output), signal=COMMAND_LINE.finding(signal_finding, title=False),
+        channels=channel_listing(block),
         input_column=INPUT_COLUMN_OF[input_column.meaning.quantity] if input_column is not None else None,
         input=np.ascontiguousarray(input_values) if input_values is not None else None,
-        segments=segments, segment_index=segment_index, notes=notes,
+        segments=segments, segment_index=segment_index, notes=notes, findings=findings, cleaning=cleaning,
+        records=records, arbitrary_units=chosen.meaning.arbitrary,
     )

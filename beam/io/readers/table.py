@@ -2,7 +2,9 @@
 
 A *block* is one continuous acquisition: the columns of a CSV, one segment of an LVM file, one
 group of a TDMS file. A file with several blocks offers them as segments (the strongest is used
-unless one is chosen). The conversion to SI, the choice of the signal, the cleaning of the time
+unless one is chosen); a file holding several separate *records* (a MATLAB file's structs, an
+HDF5 file's groups, arrays of different lengths) has one block of kind ``"record"`` each, chosen
+by name. The conversion to SI, the choice of the signal, the cleaning of the time
 stamps and the splitting into plucks happen once for every format, in
 :mod:`beam.io.readers.signal`.
 """
@@ -56,7 +58,11 @@ class Block:
     start_s : float
         Time of the first sample when the time comes from a rate (s).
     label : str
-        How the file names the block (``"segment 2"``, a TDMS group).
+        How the file names the block (``"segment 2"``, a TDMS group, a MATLAB struct's name).
+    kind : str
+        ``"segment"``: a part of one acquisition (LVM segments, TDMS groups; the strongest is used
+        by default); ``"record"``: a record of its own (a MATLAB struct, an HDF5 group), chosen
+        by name.
     """
 
     columns: list[Column]
@@ -64,6 +70,7 @@ class Block:
     rate_Hz: float | None = None
     start_s: float = 0.0
     label: str = ""
+    kind: str = "segment"
 
     @property
     def data_columns(self) -> list[Column]:
@@ -94,12 +101,13 @@ class RawRecord:
 
 
 def make_columns(names: list[str], arrays: list[np.ndarray], units: list[str | None] | None = None) -> list[Column]:
-    """Columns from names and arrays (units: a unit per column given outside the name, or None)."""
+    """Columns from names and arrays (units: a unit per column the file states outside the name
+    (an LVM ``Y_Unit_Label``, a TDMS ``unit_string``), or None)."""
     units = units or [None] * len(names)
     columns = []
     for position, (name, values, unit) in enumerate(zip(names, arrays, units), start=1):
         array = np.asarray(values, dtype=float).reshape(-1)
-        columns.append(Column(str(name), array, column_meaning(str(name), unit), position))
+        columns.append(Column(str(name), array, column_meaning(str(name), unit, "the file's unit field"), position))
     return columns
 
 

@@ -6,7 +6,14 @@ its *unit* are read from its name: a unit in brackets (``"Time (s)"``, ``"acc_z 
 ``"disp mm"``), or a name an app is known to write without a unit (Physics Toolbox Sensor
 Suite: ``gFx`` in g, ``ax`` in m/s²; Arduino loggers: ``micros``, ``millis``). The unit alone
 decides the quantity when the name does not (``"ch1 (V)"`` is a voltage). ``--unit`` gives the
-unit of a column whose name has none.
+unit of a column whose name has none. A bracket holding a bare number (``"Acc[1]"``, the first
+column of a matrix ``Acc``) is an index, never a unit.
+
+*Arbitrary units* (:data:`ARBITRARY_SPELLINGS`: ``arbitrary``, ``counts``, ``a.u.``, ...) are a
+signal of unknown scale: ADC counts (an Arduino's ``analogRead``, a "Quantisation level"), the
+volts of a sensor without its calibration. The values are kept as the file holds them (factor
+1) and the record says that its scale is unknown; the quantity comes from the name, or from the
+spelling ``arbitrary-acceleration`` (``-velocity``, ``-displacement``, ``-strain``).
 
 Every factor is exact by definition (standard gravity g_n = 9.80665 m/s², CGPM 1901; SI
 prefixes).
@@ -55,27 +62,49 @@ _add("force", 1e3, "kn")
 _add("strain", 1.0, "strain", "m/m", "ε")
 _add("strain", 1e-6, "microstrain", "µε", "με", "ue", "µstrain", "ustrain", "microstrains")
 
+#: Spellings of a unit of unknown scale (lower case, spaces removed): the values as the file holds them.
+ARBITRARY_SPELLINGS = ("arbitrary", "arb", "a.u.", "au", "arbitraryunits", "counts", "count", "lsb", "adc", "adccounts",
+                       "raw")
+#: The canonical spelling of arbitrary units, and of arbitrary units of a named quantity.
+ARBITRARY = "arbitrary"
+
+
+def arbitrary_spelling(quantity: str) -> str:
+    """``"arbitrary-acceleration"``: arbitrary units of ``quantity``."""
+    return f"{ARBITRARY}-{quantity}"
+
+
+#: Units a signal column may be given in (``--unit``, the page's list), in the order a message lists them.
+SIGNAL_UNITS: tuple[str, ...] = ("g", "mg", "m/s^2", "mm/s", "m/s", "µm", "mm", "m", "microstrain", "strain",
+                                 ARBITRARY, *(arbitrary_spelling(q) for q in
+                                              ("acceleration", "velocity", "displacement", "strain")))
+#: How a unit spelling is shown to a reader (superscripts, µ), where it differs.
+UNIT_DISPLAY = {"m/s^2": "m/s²", "us": "µs", "microstrain": "µε (microstrain)", "strain": "strain (m/m)",
+                ARBITRARY: "arbitrary units",
+                **{arbitrary_spelling(q): f"arbitrary units of {q}" for q in ("acceleration", "velocity", "displacement",
+                                                                               "strain")}}
+
 #: Quantities a record's output (what the sensor measures) may be, with the project's CSV column.
 OUTPUT_COLUMN_OF = {"displacement": "displacement_m", "velocity": "velocity_m_s", "acceleration": "acceleration_m_s2",
                     "strain": "strain"}
 #: Quantities an input (what drives the beam) may be, with the project's CSV column.
 INPUT_COLUMN_OF = {"voltage": "voltage_V", "force": "force_N"}
 
-#: Names apps write without a unit: lower-case name -> (quantity, factor to SI, axis or None).
-KNOWN_NAMES: dict[str, tuple[str, float, str | None]] = {
-    # Physics Toolbox Sensor Suite: g-force meter and linear accelerometer
-    "gfx": ("acceleration", STANDARD_GRAVITY, "x"),
-    "gfy": ("acceleration", STANDARD_GRAVITY, "y"),
-    "gfz": ("acceleration", STANDARD_GRAVITY, "z"),
-    "tgf": ("acceleration", STANDARD_GRAVITY, "total"),
-    "gftotal": ("acceleration", STANDARD_GRAVITY, "total"),
-    "ax": ("acceleration", 1.0, "x"),
-    "ay": ("acceleration", 1.0, "y"),
-    "az": ("acceleration", 1.0, "z"),
-    "at": ("acceleration", 1.0, "total"),
-    # Arduino loggers
-    "micros": ("time", 1e-6, None),
-    "millis": ("time", 1e-3, None),
+_TOOLBOX_G = "Physics Toolbox Sensor Suite's g-force meter writes it in g"
+_TOOLBOX_LINEAR = "Physics Toolbox Sensor Suite's linear accelerometer writes it in m/s²"
+#: Names apps write without a unit: lower-case name -> (unit spelling, axis or None, who writes it so).
+KNOWN_NAMES: dict[str, tuple[str, str | None, str]] = {
+    "gfx": ("g", "x", _TOOLBOX_G),
+    "gfy": ("g", "y", _TOOLBOX_G),
+    "gfz": ("g", "z", _TOOLBOX_G),
+    "tgf": ("g", "total", _TOOLBOX_G),
+    "gftotal": ("g", "total", _TOOLBOX_G),
+    "ax": ("m/s^2", "x", _TOOLBOX_LINEAR),
+    "ay": ("m/s^2", "y", _TOOLBOX_LINEAR),
+    "az": ("m/s^2", "z", _TOOLBOX_LINEAR),
+    "at": ("m/s^2", "total", _TOOLBOX_LINEAR),
+    "micros": ("us", None, "an Arduino's micros() counts microseconds"),
+    "millis": ("ms", None, "an Arduino's millis() counts milliseconds"),
 }
 
 #: Words that name the time column (compared with the name's words).
@@ -110,9 +139,15 @@ class ColumnMeaning:
         Multiply by this to get SI (s, m/s², m/s, m, V, N, dimensionless); None when the unit is
         not said.
     unit : str or None
-        The unit as written (None when not said).
+        The unit as written, or as an app writes it for a name it knows (``"g"`` for ``gFz``);
+        None when not said.
     axis : str or None
         ``"x"``, ``"y"``, ``"z"``, ``"total"`` (a magnitude) or None.
+    unit_source : str or None
+        Where the unit comes from, in words (``"its name"``, ``"the file's unit field"``,
+        ``"given"``, or who writes the name in that unit); None without a unit.
+    arbitrary : bool
+        True for arbitrary units (module notes): the values as the file holds them, scale unknown.
     """
 
     name: str
@@ -120,6 +155,8 @@ class ColumnMeaning:
     factor: float | None
     unit: str | None
     axis: str | None
+    unit_source: str | None = None
+    arbitrary: bool = False
 
     @property
     def is_total(self) -> bool:
@@ -133,13 +170,49 @@ def normalise_unit(text: str) -> str:
 
 
 def unit_meaning(text: str) -> tuple[str, float] | None:
-    """(quantity, factor to SI) of a unit spelling, None when it is not a known unit."""
+    """(quantity, factor to SI) of a unit spelling, None when it is not a known unit (nor for
+    arbitrary units: see :func:`is_arbitrary`)."""
     key = normalise_unit(text)
     if key in UNITS:
         return UNITS[key]
     if key.endswith("²") and key[:-1] + "^2" in UNITS:  # pragma: no cover - covered by the table
         return UNITS[key[:-1] + "^2"]
     return None
+
+
+def is_arbitrary(text: str) -> bool:
+    """Whether ``text`` spells arbitrary units (module notes), with or without a quantity."""
+    return _arbitrary(text) is not False
+
+
+def arbitrary_quantity(text: str) -> str | None:
+    """The quantity an arbitrary-units spelling names (``"arbitrary-strain"`` -> ``"strain"``), None
+    when it names none (or is not such a spelling)."""
+    found = _arbitrary(text)
+    return found or None
+
+
+def _arbitrary(text: str) -> str | None | bool:
+    """False: not arbitrary units; None: arbitrary units of no named quantity; else the quantity."""
+    key = normalise_unit(text).replace("_", "-")
+    if key in ARBITRARY_SPELLINGS:
+        return None
+    for spelling in ARBITRARY_SPELLINGS:
+        for separator in ("-", ":", ""):
+            for quantity in OUTPUT_COLUMN_OF:
+                if key in (f"{spelling}{separator}{quantity}", f"{quantity}{separator}{spelling}"):
+                    return quantity
+    return False
+
+
+def is_known_unit(text: str) -> bool:
+    """Whether ``text`` is a unit the reader knows (an SI or common unit, or arbitrary units)."""
+    return unit_meaning(text) is not None or is_arbitrary(text)
+
+
+def display_unit(text: str) -> str:
+    """A unit spelling as a reader sees it (``"m/s^2"`` -> ``"m/s²"``, ``"us"`` -> ``"µs"``)."""
+    return UNIT_DISPLAY.get(text, text)
 
 
 def _words(text: str) -> list[str]:
@@ -155,7 +228,7 @@ def _axis(words: list[str], bare: str) -> str | None:
     return match.group(1) if match else None
 
 
-def column_meaning(name: str, unit: str | None = None) -> ColumnMeaning:
+def column_meaning(name: str, unit: str | None = None, unit_source: str = "given") -> ColumnMeaning:
     """Read a column's quantity, unit and axis from its name (module notes).
 
     Parameters
@@ -164,6 +237,8 @@ def column_meaning(name: str, unit: str | None = None) -> ColumnMeaning:
         The column's name as written in the file (quotes already removed).
     unit : str, optional
         A unit given separately (a file's unit field, or ``--unit``); it wins over the name's.
+    unit_source : str
+        Where ``unit`` comes from, in words (:attr:`ColumnMeaning.unit_source`).
 
     Returns
     -------
@@ -172,40 +247,49 @@ def column_meaning(name: str, unit: str | None = None) -> ColumnMeaning:
     text = str(name).strip()
     bare = text
     found_unit: str | None = None
+    source: str | None = None
     match = _BRACKET.search(text)
     if match:
-        found_unit = match.group(1).strip()
         bare = text[: match.start()].strip()
+        if not re.fullmatch(r"\s*\d*\s*", match.group(1)):  # "Acc[1]": an index, not a unit
+            found_unit, source = match.group(1).strip(), "its name"
     words = _words(bare)
     lower = bare.lower().replace(" ", "")
     known = KNOWN_NAMES.get(lower)
-    quantity: str | None = None
-    factor: float | None = None
     axis = _axis(words, lower)
     if known is not None:
-        quantity, factor, known_axis = known
+        known_unit, known_axis, writer = known
         axis = known_axis or axis
-        found_unit = found_unit or lower
-    if found_unit is None and len(words) > 2 and unit_meaning("/".join(words[-2:])) is not None:
-        found_unit = "/".join(words[-2:])  # "velocity_m_s" -> "m/s", "acceleration_m_s2" -> "m/s2"
+        if found_unit is None:
+            found_unit, source = known_unit, writer
+    if found_unit is None and len(words) > 2 and is_known_unit("/".join(words[-2:])):
+        found_unit, source = "/".join(words[-2:]), "its name"  # "velocity_m_s" -> "m/s", "acceleration_m_s2" -> "m/s2"
         words = words[:-2]
         axis = _axis(words, "".join(words))
-    if found_unit is None and len(words) > 1 and unit_meaning(words[-1]) is not None:
-        found_unit = words[-1]  # "accel_z_g", "disp mm", "time_s"
+    if found_unit is None and len(words) > 1 and is_known_unit(words[-1]):
+        found_unit, source = words[-1], "its name"  # "accel_z_g", "disp mm", "time_s", "a0 counts"
         words = words[:-1]
         axis = _axis(words, "".join(words))
     if unit is not None:
-        found_unit = unit
+        found_unit, source = unit, unit_source
+    quantity: str | None = None
+    factor: float | None = None
+    arbitrary = False
     if found_unit is not None:
         meaning = unit_meaning(found_unit)
         if meaning is not None:
             quantity, factor = meaning
+        elif is_arbitrary(found_unit):
+            quantity, factor, arbitrary = arbitrary_quantity(found_unit), 1.0, True
     named = next((q for q, names in QUANTITY_WORDS.items() if any(w in names for w in words)), None)
-    if any(w in TIME_WORDS for w in words) and (quantity in (None, "time")):
+    timed = any(w in TIME_WORDS or re.fullmatch(r"(?:t|time)\d+", w) for w in words)  # "t", "t1": run 1's time
+    if timed and (quantity in (None, "time")) and not arbitrary:
         quantity = "time"
     elif quantity is None:
         quantity = named
     elif quantity == "displacement" and named in ("acceleration", "velocity"):
         quantity = named  # "m" after "acceleration": a unit cut short; leave the factor unknown
         factor = None
-    return ColumnMeaning(text, quantity, factor, found_unit, axis)
+    if arbitrary and quantity not in OUTPUT_COLUMN_OF:
+        quantity = None  # counts of something the name does not say: the quantity must be given
+    return ColumnMeaning(text, quantity, factor, found_unit, axis, source if found_unit is not None else None, arbitrary)
