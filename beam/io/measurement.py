@@ -85,6 +85,7 @@ from typing import Any
 import numpy as np
 
 from beam.errors import BeamInputError
+from beam.io.artifacts import clean as clean_artifacts
 from beam.io.limits import (
     LENGTH_RANGE_M,
     LINEAR_DENSITY_RANGE_KG_M,
@@ -217,6 +218,16 @@ class Measurement:
         beam's description, or the record's lowest strong spectral peak).
     source : tuple of str
         For a record read from another format: what was read and done, one line each.
+    artifacts : beam.io.artifacts.Artifacts or None
+        What the reading found in the samples (mains hum subtracted, spikes interpolated, ADC
+        rail values): its spike and rail samples are left out of the likelihood
+        (:attr:`left_out`); None when nothing was searched (a record made in code, or made from
+        another's samples at other stamps, a decimation: its samples are new, the spikes
+        already interpolated in them).
+    taps : tuple of beam.io.taps.Tap
+        Every tap of a record of several plucks or taps, each a measurement of its own
+        (:mod:`beam.io.taps`); empty for one. This measurement is one of them (the strongest,
+        or the one chosen with ``segment``).
 
     Raises
     ------
@@ -244,6 +255,8 @@ class Measurement:
     nominal_spread: dict[str, float] = field(default_factory=dict)
     nominal_origin: dict[str, str] = field(default_factory=dict)
     source: tuple[str, ...] = ()
+    artifacts: Any = field(default=None, repr=False)
+    taps: tuple = field(default=(), repr=False)
     uniform: bool = field(init=False, repr=False)
     clipped: np.ndarray = field(init=False, repr=False)
 
@@ -297,6 +310,9 @@ class Measurement:
         if problem is not None:
             raise BeamInputError(f"{where}: {problem}")
         object.__setattr__(self, "clipped", clipped)
+        if self.artifacts is not None and self.artifacts.spikes.size != columns["time_s"].size:
+            object.__setattr__(self, "artifacts", None)  # other samples (a decimation): their flags are unknown
+        object.__setattr__(self, "taps", tuple(self.taps))
         object.__setattr__(self, "uniform", uniform_time_problem(columns["time_s"]) is None)
         object.__setattr__(self, "nominal", check_nominal(self.nominal, f"{where}: nominal"))
         spread = check_nominal(self.nominal_spread, f"{where}: nominal_spread")
@@ -371,6 +387,14 @@ class Measurement:
     def clipped_count(self) -> int:
         """Number of clipped samples (see the module notes)."""
         return int(np.count_nonzero(self.clipped))
+
+    @property
+    def left_out(self) -> np.ndarray:
+        """Samples left out of the likelihood (and of the RMSE): clipped ones, and the spikes and
+        ADC rail values the reading flagged (:attr:`artifacts`)."""
+        if self.artifacts is None:
+            return self.clipped
+        return self.clipped | self.artifacts.flagged
 
     # ------------------------------------------------------------------ time
     @property
@@ -731,13 +755,17 @@ def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record
     input_column = next((c for c in _check_header(csv_path, lines[0]) if c in INPUT_COLUMNS), None) if lines else None
     sidecar = load_sidecar(toml_path, input_kind=INPUT_COLUMNS.get(input_column))
     table = _table_from_lines(csv_path, lines, sidecar.sensor_range)
-    nominal, origin = anchored(sidecar, table.time_s, table.output, OUTPUT_COLUMNS[table.output_column],
+    output, artifacts = clean_artifacts(table.time_s, table.output, table.input)
+    nominal, origin = anchored(sidecar, table.time_s, output, OUTPUT_COLUMNS[table.output_column],
                                INPUT_COLUMNS.get(input_column), table.input)
+    columns = {name: values for name, values in table.arrays().items() if name != "time_s"}
+    columns[table.output_column] = output
     return Measurement(
         name=csv_path.stem, title=sidecar.title if sidecar.title is not None else csv_path.stem,
         geometry=sidecar.geometry, time_s=table.time_s, nominal=nominal, csv_path=csv_path,
         toml_path=toml_path, sensor_range=sidecar.sensor_range, nominal_spread=sidecar.nominal_spread,
-        nominal_origin=origin, **{name: values for name, values in table.arrays().items() if name != "time_s"},
+        nominal_origin=origin, source=tuple(artifacts.sentences(COLUMN_UNITS[table.output_column])),
+        artifacts=artifacts, **columns,
     )
 
 
@@ -1260,14 +1288,41 @@ def measurement_from_record(record: Any, beam: Any = None) -> Measurement:
         sidecar = load_sidecar(beam, input_kind=input_kind, record=record)
         toml_path = Path(beam)
     name = path.stem if path.suffix else path.name
+    kept = _record_measurement(record, sidecar, name, toml_path, input_kind)
+    if len(record.taps) < 2:
+        return kept
+    from beam.io.taps import Tap
+
+    taps = []
+    for k, piece in enumerate(record.taps):
+        if k == record.segment_index:
+            measurement = kept
+        else:
+            own = replace(record, time_s=piece.time_s, output=piece.output, input=piece.input, artifacts=piece.artifacts,
+                          segment_index=k, taps=())
+            measurement = _record_measurement(own, sidecar, f"{name}_tap{k + 1}", toml_path, input_kind)
+        taps.append(Tap(k + 1, piece.start_s, piece.end_s, piece.peak, measurement))
+    return replace(kept, taps=tuple(taps))
+
+
+def _record_measurement(record: Any, sidecar: Sidecar, name: str, toml_path: Path | None,
+                        input_kind: str | None) -> Measurement:
+    """One measurement of a record's samples: cleaned of its artifacts (:attr:`Record.artifacts`), anchored."""
     output_kind = record.output_column.split("_", 1)[0]
-    nominal, origin = anchored(sidecar, record.time_s, record.output, output_kind, input_kind, record.input)
+    artifacts = record.artifacts
+    if artifacts is None:
+        output, artifacts = clean_artifacts(record.time_s, record.output, record.input)
+    else:
+        output = artifacts.apply(record.time_s, record.output)
+    nominal, origin = anchored(sidecar, record.time_s, output, output_kind, input_kind, record.input)
+    columns = {column: values for column, values in record.arrays().items() if column != "time_s"}
+    columns[record.output_column] = output
     return Measurement(
         name=name, title=sidecar.title if sidecar.title is not None else name, geometry=sidecar.geometry,
         time_s=record.time_s, nominal=nominal, csv_path=None, toml_path=toml_path,
         sensor_range=sidecar.sensor_range, nominal_spread=sidecar.nominal_spread, nominal_origin=origin,
-        source=tuple(describe_record(record)),
-        **{column: values for column, values in record.arrays().items() if column != "time_s"},
+        source=tuple(describe_record(record)) + tuple(artifacts.sentences(COLUMN_UNITS[record.output_column])),
+        artifacts=artifacts, **columns,
     )
 
 

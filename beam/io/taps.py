@@ -1,0 +1,208 @@
+"""Every tap of a file: the plucks or taps of one record are records of one beam at several amplitudes.
+
+A record with several hammer taps (or plucks) is split at their onsets
+(:func:`beam.io.readers.signal.find_segments`); a free decay is also split where its swing
+jumps in the middle of a decay (:func:`find_disturbances`: a second tap, a knock), the decay
+before the jump cut one envelope block before it and the one after it kept as a tap of its own
+(after the knock the beam rings freely again, from a new state). Each piece is a :class:`Tap`:
+its place in the file, its peak amplitude and its own :class:`~beam.io.measurement.Measurement`
+(time from 0 at its start; the calibration leaves out its quiet lead-in and the tap's transient,
+:func:`beam.calibration.free.free_response_start`). The taps of one file share the beam's physics
+and differ in amplitude, initial state, offset and noise: :func:`beam.calibration.joint.joint_calibrate`
+fits them together (``beam calibrate FILE`` does so by default), and their peaks order them for
+reading how damping and frequency change with amplitude.
+
+Disturbances (:func:`find_disturbances`)
+    On the envelope of :func:`~beam.io.readers.signal.find_segments` (half the range over blocks
+    of two periods of the dominant frequency, at least 20 ms), after its loudest block: a block
+    whose level, and the next block's, is at least :data:`JUMP_RATIO` times the largest block of
+    the :data:`JUMP_LOOKBACK_S` before it, and :data:`JUMP_NOISE_RATIO` times the record's quiet
+    level (the 10th percentile of blocks). A free decay's envelope never rises (two modes beating
+    as one slowly rises and falls; a jump of 1.5x in one block is no beat of a strip's modes).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Disturbance", "Tap", "TapPiece", "find_disturbances", "split_at_disturbances", "tap_measurements", "taps_words"]
+
+#: A block at least this many times the largest of the blocks just before it is a jump in the swing.
+JUMP_RATIO = 1.5
+#: How far back the largest block is looked for (s).
+JUMP_LOOKBACK_S = 0.2
+#: A jump's block is at least this many times the record's quiet level.
+JUMP_NOISE_RATIO = 10.0
+#: Pieces shorter than this are no tap (s), as :data:`beam.io.readers.signal.MIN_SEGMENT_S`.
+MIN_TAP_S = 0.5
+
+
+@dataclass(frozen=True)
+class Disturbance:
+    """A jump of the swing in the middle of a decay.
+
+    Attributes
+    ----------
+    time_s : float
+        Start of the block where the swing jumps (s, the record's time).
+    ratio : float
+        Its level over the largest block just before it.
+    cut_s : float
+        Where the decay before it ends: one envelope block before the jump (s).
+    """
+
+    time_s: float
+    ratio: float
+    cut_s: float
+
+
+@dataclass(frozen=True, eq=False)
+class TapPiece:
+    """One tap's samples as a reader cut them (:attr:`beam.io.readers.Record.taps`).
+
+    Attributes
+    ----------
+    start_s, end_s, peak : float
+        As :class:`Tap`'s.
+    time_s : numpy.ndarray
+        Its stamps (s, from 0 at ``start_s``).
+    output : numpy.ndarray
+        Its signal (SI).
+    input : numpy.ndarray or None
+        Its input, if the record has one.
+    artifacts : beam.io.artifacts.Artifacts
+        What was found in its samples.
+    """
+
+    start_s: float
+    end_s: float
+    peak: float
+    time_s: np.ndarray
+    output: np.ndarray
+    input: np.ndarray | None
+    artifacts: Any
+
+
+@dataclass(frozen=True)
+class Tap:
+    """One tap (or pluck) of a file.
+
+    Attributes
+    ----------
+    index : int
+        1-based, in the file's order (``--segment K`` takes tap K alone).
+    start_s, end_s : float
+        Where it starts and ends in the file (s, from the file's first sample).
+    peak : float
+        Its largest envelope block (half the range, the signal's SI unit): its amplitude.
+    measurement : beam.io.measurement.Measurement
+        The tap as a record of its own (time from 0 at ``start_s``).
+    """
+
+    index: int
+    start_s: float
+    end_s: float
+    peak: float
+    measurement: Any
+
+
+def _envelope(time_s: np.ndarray, values: np.ndarray, block_s: float) -> tuple[np.ndarray, int]:
+    step = float(np.median(np.diff(time_s)))
+    per_block = max(4, int(round(block_s / step)))
+    count = values.size // per_block
+    blocks = values[: count * per_block].reshape(count, per_block)
+    return 0.5 * (blocks.max(axis=1) - blocks.min(axis=1)), per_block
+
+
+def find_disturbances(time_s: np.ndarray, values: np.ndarray, block_s: float) -> list[Disturbance]:
+    """Jumps of the swing after the loudest block of a free decay (module notes), earliest first.
+
+    Parameters
+    ----------
+    time_s, values : (n,) arrays
+        The decay (s, any unit).
+    block_s : float
+        The envelope's block (s): two periods of the dominant frequency, at least 20 ms.
+    """
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(values, dtype=float)
+    if y.size < 16:
+        return []
+    envelope, per_block = _envelope(t, y, block_s)
+    count = envelope.size
+    if count < 8:
+        return []
+    quiet = float(np.percentile(envelope, 10))
+    lookback = max(3, int(round(JUMP_LOOKBACK_S / (per_block * float(np.median(np.diff(t)))))))
+    out: list[Disturbance] = []
+    start = int(np.argmax(envelope))
+    k = start + 1
+    while k < count - 1:
+        before = float(envelope[max(start, k - lookback):k].max())
+        level = min(envelope[k], envelope[k + 1])
+        if before > 0 and level >= JUMP_RATIO * before and envelope[k] >= JUMP_NOISE_RATIO * quiet:
+            out.append(Disturbance(float(t[k * per_block]), float(level / before), float(t[max(0, k - 1) * per_block])))
+            # the new decay: its own loudest block within the lookback, then on
+            stop = min(count, k + lookback + 1)
+            start = k + int(np.argmax(envelope[k:stop]))
+            k = start + 1
+            continue
+        k += 1
+    return out
+
+
+def split_at_disturbances(time_s: np.ndarray, values: np.ndarray, pieces: list[tuple[float, float, float]],
+                          block_s: float) -> tuple[list[tuple[float, float, float]], list[str]]:
+    """``pieces`` (start, end, peak) of a free decay, each split where its swing jumps (module notes).
+
+    ``pieces`` empty means the whole record is one. Returns the pieces (an empty list when there
+    is one only, as :func:`~beam.io.readers.signal.find_segments` returns) and what was done, in words.
+    """
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(values, dtype=float)
+    given = pieces or [(float(t[0]), float(t[-1]), float(0.5 * np.ptp(y)))]
+    out: list[tuple[float, float, float]] = []
+    notes: list[str] = []
+    for start_s, end_s, peak in given:
+        inside = (t >= start_s) & (t <= end_s)
+        jumps = find_disturbances(t[inside], y[inside], block_s)
+        if not jumps:
+            out.append((start_s, end_s, peak))
+            continue
+        bounds = [start_s] + [j.time_s for j in jumps] + [end_s]
+        for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+            first = max(start_s, a - (block_s if k > 0 else 0.0))  # from one block before the jump
+            last = jumps[k].cut_s if k < len(jumps) else b
+            piece = (t >= first) & (t <= last)
+            if last - first < MIN_TAP_S or np.count_nonzero(piece) < 16:
+                notes.append(f"{last - first:.3g} s between {first:.3f} and {last:.3f} s dropped: too short to be a tap")
+                continue
+            out.append((float(first), float(last), float(0.5 * np.ptp(y[piece]))))
+        for j in jumps:
+            notes.append(f"the swing jumps {j.ratio:.2g}x at {j.time_s:.3f} s (a second tap or a knock): the decay "
+                         f"before it is cut at {j.cut_s:.3f} s, the one after it is a tap of its own")
+    return (out if len(out) >= 2 else []), notes
+
+
+def tap_measurements(measurement) -> list:
+    """The measurements of a record's taps (:attr:`beam.io.measurement.Measurement.taps`), in the
+    file's order; ``[measurement]`` for a record of one tap."""
+    taps = getattr(measurement, "taps", ())
+    return [tap.measurement for tap in taps] if taps else [measurement]
+
+
+def taps_words(measurement) -> str | None:
+    """One sentence: how many taps a record holds and how they are used (None for one tap)."""
+    taps = getattr(measurement, "taps", ())
+    if len(taps) < 2:
+        return None
+    peaks = ", ".join(f"{tap.peak:.3g}" for tap in taps)
+    ratio = max(t.peak for t in taps) / max(min(t.peak for t in taps), 1e-300)
+    span = f"{ratio:.2g}x" if math.isfinite(ratio) else "a wide range"
+    return (f"{len(taps)} taps found (peaks {peaks} {measurement.output_unit}, {span} apart): one beam at "
+            f"{len(taps)} amplitudes, calibrated together (shared physics; each tap its own initial state, offset "
+            "and noise); --segment K takes tap K alone")
