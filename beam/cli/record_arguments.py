@@ -79,7 +79,8 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     reading.add_argument("--unit", default=None, metavar="UNIT",
                          help="unit of the signal column when its name has none (g, m/s^2, mm/s, m/s, µm, mm, m)")
     reading.add_argument("--segment", type=positive_int, default=None, metavar="K",
-                         help="use pluck/tap (or file segment) K (default: the strongest)")
+                         help="use pluck/tap (or file segment) K alone (default: beam calibrate takes every tap of a "
+                         "record of several together, beam diagnose and beam import the strongest)")
     beam = parser.add_argument_group("the beam, in a student's words (or --beam BEAM.toml)")
     beam.add_argument("--beam", dest="beam_file", default=None, metavar="BEAM.toml",
                       help="a sidecar describing the beam (the flags below override its keys)")

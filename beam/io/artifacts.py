@@ -52,7 +52,7 @@ import numpy as np
 
 
 __all__ = [
-    "Artifacts", "Hum", "HumLine", "clean", "cubic_residual", "find_hum", "find_spikes", "rail_samples",
+    "Artifacts", "Hum", "HumLine", "amount_text", "clean", "record_warnings", "cubic_residual", "find_hum", "find_spikes", "rail_samples",
 ]
 
 #: Mains frequencies (Hz).
@@ -66,8 +66,9 @@ HUM_BLOCKS = 6
 HUM_MIN_CYCLES = 10.0
 #: A constant line's stretches stay within this fraction of their mean (plus four noise standard errors).
 HUM_SPREAD = 0.2
-#: A hum line's mean amplitude is at least this many times the median of the tones beside it.
-HUM_SNR = 8.0
+#: A hum line's mean amplitude is at least this many times the median of the tones beside it (in
+#: the stretches that judge it).
+HUM_SNR = 5.0
 #: A stretch judges a line where the line is at least this many times the tones beside it (and the noise).
 LINE_CONTRAST = 3.0
 #: The record's RMS over the stretches varies at least by this factor when the beam decays or is tapped.
@@ -149,16 +150,15 @@ class Hum:
         return tuple(line.frequency_Hz for line in self.lines)
 
     def words(self, unit: str = "") -> str:
-        """One sentence: which lines, how constant, what was done."""
-        lines = ", ".join(f"{line.frequency_Hz:.5g} Hz ({line.amplitude:.3g}{' ' + unit if unit else ''})"
-                          for line in self.lines)
-        spread = max(line.spread for line in self.lines)
+        """One sentence: which lines, how constant (the strongest line's spread), what was done."""
+        lines = ", ".join(f"{line.frequency_Hz:.5g} Hz ({amount_text(line.amplitude, unit)})" for line in self.lines)
+        spread = max(self.lines, key=lambda line: line.amplitude).spread
         why = (f"while the record's swing varies {self.beam_variation:.3g}-fold"
                if np.isfinite(self.beam_variation) and self.beam_variation >= BEAM_VARIATION else
                f"as a family of harmonics of {self.fundamental_Hz:.5g} Hz")
         return (f"mains hum ({self.mains_Hz:g} Hz) removed: {len(self.lines)} line(s) at {lines}, of constant "
-                f"amplitude (within {100 * spread:.0f} % over the record) {why}; subtracted as fitted sinusoids, "
-                "not taken for modes")
+                f"amplitude (the strongest within {100 * spread:.0f} % over the record) {why}; subtracted as fitted "
+                "sinusoids, not taken for modes")
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,11 +182,40 @@ class Artifacts:
     rail: np.ndarray = field(repr=False)
     spike_values: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     notes: tuple[str, ...] = ()
+    #: The stamps (s) the masks index (None: the record's own).
+    time_s: np.ndarray | None = field(default=None, repr=False)
+    #: (spikes, rail values) found on the record as read (a decimation may merge two into one sample).
+    found: tuple[int, int] | None = None
 
     @classmethod
     def none(cls, size: int) -> Artifacts:
         """Nothing found, for a record of ``size`` samples."""
         return cls(None, np.zeros(size, dtype=bool), np.zeros(size, dtype=bool))
+
+    def on(self, time_s: np.ndarray) -> Artifacts:
+        """The same findings on other stamps of the same record (a decimation, a crop): a new
+        sample is flagged when a flagged sample lies within half its median step of it (spike
+        values dropped: they were applied to the samples the new ones come from)."""
+        new = np.asarray(time_s, dtype=float)
+        if self.time_s is None:
+            raise ValueError("these artifacts do not know their stamps")
+        if new.shape == self.time_s.shape and np.array_equal(new, self.time_s):
+            return self
+        half = 0.5 * float(np.median(np.diff(new))) if new.size > 1 else 0.0
+
+        def mapped(mask: np.ndarray) -> np.ndarray:
+            out = np.zeros(new.size, dtype=bool)
+            at = self.time_s[mask]
+            if at.size and new.size:
+                index = np.clip(np.searchsorted(new, at), 1, new.size - 1) if new.size > 1 else np.zeros(at.size, int)
+                left, right = new[index - 1] if new.size > 1 else new[index], new[index]
+                nearest = np.where(np.abs(at - left) <= np.abs(right - at), index - 1 if new.size > 1 else index, index)
+                close = np.abs(new[nearest] - at) <= half
+                out[nearest[close]] = True
+            return out
+
+        return replace(self, spikes=mapped(self.spikes), rail=mapped(self.rail), spike_values=np.zeros(0), time_s=new,
+                       found=(self.spike_count, self.rail_count))
 
     def apply(self, time_s: np.ndarray, output: np.ndarray) -> np.ndarray:
         """The record's signal cleaned: spike samples replaced by their interpolation
@@ -204,11 +233,13 @@ class Artifacts:
 
     @property
     def spike_count(self) -> int:
-        return int(np.count_nonzero(self.spikes))
+        """Spike samples found on the record as read."""
+        return self.found[0] if self.found is not None else int(np.count_nonzero(self.spikes))
 
     @property
     def rail_count(self) -> int:
-        return int(np.count_nonzero(self.rail))
+        """Rail samples found on the record as read."""
+        return self.found[1] if self.found is not None else int(np.count_nonzero(self.rail))
 
     def with_note(self, note: str) -> Artifacts:
         return replace(self, notes=(*self.notes, note))
@@ -226,6 +257,13 @@ class Artifacts:
             out.append(f"{self.rail_count} sample(s) at the converter's rail (the record's extreme value, reached "
                        "where the signal's curvature goes beyond it) left out of the likelihood")
         return out + list(self.notes)
+
+
+def amount_text(value: float, unit: str) -> str:
+    """A signal's amount with its unit for a sentence: a strain (unit ``"1"``) in µε, another in its SI unit."""
+    if unit == "1":
+        return f"{1e6 * value:.3g} µε"
+    return f"{value:.3g}" + (f" {unit}" if unit else "")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -441,7 +479,7 @@ class _Line:
     @property
     def constant(self) -> bool:
         judged, mean = self.judged, self.mean
-        if np.count_nonzero(judged) < 3 or mean < HUM_SNR * float(np.median(self.background)):
+        if np.count_nonzero(judged) < 3 or mean < HUM_SNR * float(np.median(self.background[judged])):
             return False
         allowed = HUM_SPREAD * mean + 4.0 * self.background
         return bool(np.all(np.abs(self.blocks[judged] - mean) <= allowed[judged])
@@ -619,5 +657,12 @@ def clean(time_s: np.ndarray, output: np.ndarray, input_values: np.ndarray | Non
     spikes &= ~rail
     repaired = np.where(rail, y, repaired)
     hum = find_hum(t, repaired, input_values)
-    artifacts = Artifacts(hum, spikes, rail, repaired[spikes])
+    artifacts = Artifacts(hum, spikes, rail, repaired[spikes], time_s=t)
     return artifacts.apply(t, y), artifacts
+
+
+def record_warnings(measurement) -> list[str]:
+    """What the reading found in a measurement's samples (:attr:`Artifacts.sentences`), as a
+    calibration's warnings say it; empty for a measurement made in code or found clean."""
+    artifacts = getattr(measurement, "artifacts", None)
+    return [] if artifacts is None else artifacts.sentences(measurement.output_unit)

@@ -221,9 +221,9 @@ class Measurement:
     artifacts : beam.io.artifacts.Artifacts or None
         What the reading found in the samples (mains hum subtracted, spikes interpolated, ADC
         rail values): its spike and rail samples are left out of the likelihood
-        (:attr:`left_out`); None when nothing was searched (a record made in code, or made from
-        another's samples at other stamps, a decimation: its samples are new, the spikes
-        already interpolated in them).
+        (:attr:`left_out`); None when nothing was searched (a record made in code). A
+        measurement made from another's at other stamps (a decimation, a crop) carries them over
+        (:meth:`beam.io.artifacts.Artifacts.on`).
     taps : tuple of beam.io.taps.Tap
         Every tap of a record of several plucks or taps, each a measurement of its own
         (:mod:`beam.io.taps`); empty for one. This measurement is one of them (the strongest,
@@ -310,8 +310,11 @@ class Measurement:
         if problem is not None:
             raise BeamInputError(f"{where}: {problem}")
         object.__setattr__(self, "clipped", clipped)
+        if self.artifacts is not None and self.artifacts.time_s is not None:
+            object.__setattr__(self, "artifacts", self.artifacts.on(columns["time_s"]))
         if self.artifacts is not None and self.artifacts.spikes.size != columns["time_s"].size:
-            object.__setattr__(self, "artifacts", None)  # other samples (a decimation): their flags are unknown
+            raise BeamInputError(f"{where}: artifacts hold {self.artifacts.spikes.size} samples, the record "
+                                 f"{columns['time_s'].size}")
         object.__setattr__(self, "taps", tuple(self.taps))
         object.__setattr__(self, "uniform", uniform_time_problem(columns["time_s"]) is None)
         object.__setattr__(self, "nominal", check_nominal(self.nominal, f"{where}: nominal"))

@@ -14,10 +14,13 @@ reading how damping and frequency change with amplitude.
 
 Disturbances (:func:`find_disturbances`)
     On the envelope of :func:`~beam.io.readers.signal.find_segments` (half the range over blocks
-    of two periods of the dominant frequency, at least 20 ms), after its loudest block: a block
+    of two periods of the dominant frequency, at least 20 ms), after the decay's own peak (the
+    loudest block within :data:`JUMP_LOOKBACK_S` of the first block above the noise level below)
+    and after each jump's: a block
     whose level, and the next block's, is at least :data:`JUMP_RATIO` times the largest block of
-    the :data:`JUMP_LOOKBACK_S` before it, and :data:`JUMP_NOISE_RATIO` times the record's quiet
-    level (the 10th percentile of blocks). A free decay's envelope never rises (two modes beating
+    the :data:`JUMP_LOOKBACK_S` before it, and :data:`JUMP_NOISE_RATIO` times the record's noise sd
+    (a robust scale of each sample's departure from the cubic through its neighbours,
+    :func:`beam.io.artifacts.cubic_residual`: blind to the smooth swing). A free decay's envelope never rises (two modes beating
     as one slowly rises and falls; a jump of 1.5x in one block is no beat of a strip's modes).
 """
 
@@ -29,16 +32,21 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Disturbance", "Tap", "TapPiece", "find_disturbances", "split_at_disturbances", "tap_measurements", "taps_words"]
+__all__ = ["Disturbance", "Tap", "TapPiece", "find_disturbances", "impact_start", "split_at_disturbances", "tap_measurements", "taps_words"]
 
 #: A block at least this many times the largest of the blocks just before it is a jump in the swing.
 JUMP_RATIO = 1.5
 #: How far back the largest block is looked for (s).
 JUMP_LOOKBACK_S = 0.2
-#: A jump's block is at least this many times the record's quiet level.
+#: A jump's block is at least this many times the record's noise sd.
 JUMP_NOISE_RATIO = 10.0
 #: Pieces shorter than this are no tap (s), as :data:`beam.io.readers.signal.MIN_SEGMENT_S`.
 MIN_TAP_S = 0.5
+#: A hammer's impact: the first sample off the cubic through its neighbours by this many times
+#: the robust scale of the piece's lead (the first :data:`IMPACT_LEAD` of an envelope block).
+IMPACT_RATIO = 10.0
+#: The share of an envelope block taken as a piece's lead, before its impact.
+IMPACT_LEAD = 0.4
 
 
 @dataclass(frozen=True)
@@ -119,7 +127,7 @@ def _envelope(time_s: np.ndarray, values: np.ndarray, block_s: float) -> tuple[n
 
 
 def find_disturbances(time_s: np.ndarray, values: np.ndarray, block_s: float) -> list[Disturbance]:
-    """Jumps of the swing after the loudest block of a free decay (module notes), earliest first.
+    """Jumps of the swing after the peak of a free decay (module notes), earliest first.
 
     Parameters
     ----------
@@ -136,10 +144,17 @@ def find_disturbances(time_s: np.ndarray, values: np.ndarray, block_s: float) ->
     count = envelope.size
     if count < 8:
         return []
-    quiet = float(np.percentile(envelope, 10))
+    from beam.io.artifacts import cubic_residual
+
+    residual, judged = cubic_residual(t, y)  # the noise: 1.39 sd of white noise, blind to the smooth swing
+    quiet = 1.4826 * float(np.median(np.abs(residual[judged]))) / 1.39 if judged.any() else 0.0
     lookback = max(3, int(round(JUMP_LOOKBACK_S / (per_block * float(np.median(np.diff(t)))))))
     out: list[Disturbance] = []
-    start = int(np.argmax(envelope))
+    loud = np.flatnonzero(envelope >= JUMP_NOISE_RATIO * quiet)
+    if loud.size == 0:
+        return []
+    first = int(loud[0])  # the decay's own peak: the loudest block within the lookback of its start
+    start = first + int(np.argmax(envelope[first: first + lookback + 1]))
     k = start + 1
     while k < count - 1:
         before = float(envelope[max(start, k - lookback):k].max())
@@ -153,6 +168,39 @@ def find_disturbances(time_s: np.ndarray, values: np.ndarray, block_s: float) ->
             continue
         k += 1
     return out
+
+
+def impact_start(time_s: np.ndarray, values: np.ndarray, start_s: float, block_s: float) -> float:
+    """Where a tap's impact starts in a piece that starts at ``start_s`` (s), one envelope block
+    ``block_s`` before the block its swing rose in: the first sample within two blocks whose
+    departure from the cubic through its neighbours (:func:`beam.io.artifacts.cubic_residual`,
+    a hammer's impulse rings every mode) exceeds :data:`IMPACT_RATIO` times the robust scale of the
+    piece's lead; ``start_s`` when there is none (a pluck let go by hand, a record too coarse to see
+    the impulse).
+
+    A tap on a beam that still rings from the last one is a free decay only from its impact on:
+    the piece must not start before it (the beam at rest before a tap, the calibration leaves the
+    rest out itself, :func:`beam.calibration.free.release_index`).
+    """
+    from beam.io.artifacts import cubic_residual
+
+    t = np.asarray(time_s, dtype=float)
+    y = np.asarray(values, dtype=float)
+    window = np.flatnonzero((t >= start_s) & (t <= start_s + 2.0 * block_s))
+    if window.size < 16:
+        return float(start_s)
+    residual, judged = cubic_residual(t[window], y[window])
+    lead = (t[window] < start_s + IMPACT_LEAD * block_s) & judged
+    if np.count_nonzero(lead) < 8:
+        return float(start_s)
+    scale = 1.4826 * float(np.median(np.abs(residual[lead])))
+    if not scale > 0:
+        return float(start_s)
+    hits = np.flatnonzero(judged & ~lead & (np.abs(residual) > IMPACT_RATIO * scale))
+    if hits.size == 0:
+        return float(start_s)
+    first = max(0, int(hits[0]) - 2)  # the residual leads its sample by two (the cubic's stencil)
+    return float(t[window][first])
 
 
 def split_at_disturbances(time_s: np.ndarray, values: np.ndarray, pieces: list[tuple[float, float, float]],
@@ -195,14 +243,24 @@ def tap_measurements(measurement) -> list:
     return [tap.measurement for tap in taps] if taps else [measurement]
 
 
-def taps_words(measurement) -> str | None:
-    """One sentence: how many taps a record holds and how they are used (None for one tap)."""
+def taps_words(measurement, diagnosis: bool = False) -> str | None:
+    """One sentence: how many taps a record holds and how a command uses them (None for one tap).
+
+    ``diagnosis``: the words of ``beam diagnose``, which reads the strongest tap (a joint diagnosis
+    of every tap ranks each candidate on every record: tens of minutes for six taps).
+    """
     taps = getattr(measurement, "taps", ())
     if len(taps) < 2:
         return None
-    peaks = ", ".join(f"{tap.peak:.3g}" for tap in taps)
+    from beam.io.artifacts import amount_text
+
+    peaks = ", ".join(amount_text(tap.peak, measurement.output_unit) for tap in taps)
     ratio = max(t.peak for t in taps) / max(min(t.peak for t in taps), 1e-300)
-    span = f"{ratio:.2g}x" if math.isfinite(ratio) else "a wide range"
-    return (f"{len(taps)} taps found (peaks {peaks} {measurement.output_unit}, {span} apart): one beam at "
-            f"{len(taps)} amplitudes, calibrated together (shared physics; each tap its own initial state, offset "
-            "and noise); --segment K takes tap K alone")
+    span = f"{ratio:.2g}x apart" if math.isfinite(ratio) else "far apart"
+    found = f"{len(taps)} taps found (peaks {peaks}, {span}): one beam at {len(taps)} amplitudes"
+    if diagnosis:
+        kept = next((tap.index for tap in taps if tap.measurement.name == measurement.name), taps[0].index)
+        return (f"{found}; diagnosed on tap {kept}, the strongest (beam calibrate calibrates every tap together; "
+                "--segment K diagnoses tap K)")
+    return (f"{found}, calibrated together (shared physics; each tap its own initial state, offset and noise); "
+            "--segment K takes tap K alone")

@@ -47,6 +47,7 @@ __all__ = [
     "ModeRow",
     "compare_modes",
     "difference_words",
+    "resolution_reasons",
     "unseen_reason",
     "free_decay_start",
     "identify_modes",
@@ -373,6 +374,58 @@ def identify_modes(
     )
 
 
+#: A mode is resolved by the record when the identification found again on a part of the same decay
+#: puts it within this relative frequency ...
+RESOLVED_FREQUENCY = 0.01
+#: ... and this relative damping ratio (plus 1e-4 absolute: a ratio of 1e-4 is known to about that).
+RESOLVED_DAMPING = 0.3
+#: The part of the decay the second identification uses (its first samples, the same start).
+RESOLVED_SHARE = 2.0 / 3.0
+
+
+def resolution_reasons(time_s: np.ndarray, data: np.ndarray, identified: IdentifiedModes) -> list[str | None]:
+    """Whether the record resolves each identified mode: None when it does, else why not, in words.
+
+    The matrix pencil keeps every pole its singular values allow; a pole fitted to the noise, to a
+    burst in the decay or to the sum of two modes it cannot split moves when the data change. The
+    decay is identified again on its first :data:`RESOLVED_SHARE` with half the pencil parameter
+    (other samples, another Hankel matrix: the standard stabilisation check of operational modal
+    analysis, cf. Peeters & De Roeck 2001); a mode is resolved when that identification has a mode
+    within :data:`RESOLVED_FREQUENCY` in frequency and :data:`RESOLVED_DAMPING` in damping ratio.
+
+    Parameters
+    ----------
+    time_s, data : (n,) arrays
+        The uniform record the modes were identified on.
+    identified : IdentifiedModes
+        :func:`identify_modes`'s result on it.
+    """
+    time = np.asarray(time_s, dtype=float)
+    first = int(np.searchsorted(time, identified.start_s - 1e-9 * max(abs(identified.start_s), 1.0)))
+    n = identified.n_samples
+    count = int(RESOLVED_SHARE * n)
+    try:
+        again = identify_modes(time[first: first + count], np.asarray(data, dtype=float)[first: first + count],
+                               start_s=float(time[first]), pencil=max(8, min(count // 3, MAX_PENCIL) // 2))
+        f2, z2 = again.frequency_Hz, again.damping_ratio
+    except BeamInputError:
+        f2, z2 = np.zeros(0), np.zeros(0)
+    out: list[str | None] = []
+    for f, zeta in zip(identified.frequency_Hz, identified.damping_ratio):
+        close = np.flatnonzero(np.abs(f2 / f - 1) <= RESOLVED_FREQUENCY) if f2.size else np.zeros(0, int)
+        if close.size and np.min(np.abs(z2[close] - zeta)) <= RESOLVED_DAMPING * zeta + 1e-4:
+            out.append(None)
+            continue
+        if close.size:
+            k = close[np.argmin(np.abs(z2[close] - zeta))]
+            out.append(f"not resolved by the record: {f:.4g} Hz with ζ {zeta:.3g} on the whole decay, ζ {z2[k]:.3g} on "
+                       f"its first {100 * RESOLVED_SHARE:.0f} %")
+        else:
+            out.append(f"not resolved by the record: the pole at {f:.4g} Hz (ζ {zeta:.3g}) is not found again on the "
+                       f"first {100 * RESOLVED_SHARE:.0f} % of the decay")
+    return out
+
+
 #: The sign convention of the modes table, stated once for the command line, the JSON and the dashboard.
 DIFFERENCE_CONVENTION = ("measured relative to the model, 100 (measured / model - 1) %: positive when the "
                          "measured value is higher than the model's")
@@ -404,8 +457,11 @@ class ModeMatch:
     damping_model: float
     frequency_error_pct: float
     damping_error_pct: float
-    #: Why an unmatched mode was not seen (:func:`unseen_reason`), "" otherwise.
+    #: Why an unmatched mode was not seen (:func:`unseen_reason`), or why the record does not
+    #: resolve the mode matched to it (:func:`resolution_reasons`); "" otherwise.
     note: str = ""
+    #: False when the record's pole matched to this mode is not resolved (its data fields are then NaN).
+    resolved: bool = True
 
     @property
     def matched(self) -> bool:

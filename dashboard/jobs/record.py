@@ -93,12 +93,14 @@ class RecordRead:
 
     def summary(self) -> dict[str, Any]:
         """What was read, for the view: file, format, channels, signal, rate (Hz), duration (s),
-        samples, segments (with the one used), notes (the cleaning report)."""
+        samples, segments (with the one used), notes (the cleaning report), taps (how many: a record of
+        several is calibrated with every tap together), artifacts (what :mod:`beam.io.artifacts` found, in words)."""
         r = self.record
         return {"file": self.file_name, "size_bytes": self.size_bytes, "format": r.format, "channels": list(r.channels),
                 "signal": r.signal, "rate_Hz": r.rate_Hz, "duration_s": r.duration_s, "samples": int(r.time_s.size),
                 "segments": [(s.start_s, s.end_s, s.peak) for s in r.segments], "segment_used": r.segment_index,
-                "notes": list(r.notes)}
+                "notes": list(r.notes), "taps": len(r.taps),
+                "artifacts": r.artifacts.sentences(self.signal_unit) if r.artifacts is not None else []}
 
 
 @dataclass(frozen=True)
@@ -188,14 +190,16 @@ def read_upload(file_name: str | None, data: bytes | str | None, **options: Any)
         except (UnicodeDecodeError, OSError) as exc:
             raise BeamInputError(f"{name}: cannot read the upload ({type(exc).__name__})") from None
     record.path = Path(name)
-    spectrum = welch_spectrum(record.time_s, record.output)
+    # the spectrum and peaks of the signal the calibration takes: hum subtracted, spikes interpolated
+    output = record.artifacts.apply(record.time_s, record.output) if record.artifacts is not None else record.output
+    spectrum = welch_spectrum(record.time_s, output)
     if spectrum is None:
         frequency, psd_db = np.empty(0), np.empty(0)
     else:  # drawn from 1 Hz (below the band searched for peaks: mode 1 of a long ruler is that low)
         f, density, _low, high = spectrum
         frequency, psd_db = reduce_spectrum(f, density, max(LOW_HZ, float(f[1])), high)
     kind = record.output_column.split("_", 1)[0]
-    peaks = tuple(spectral_peaks(record.time_s, record.output, kind, max_peaks=6))
+    peaks = tuple(spectral_peaks(record.time_s, output, kind, max_peaks=6))
     return RecordRead(file_name=file_name or name, size_bytes=len(data), record=record, frequency_Hz=frequency,
                       psd_db=psd_db, peaks=peaks)
 

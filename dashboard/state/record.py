@@ -14,8 +14,10 @@ Param only (no panel import), tested without a server or a browser. The flow:
    ``described``. A description the library refuses sets ``form_error`` and clears
    ``described``.
 3. :meth:`RecordState.load` hands the measurement to the beam calibration
-   (:meth:`dashboard.state.beam.BeamState.add_upload`, which selects and calibrates it);
-   :meth:`RecordState.sidecar_text` is the TOML sidecar for the CLI.
+   (:meth:`dashboard.state.beam.BeamState.add_upload`, which selects and calibrates it); a record
+   of several taps (:mod:`beam.io.taps`) hands every tap to the "Several records" view as records
+   of one beam and calibrates them together there (:meth:`dashboard.state.joint.JointState.calibrate`),
+   the strongest to the beam calibration; :meth:`RecordState.sidecar_text` is the TOML sidecar for the CLI.
 """
 
 from __future__ import annotations
@@ -100,6 +102,10 @@ class RecordState(param.Parameterized):
                                     doc="The record with its beam, when the form is complete.")
     form_error = param.String("", constant=True, doc="Why the description is refused, or ''.")
     loaded = param.String("", constant=True, doc="Dataset id of the latest record handed to the beam calibration.")
+    loaded_taps = param.List([], constant=True, doc="Dataset ids of the latest record's taps handed to the joint "
+                             "calibration (empty for a record of one tap).")
+    joint = param.Parameter(None, doc="The session's JointState (the \"Several records\" view), which takes a "
+                            "record's taps; None: the taps are not handed over.")
     requested = param.Integer(0, constant=True, doc="Id of the latest upload request.")
 
     def __init__(self, **params) -> None:
@@ -226,8 +232,24 @@ class RecordState(param.Parameterized):
         nothing to load (:meth:`can_load`)."""
         if not self.can_load():
             return (self.loaded or None) if self._loaded_from is self.described else None
-        name = self.beam.add_upload(self.described.measurement)
+        measurement = self.described.measurement
+        taps = measurement.taps if len(measurement.taps) > 1 and self.joint is not None else ()
+        ids, name = [], None
+        for tap in taps:
+            if tap.measurement.name != measurement.name:
+                ids.append(self.beam.add_upload(tap.measurement, select=False))
+            else:
+                ids.append(name := self.beam.add_upload(measurement))
+        if name is None:
+            name = self.beam.add_upload(measurement)
         self._loaded_from = self.described
+        status = f"loaded into the beam calibration as {name}"
+        if ids:
+            self.joint.refresh_records()
+            self.joint.records = ids
+            self.joint.calibrate()
+            status = (f"{len(ids)} taps loaded into Several records and calibrated together there; the strongest "
+                      f"into the beam calibration as {name}")
         with editing(self):
-            self.param.update(loaded=name, status=f"loaded into the beam calibration as {name}")
+            self.param.update(loaded=name, loaded_taps=ids, status=status)
         return name

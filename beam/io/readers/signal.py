@@ -48,7 +48,7 @@ from beam.errors import BeamInputError
 from beam.io.artifacts import Artifacts, clean
 from beam.io.readers.table import Block, Column, RawRecord
 from beam.io.readers.units import INPUT_COLUMN_OF, OUTPUT_COLUMN_OF, UNITS, column_meaning, normalise_unit
-from beam.io.taps import TapPiece, split_at_disturbances
+from beam.io.taps import TapPiece, impact_start, split_at_disturbances
 
 #: Lowest frequency counted as vibration (Hz).
 VIBRATION_LOW_HZ = 1.0
@@ -499,13 +499,14 @@ def tap_segments(time_s: np.ndarray, output: np.ndarray, input_values: np.ndarra
                  ) -> tuple[list[Segment], tuple[TapPiece, ...], list[str]]:
     """The segments of one block (module notes, step 6), each as a tap with its own samples, and
     what was done in words: plucks or taps (:func:`find_segments`), a free decay's split where its
-    swing jumps (:func:`beam.io.taps.split_at_disturbances`)."""
+    swing jumps (:func:`beam.io.taps.split_at_disturbances`), each piece of a free decay from its
+    impact on (:func:`beam.io.taps.impact_start`)."""
     segments = find_segments(time_s, output)
     notes: list[str] = []
     if input_values is None and output.size >= 16:
-        pieces, notes = split_at_disturbances(time_s, output, [(s.start_s, s.end_s, s.peak) for s in segments],
-                                              envelope_block_s(time_s, output))
-        segments = [Segment(*piece) for piece in pieces]
+        block_s = envelope_block_s(time_s, output)
+        pieces, notes = split_at_disturbances(time_s, output, [(s.start_s, s.end_s, s.peak) for s in segments], block_s)
+        segments = [Segment(impact_start(time_s, output, start, block_s), end, peak) for start, end, peak in pieces]
     taps = []
     for segment in segments:
         inside = (time_s >= segment.start_s) & (time_s <= segment.end_s)
