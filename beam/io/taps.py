@@ -204,23 +204,27 @@ def impact_start(time_s: np.ndarray, values: np.ndarray, start_s: float, block_s
 
 
 def split_at_disturbances(time_s: np.ndarray, values: np.ndarray, pieces: list[tuple[float, float, float]],
-                          block_s: float) -> tuple[list[tuple[float, float, float]], list[str]]:
+                          block_s: float) -> tuple[list[tuple[float, float, float, str]], list[str]]:
     """``pieces`` (start, end, peak) of a free decay, each split where its swing jumps (module notes).
 
-    ``pieces`` empty means the whole record is one. Returns the pieces (an empty list when there
-    is one only, as :func:`~beam.io.readers.signal.find_segments` returns) and what was done, in words.
+    ``pieces`` empty means the whole record is one. Returns the pieces as (start, end, peak,
+    what happened to it in words, "" when nothing did) — an empty list when there is one piece
+    and nothing was cut, as :func:`~beam.io.readers.signal.find_segments` returns — and what was
+    done to the record, in words.
     """
     t = np.asarray(time_s, dtype=float)
     y = np.asarray(values, dtype=float)
     given = pieces or [(float(t[0]), float(t[-1]), float(0.5 * np.ptp(y)))]
-    out: list[tuple[float, float, float]] = []
+    out: list[tuple[float, float, float, str]] = []
     notes: list[str] = []
     for start_s, end_s, peak in given:
         inside = (t >= start_s) & (t <= end_s)
         jumps = find_disturbances(t[inside], y[inside], block_s)
         if not jumps:
-            out.append((start_s, end_s, peak))
+            out.append((start_s, end_s, peak, ""))
             continue
+        said = [f"the swing jumps {j.ratio:.2g}x at {j.time_s:.3f} s (a second tap or a knock): the decay before it "
+                f"is cut at {j.cut_s:.3f} s, the one after it is a tap of its own" for j in jumps]
         bounds = [start_s] + [j.time_s for j in jumps] + [end_s]
         for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
             first = max(start_s, a - (block_s if k > 0 else 0.0))  # from one block before the jump
@@ -229,11 +233,11 @@ def split_at_disturbances(time_s: np.ndarray, values: np.ndarray, pieces: list[t
             if last - first < MIN_TAP_S or np.count_nonzero(piece) < 16:
                 notes.append(f"{last - first:.3g} s between {first:.3f} and {last:.3f} s dropped: too short to be a tap")
                 continue
-            out.append((float(first), float(last), float(0.5 * np.ptp(y[piece]))))
-        for j in jumps:
-            notes.append(f"the swing jumps {j.ratio:.2g}x at {j.time_s:.3f} s (a second tap or a knock): the decay "
-                         f"before it is cut at {j.cut_s:.3f} s, the one after it is a tap of its own")
-    return (out if len(out) >= 2 else []), notes
+            own = "; ".join(said[j] for j in (k - 1, k) if 0 <= j < len(jumps))  # the jumps that bound this piece
+            out.append((float(first), float(last), float(0.5 * np.ptp(y[piece])), own))
+        notes += said
+    cut = any(note for *_, note in out) or len(out) != len(given)
+    return (out if len(out) >= 2 or cut else []), notes
 
 
 def tap_measurements(measurement) -> list:

@@ -374,12 +374,12 @@ def identify_modes(
     )
 
 
-#: A mode is resolved by the record when the identification found again on a part of the same decay
-#: puts it within this relative frequency ...
+#: A mode is resolved by the record when the identifications with another Hankel matrix of the same
+#: decay put it within this relative frequency ...
 RESOLVED_FREQUENCY = 0.01
 #: ... and this relative damping ratio (plus 1e-4 absolute: a ratio of 1e-4 is known to about that).
 RESOLVED_DAMPING = 0.3
-#: The part of the decay the second identification uses (its first samples, the same start).
+#: The share of the decay the second check uses (its first samples, the same start).
 RESOLVED_SHARE = 2.0 / 3.0
 
 
@@ -387,11 +387,13 @@ def resolution_reasons(time_s: np.ndarray, data: np.ndarray, identified: Identif
     """Whether the record resolves each identified mode: None when it does, else why not, in words.
 
     The matrix pencil keeps every pole its singular values allow; a pole fitted to the noise, to a
-    burst in the decay or to the sum of two modes it cannot split moves when the data change. The
-    decay is identified again on its first :data:`RESOLVED_SHARE` with half the pencil parameter
-    (other samples, another Hankel matrix: the standard stabilisation check of operational modal
-    analysis, cf. Peeters & De Roeck 2001); a mode is resolved when that identification has a mode
-    within :data:`RESOLVED_FREQUENCY` in frequency and :data:`RESOLVED_DAMPING` in damping ratio.
+    burst in the decay or to two modes it cannot split moves when its Hankel matrix changes, a
+    mode of the beam does not (the stabilisation check of operational modal analysis, Peeters &
+    De Roeck 2001, on the Hankel matrix instead of the model order). The decay is identified again
+    with half the pencil parameter, on the whole decay and on its first :data:`RESOLVED_SHARE`
+    (the same start: a damping that changes with the swing, as a real strip's does, is the same
+    in both); a mode is resolved when each has a mode within :data:`RESOLVED_FREQUENCY` in
+    frequency and :data:`RESOLVED_DAMPING` in damping ratio.
 
     Parameters
     ----------
@@ -401,28 +403,34 @@ def resolution_reasons(time_s: np.ndarray, data: np.ndarray, identified: Identif
         :func:`identify_modes`'s result on it.
     """
     time = np.asarray(time_s, dtype=float)
+    values = np.asarray(data, dtype=float)
     first = int(np.searchsorted(time, identified.start_s - 1e-9 * max(abs(identified.start_s), 1.0)))
     n = identified.n_samples
-    count = int(RESOLVED_SHARE * n)
-    try:
-        again = identify_modes(time[first: first + count], np.asarray(data, dtype=float)[first: first + count],
-                               start_s=float(time[first]), pencil=max(8, min(count // 3, MAX_PENCIL) // 2))
-        f2, z2 = again.frequency_Hz, again.damping_ratio
-    except BeamInputError:
-        f2, z2 = np.zeros(0), np.zeros(0)
+    found = []
+    for count, where in ((n, "the whole decay"), (int(RESOLVED_SHARE * n), f"its first {100 * RESOLVED_SHARE:.0f} %")):
+        pencil = max(8, min(count // 3, MAX_PENCIL) // 2)
+        try:
+            again = identify_modes(time[first: first + count], values[first: first + count], start_s=float(time[first]),
+                                   pencil=pencil)
+            found.append((again.frequency_Hz, again.damping_ratio, where))
+        except BeamInputError:
+            found.append((np.zeros(0), np.zeros(0), where))
     out: list[str | None] = []
     for f, zeta in zip(identified.frequency_Hz, identified.damping_ratio):
-        close = np.flatnonzero(np.abs(f2 / f - 1) <= RESOLVED_FREQUENCY) if f2.size else np.zeros(0, int)
-        if close.size and np.min(np.abs(z2[close] - zeta)) <= RESOLVED_DAMPING * zeta + 1e-4:
-            out.append(None)
-            continue
-        if close.size:
-            k = close[np.argmin(np.abs(z2[close] - zeta))]
-            out.append(f"not resolved by the record: {f:.4g} Hz with ζ {zeta:.3g} on the whole decay, ζ {z2[k]:.3g} on "
-                       f"its first {100 * RESOLVED_SHARE:.0f} %")
-        else:
-            out.append(f"not resolved by the record: the pole at {f:.4g} Hz (ζ {zeta:.3g}) is not found again on the "
-                       f"first {100 * RESOLVED_SHARE:.0f} % of the decay")
+        reason = None
+        for f2, z2, where in found:
+            close = np.flatnonzero(np.abs(f2 / f - 1) <= RESOLVED_FREQUENCY) if f2.size else np.zeros(0, int)
+            if close.size and np.min(np.abs(z2[close] - zeta)) <= RESOLVED_DAMPING * zeta + 1e-4:
+                continue
+            if close.size:
+                other = z2[close][np.argmin(np.abs(z2[close] - zeta))]
+                reason = (f"not resolved by the record: {f:.4g} Hz with ζ {zeta:.3g}, but ζ {other:.3g} with half the "
+                          f"pencil on {where}")
+            else:
+                reason = (f"not resolved by the record: the pole at {f:.4g} Hz (ζ {zeta:.3g}) is not found again with "
+                          f"half the pencil on {where}")
+            break
+        out.append(reason)
     return out
 
 

@@ -503,14 +503,18 @@ def tap_segments(time_s: np.ndarray, output: np.ndarray, input_values: np.ndarra
     impact on (:func:`beam.io.taps.impact_start`)."""
     segments = find_segments(time_s, output)
     notes: list[str] = []
+    said = [""] * len(segments)
     if input_values is None and output.size >= 16:
         block_s = envelope_block_s(time_s, output)
         pieces, notes = split_at_disturbances(time_s, output, [(s.start_s, s.end_s, s.peak) for s in segments], block_s)
-        segments = [Segment(impact_start(time_s, output, start, block_s), end, peak) for start, end, peak in pieces]
+        segments = [Segment(impact_start(time_s, output, start, block_s), end, peak) for start, end, peak, _ in pieces]
+        said = [note for *_, note in pieces]
     taps = []
-    for segment in segments:
+    for segment, note in zip(segments, said):
         inside = (time_s >= segment.start_s) & (time_s <= segment.end_s)
         t, y = time_s[inside] - segment.start_s, output[inside]
         u = input_values[inside] if input_values is not None else None
-        taps.append(TapPiece(segment.start_s, segment.end_s, segment.peak, t, y, u, clean(t, y, u)[1]))
+        artifacts = clean(t, y, u)[1]
+        taps.append(TapPiece(segment.start_s, segment.end_s, segment.peak, t, y, u,
+                             artifacts.with_note(note) if note else artifacts))
     return segments, tuple(taps), notes
