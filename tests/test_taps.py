@@ -113,6 +113,12 @@ def test_beam_calibrate_takes_every_tap_and_segment_takes_one(six_taps, capsys):
     assert text.startswith("bar: calibration window 0–1.5 s") and "taps found" not in text
     assert main(["calibrate", str(path), *BEAM_FLAGS, "--report", "r.html"]) == 2
     assert "give --segment K" in capsys.readouterr().err
+    # each tap its own damping, to read against its peak; one tap has nothing to share
+    assert main(["calibrate", str(path), *BEAM_FLAGS, "--steps", "12", "--per-record", "air_damping", "--json"]) == 0
+    records = json.loads(capsys.readouterr().out)["records"]
+    assert all("air_damping_Ns_m2" in r["parameters"] for r in records)
+    assert main(["calibrate", str(path), *BEAM_FLAGS, "--segment", "2", "--per-record", "air_damping"]) == 2
+    assert "needs several records (DATA DATA ...) or a record of several taps" in capsys.readouterr().err
 
 
 def test_beam_import_lists_the_taps_and_the_artifacts(six_taps, capsys, tmp_path):

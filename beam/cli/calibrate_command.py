@@ -23,7 +23,7 @@ from beam.cli.arguments import (
 )
 from beam.calibration.defaults import AUTO_MODES
 from beam.calibration.spec import CalibrationSpec
-from beam.cli.record_arguments import add_record_arguments, measurement_from_args, several_records
+from beam.cli.record_arguments import add_record_arguments, check_joint_arguments, measurement_from_args, several_records
 
 LIKELIHOOD_CHOICES = ("iid", "ar1")
 
@@ -100,7 +100,9 @@ def run(args: argparse.Namespace) -> int:
     if several_records(args):
         return run_joint(args)
     measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
-    if len(measurement.taps) > 1 and getattr(args, "segment", None) is None:
+    taps = len(measurement.taps) if getattr(args, "segment", None) is None else 1
+    check_joint_arguments(args, taps)
+    if taps > 1:
         return run_taps(args, measurement)
     from beam.calibration import calibrate
     result = calibrate(measurement, spec_of(args))
@@ -128,15 +130,19 @@ def run_joint(args: argparse.Namespace) -> int:
 
     measurements = measurements_from_args(args)  # bad files fail before the heavy imports
     from beam.calibration.joint import joint_calibrate
+    from beam.io.taps import tap_measurements
 
+    if getattr(args, "segment", None) is None:  # a file of several taps brings every tap
+        measurements = [tap for m in measurements for tap in tap_measurements(m)]
     result = joint_calibrate(measurements, spec_of(args), per_record=args.per_record, shared=args.shared)
     return print_joint(args, result.to_json(), format_joint_summary)
 
 
 def run_taps(args: argparse.Namespace, measurement) -> int:
     """``beam calibrate FILE`` of a record of several taps: every tap calibrated together
-    (:func:`beam.calibration.joint.joint_calibrate` on :func:`beam.io.taps.tap_measurements`),
-    the taps listed in the summary (``taps``, ``taps_words``)."""
+    (:func:`beam.calibration.joint.joint_calibrate` on :func:`beam.io.taps.tap_measurements`;
+    ``--per-record air_damping`` gives each tap its own damping, to read it against the tap's
+    peak), the taps listed in the summary (``taps``, ``taps_words``)."""
     from beam.errors import BeamInputError
 
     for flag in ("save", "report"):
@@ -146,7 +152,7 @@ def run_taps(args: argparse.Namespace, measurement) -> int:
     from beam.calibration.joint import joint_calibrate
     from beam.io.taps import tap_measurements
 
-    result = joint_calibrate(tap_measurements(measurement), spec_of(args))
+    result = joint_calibrate(tap_measurements(measurement), spec_of(args), per_record=args.per_record, shared=args.shared)
     return print_joint(args, {**result.to_json(), **taps_summary(measurement)}, format_joint_summary)
 
 

@@ -120,12 +120,13 @@ def wants_progress(args: argparse.Namespace) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.cli.record_arguments import measurement_from_args, several_records
+    from beam.cli.record_arguments import check_joint_arguments, measurement_from_args, several_records
 
     check_suggest_arguments(args)
     if several_records(args):
         return run_joint(args)
     measurement = measurement_from_args(args)  # a bad file fails before the heavy imports
+    check_joint_arguments(args, 1)  # the diagnosis reads one tap
     progress = TerminalProgress(sys.stderr) if wants_progress(args) else None
     if progress is not None:
         progress(f"loading the calibration engine ({measurement.name})")

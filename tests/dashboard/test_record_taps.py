@@ -10,19 +10,10 @@ from __future__ import annotations
 
 import pytest
 
-from dashboard.state.session import SessionState
 from dashboard.views.record import loaded_html, read_html
 from tests.artifact_records import mains_hum, tapped_bar, write_table
 
 BAR_FORM = {"length_m": 0.4, "width_m": 0.02, "thickness_m": 0.003, "material": "steel", "sensor_position_m": 0.03}
-
-
-@pytest.fixture
-def session(pool):
-    s = SessionState(pool=pool, debounce_s=0.0)
-    yield s
-    s.close()
-    s.wait(10)
 
 
 @pytest.fixture(scope="module")
