@@ -1,39 +1,45 @@
 """The artifacts real labs record, found from the record itself: mains hum, spikes, ADC rail values.
 
-Every record read (:func:`beam.io.readers.read_record`, the project's own ``NAME.csv``) goes
-through :func:`clean` once, before it is split into taps; what it finds and does is said in
-words (:attr:`Artifacts.notes`), in the import's summary and in the calibration's warnings.
+Every record read goes through :func:`clean` once: a reader's record and each of its taps
+(:func:`beam.io.readers.signal.build_record`), the project's own ``NAME.csv``
+(:func:`beam.io.measurement.read_measurement`). The file's signal stays as it is on the
+:class:`~beam.io.readers.Record`; the :class:`~beam.io.measurement.Measurement` made of it is
+cleaned (:meth:`Artifacts.apply`) and carries what was found (``artifacts``), said in words
+(:meth:`Artifacts.sentences`) in the import's summary and in the calibration's warnings
+(:func:`record_warnings`).
 
 Mains hum (:func:`find_hum`)
     Pick-up of the mains at 50 or 60 Hz and its harmonics (a rectifier's odd ones: 180, 300,
     420, 660 Hz ...). It is recognised from the record, never by frequency alone (a beam mode may
-    sit at 60 Hz): a *line* of the record's Welch spectrum (the one :mod:`beam.io.anchor`
-    searches for peaks) within :data:`MAINS_TOLERANCE` of k x 50 or k x 60 Hz is measured in
-    :data:`HUM_BLOCKS` consecutive stretches of the record (a Hann-weighted tone at the line's
-    frequency, refined on the whole record), and it is hum when its amplitude stays constant
-    (the stretches within :data:`HUM_SPREAD` of their mean plus four standard errors of the
-    noise, and at least :data:`HUM_SNR` standard errors above it) **and** either the record's
-    swing varies meanwhile (its RMS over the same stretches varies by :data:`BEAM_VARIATION` x
-    or more: the beam decays while the line does not) or at least two lines of one family
-    (f0 and a harmonic, within one frequency bin 1/T of k f0) are so constant. A line that a
-    driven record's input holds too is the drive's, not hum. The lines found are **subtracted**
-    (a least-squares fit of constant sinusoids at their frequencies over the whole record),
-    not notched: a subtraction removes the stationary line only and leaves a beam mode beside
-    it untouched, where a notch also takes the mode's share inside the notch and rings at the
-    record's start (the measured comparison: the design decisions page).
+    sit at 60 Hz). A candidate is the highest point of the whole record's Hann periodogram within
+    :data:`MAINS_TOLERANCE` of k x 50 or k x 60 Hz that noise would reach with chance
+    :data:`CANDIDATE_FALSE_ALARM` only. It is measured in :data:`HUM_BLOCKS` consecutive stretches
+    (a Hann-weighted tone at its frequency, refined on the whole record), each beside the tones 3
+    to 6 of the stretch's bins away (noise, leakage, a tap's broadband burst). It is a constant
+    line when it stands :data:`LINE_CONTRAST` x out of them in at least three stretches, is
+    :data:`HUM_SNR` x their median there, and stays there within :data:`HUM_SPREAD` of its mean
+    (plus four backgrounds; no other stretch above that). The lines of one family are hum when
+    the record's swing varies meanwhile (its RMS over the stretches by :data:`BEAM_VARIATION` x or
+    more: the beam decays, or is tapped, while the lines do not) or when at least two lines (k f0
+    within a bin 1/T of one f0) are so constant. A line that a driven record's input holds too
+    is the drive's, not hum. The lines are **subtracted** (a Hann-weighted least-squares fit of
+    constant sinusoids at their frequencies over the whole record), not notched: a subtraction
+    removes the stationary line only, where a notch also bites into the decay and rings at the
+    record's ends (the measured comparison: the design decisions page). A line within a stretch's
+    resolution of a decaying mode is not constant in any stretch, and stays.
 Spikes (:func:`find_spikes`)
     Single-sample glitches and short transients (at most :data:`MAX_SPIKE_SAMPLES` samples) that
     stand out of the signal's own smoothness: each sample is compared with the cubic through its
     two neighbours on each side (at their own stamps: exact for a cubic whatever the spacing;
     the fourth difference / 6 on a uniform grid), against a robust scale of that difference
     (1.4826 x the median absolute value over blocks of :data:`SCALE_BLOCK_SAMPLES`, the largest
-    of a block and its two neighbours). A sample more than :data:`SPIKE_SIGMAS` scales away is
-    flagged and replaced by that cubic, and the search repeats (a two-sample glitch shows once
-    the first is gone); a run of more than :data:`MAX_SPIKE_SAMPLES` flagged samples within a
-    few samples of each other is an event (a release, a tap), not a spike, and is left alone.
-    Samples whose neighbours spread over more than :data:`MAX_NEIGHBOUR_STEPS` median steps (a
-    logger's stall) are not judged. Flagged samples are left out of the likelihood
-    (:attr:`beam.io.measurement.Measurement.left_out`), as clipped ones are; their values are
+    of a block and its two neighbours). Each neighbourhood of samples more than
+    :data:`SPIKE_SIGMAS` scales away is explained by the shortest run of at most
+    :data:`MAX_SPIKE_SAMPLES` samples whose replacement by the cubic clears it; a neighbourhood no
+    such run explains is an event (a release, a tap), not a spike, and is left alone. Samples
+    whose neighbours spread over more than :data:`MAX_NEIGHBOUR_STEPS` median steps (a logger's
+    stall) are not judged. Spikes are left out of the likelihood
+    (:attr:`beam.io.measurement.Measurement.left_out`), as clipped samples are; their values are
     replaced by the cubic so that spectra and modal identification do not see them.
 ADC rail values (:func:`rail_samples`)
     A saturated converter returns its full-scale code. Samples exactly at the record's largest
@@ -50,9 +56,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-
 __all__ = [
-    "Artifacts", "Hum", "HumLine", "amount_text", "clean", "record_warnings", "cubic_residual", "find_hum", "find_spikes", "rail_samples",
+    "Artifacts", "Hum", "HumLine", "amount_text", "clean", "cubic_residual", "find_hum", "find_spikes", "rail_samples",
+    "record_warnings",
 ]
 
 #: Mains frequencies (Hz).

@@ -4,24 +4,27 @@ A record with several hammer taps (or plucks) is split at their onsets
 (:func:`beam.io.readers.signal.find_segments`); a free decay is also split where its swing
 jumps in the middle of a decay (:func:`find_disturbances`: a second tap, a knock), the decay
 before the jump cut one envelope block before it and the one after it kept as a tap of its own
-(after the knock the beam rings freely again, from a new state). Each piece is a :class:`Tap`:
-its place in the file, its peak amplitude and its own :class:`~beam.io.measurement.Measurement`
-(time from 0 at its start; the calibration leaves out its quiet lead-in and the tap's transient,
-:func:`beam.calibration.free.free_response_start`). The taps of one file share the beam's physics
-and differ in amplitude, initial state, offset and noise: :func:`beam.calibration.joint.joint_calibrate`
-fits them together (``beam calibrate FILE`` does so by default), and their peaks order them for
-reading how damping and frequency change with amplitude.
+(after the knock the beam rings freely again, from a new state). Each piece starts at its
+hammer's impact when one shows (:func:`impact_start`). Each is a :class:`Tap`: its place in the
+file, its peak amplitude and its own :class:`~beam.io.measurement.Measurement` (time from 0 at
+its start; the calibration leaves out the impact's transient itself,
+:func:`beam.calibration.free.free_response_start`). The taps of one file share the beam's
+physics and differ in amplitude, initial state, offset and noise:
+:func:`beam.calibration.joint.joint_calibrate` fits them together (``beam calibrate FILE`` does
+so by default), and their peaks order them for reading how damping and frequency change with
+amplitude.
 
 Disturbances (:func:`find_disturbances`)
     On the envelope of :func:`~beam.io.readers.signal.find_segments` (half the range over blocks
     of two periods of the dominant frequency, at least 20 ms), after the decay's own peak (the
     loudest block within :data:`JUMP_LOOKBACK_S` of the first block above the noise level below)
-    and after each jump's: a block
-    whose level, and the next block's, is at least :data:`JUMP_RATIO` times the largest block of
-    the :data:`JUMP_LOOKBACK_S` before it, and :data:`JUMP_NOISE_RATIO` times the record's noise sd
-    (a robust scale of each sample's departure from the cubic through its neighbours,
-    :func:`beam.io.artifacts.cubic_residual`: blind to the smooth swing). A free decay's envelope never rises (two modes beating
-    as one slowly rises and falls; a jump of 1.5x in one block is no beat of a strip's modes).
+    and after each jump's: a block whose level, and the next block's, is at least
+    :data:`JUMP_RATIO` times the largest block of the :data:`JUMP_LOOKBACK_S` before it, and
+    :data:`JUMP_NOISE_RATIO` times the record's noise sd (a robust scale of each sample's
+    departure from the cubic through its neighbours, :func:`beam.io.artifacts.cubic_residual`:
+    blind to the smooth swing). A free decay's envelope never rises that fast (two modes beating
+    rise and fall slowly). A knock that raises the swing less, or lowers it (a tap out of phase,
+    a hand), is not found.
 """
 
 from __future__ import annotations
