@@ -47,6 +47,7 @@ def test_a_decay_with_a_tap_in_its_middle_is_not_resolved():
     assert reasons[first] is not None and reasons[first].startswith("not resolved by the record")
 
 
+@pytest.mark.slow
 def test_a_real_runs_heavily_damped_pole_is_not_resolved_and_its_modes_are():
     """The bundled real run adxl_50cm_114759 (an ADXL357 on a 50 cm aluminium strip): from its
     release on, the pencil finds mode 1 (6.05 Hz) and mode 2 (39.0 Hz), and beside mode 2 a pole

@@ -78,6 +78,7 @@ def test_a_tap_while_the_bar_still_rings_is_a_disturbance(six_taps):
     assert find_disturbances(t, y, block_s=2 / 15.55) == []  # one clean decay: nothing
 
 
+@pytest.mark.slow
 def test_the_taps_calibrated_together_recover_the_bar_and_narrow_its_intervals(six_taps):
     _, m, _, _ = six_taps
     alone = calibration_preview(m)  # the strongest tap
@@ -99,6 +100,7 @@ def test_the_taps_calibrated_together_recover_the_bar_and_narrow_its_intervals(s
     assert {"noise_sd@0", "noise_sd@5"} <= set(joint.problem.names)  # each tap its own noise
 
 
+@pytest.mark.slow
 def test_beam_calibrate_takes_every_tap_and_segment_takes_one(six_taps, capsys):
     path, _, _, _ = six_taps
     assert main(["calibrate", str(path), *BEAM_FLAGS, "--steps", "12", "--json"]) == 0
@@ -121,6 +123,7 @@ def test_beam_calibrate_takes_every_tap_and_segment_takes_one(six_taps, capsys):
     assert "needs several records (DATA DATA ...) or a record of several taps" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_beam_import_lists_the_taps_and_the_artifacts(six_taps, capsys, tmp_path):
     path, _, _, _ = six_taps
     assert main(["import", str(path), *BEAM_FLAGS, "--out", str(tmp_path / "bar")]) == 0

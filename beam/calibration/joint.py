@@ -399,7 +399,8 @@ class JointCalibrationResult:
             "rhat_max": diagnostics.rhat_max if diagnostics is not None else None,
             "converged": bool(diagnostics.converged) if diagnostics is not None else False,
             "warnings": [*(diagnostics.warnings if diagnostics is not None else self.laplace.warnings),
-                         *(f"{r.setup.measurement.name}: {w}" for r in self.records for w in record_warnings(r.setup.measurement))],
+                         *(f"{r.setup.measurement.name}: {w}" for r in self.records
+                           for w in record_warnings(r.setup.measurement))],
             "log_evidence_laplace": float(self.laplace.log_evidence),
             "map": {name: float(v) for name, v in self.laplace.map.values.items()},
             "log_posterior_map": float(self.laplace.map.log_posterior),

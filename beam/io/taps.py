@@ -35,7 +35,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Disturbance", "Tap", "TapPiece", "find_disturbances", "impact_start", "split_at_disturbances", "tap_measurements", "taps_words"]
+__all__ = ["Disturbance", "Tap", "TapPiece", "find_disturbances", "impact_start", "split_at_disturbances",
+           "tap_measurements", "taps_words"]
 
 #: A block at least this many times the largest of the blocks just before it is a jump in the swing.
 JUMP_RATIO = 1.5

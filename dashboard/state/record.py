@@ -88,7 +88,8 @@ class RecordState(param.Parameterized):
     time_unit = param.Selector(default=None, objects=list(TIME_UNITS), allow_None=True,
                                label="Time column's unit (s, ms or µs)",
                                doc="Unit of the time column when it is not seconds (an Arduino's micros() is µs).")
-    segment = param.Integer(None, allow_None=True, bounds=(1, None), label="Pluck to use (1 = the first; empty: the strongest)",
+    segment = param.Integer(None, allow_None=True, bounds=(1, None),
+                            label="Pluck to use alone (1 = the first; empty: every tap, calibrated together)",
                             doc="1-based pluck or file segment.")
 
     # -- outputs -------------------------------------------------------------------------------
@@ -233,7 +234,8 @@ class RecordState(param.Parameterized):
         if not self.can_load():
             return (self.loaded or None) if self._loaded_from is self.described else None
         measurement = self.described.measurement
-        taps = measurement.taps if len(measurement.taps) > 1 and self.joint is not None else ()
+        together = len(measurement.taps) > 1 and self.joint is not None and self.segment is None  # no pluck chosen
+        taps = measurement.taps if together else ()
         ids, name = [], None
         for tap in taps:
             if tap.measurement.name != measurement.name:

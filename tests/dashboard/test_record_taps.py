@@ -25,6 +25,7 @@ def three_taps(tmp_path_factory):
     return path.read_bytes()
 
 
+@pytest.mark.slow
 def test_the_view_says_the_taps_and_the_artifacts_and_loads_them_together(session, three_taps):
     r = session.record
     r.upload("bar.csv", three_taps)
