@@ -27,7 +27,7 @@ def _counts(measurement: Measurement, **geometry) -> Measurement:
         **{**measurement.geometry.__dict__, **geometry})
     return Measurement(name="counts", title="counts", geometry=geometry, time_s=measurement.time_s,
                        acceleration_m_s2=SCALE * measurement.output + 512.0, nominal=measurement.nominal,
-                       arbitrary_units=True)
+                       arbitrary_units=True, artifacts=measurement.artifacts)  # the same samples left out
 
 
 @pytest.mark.slow

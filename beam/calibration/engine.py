@@ -48,11 +48,13 @@ class Memory(NamedTuple):
 
 def record_digest(measurement) -> str:
     """Content hash of what a record's optima depend on: its time stamps, output and input samples,
-    their kinds, the geometry and the nominal values with their spreads."""
+    the samples left out of the likelihood, their kinds, the geometry and the nominal values with
+    their spreads."""
     digest = hashlib.blake2b(np.ascontiguousarray(measurement.time_s, dtype=float).tobytes(), digest_size=16)
     digest.update(np.ascontiguousarray(measurement.output, dtype=float).tobytes())
     if measurement.input is not None:
         digest.update(np.ascontiguousarray(measurement.input, dtype=float).tobytes())
+    digest.update(np.packbits(measurement.left_out).tobytes())  # the samples the likelihood leaves out
     digest.update(repr((measurement.output_kind, measurement.input_kind, measurement.geometry,
                         sorted(measurement.nominal.items()),
                         sorted(measurement.nominal_spread.items()))).encode())

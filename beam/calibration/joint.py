@@ -53,6 +53,7 @@ from beam.calibration.spec import CalibrationSpec
 from beam.errors import BeamInputError
 from beam.inference import LIKELIHOODS, EnsembleRun, LaplaceResult, MapResult, Parameter, PosteriorResult, Problem, laplace
 from beam.inference.likelihood import log_likelihood
+from beam.io.artifacts import record_warnings
 from beam.physics import modal
 from beam.physics.effects import EFFECTS
 
@@ -397,7 +398,9 @@ class JointCalibrationResult:
             "ess_min": diagnostics.ess_min if diagnostics is not None else None,
             "rhat_max": diagnostics.rhat_max if diagnostics is not None else None,
             "converged": bool(diagnostics.converged) if diagnostics is not None else False,
-            "warnings": list(diagnostics.warnings if diagnostics is not None else self.laplace.warnings),
+            "warnings": [*(diagnostics.warnings if diagnostics is not None else self.laplace.warnings),
+                         *(f"{r.setup.measurement.name}: {w}" for r in self.records
+                           for w in record_warnings(r.setup.measurement))],
             "log_evidence_laplace": float(self.laplace.log_evidence),
             "map": {name: float(v) for name, v in self.laplace.map.values.items()},
             "log_posterior_map": float(self.laplace.map.log_posterior),

@@ -152,7 +152,7 @@ def suggest_modes(measurement: Measurement, window: tuple[float, float] | None =
 
     window = resolve_window(measurement, window)
     t, y = measurement.time_s, measurement.output
-    usable = ~measurement.clipped
+    usable = ~measurement.left_out
     floor = noise_floor(t[usable], y[usable])
     inside = (t >= window[0] - 1e-12) & (t <= window[1] + 1e-12) & usable
     # a window too short for a spectrum: the band is read from the whole record

@@ -60,6 +60,7 @@ from beam.inference import (
 from beam.inference.sampling import ENSEMBLES
 from beam.inference.summaries import summarize_draws
 from beam.io.anchor import mode_order_warnings
+from beam.io.artifacts import record_warnings
 from beam.io.limits import MAX_CALIBRATION_SAMPLES
 from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS
@@ -260,7 +261,7 @@ class CalibrationResult:
             "rhat_max": diagnostics.rhat_max if diagnostics is not None else None,
             "converged": bool(diagnostics.converged) if diagnostics is not None else False,
             "warnings": [*(diagnostics.warnings if diagnostics is not None else self.laplace.warnings),
-                         *mode_order_warnings(m, self.setup.model, self.laplace.map.values)],
+                         *mode_order_warnings(m, self.setup.model, self.laplace.map.values), *record_warnings(m)],
             "log_evidence_laplace": float(self.laplace.log_evidence),
             "map": {name: float(v) for name, v in self.laplace.map.values.items()},
             "log_posterior_map": float(self.laplace.map.log_posterior),

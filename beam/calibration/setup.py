@@ -20,9 +20,9 @@ Records
 Every kind of record is calibrated: input voltage, point force or none; output displacement,
 velocity or acceleration (the data and the noise sd in the output's unit); uniform or irregular
 time stamps (:meth:`beam.physics.model.BeamModel.response` or
-:meth:`~beam.physics.model.BeamModel.response_at`). Clipped samples
-(:attr:`beam.io.measurement.Measurement.clipped`) are left out of the likelihood (and of the
-RMSE). A free response (no input) is fitted by variable projection: its unknown initial state
+:meth:`~beam.physics.model.BeamModel.response_at`). Clipped samples, and the spikes and rail
+values the reading flagged (:attr:`beam.io.measurement.Measurement.left_out`), are left out of the
+likelihood (and of the RMSE). A free response (no input) is fitted by variable projection: its unknown initial state
 and the sensor's offset are linear and profiled out (:mod:`beam.calibration.free`); with a
 nonlinear effect (the drag, the tip spring) refined by Gauss–Newton from that linear profile
 (:mod:`beam.calibration.free_nonlinear`), the window starting at the free response's start.
@@ -230,7 +230,7 @@ class BeamCalibrationSetup:
     def usable_mask(self) -> np.ndarray:
         """Samples the model is compared with: not clipped and, for a free response, from the
         end of the release's transient on (:attr:`free_start_s`)."""
-        usable = ~self.measurement.clipped
+        usable = ~self.measurement.left_out
         if self.is_free:
             usable = usable & (self.measurement.time_s >= self.free_start_s)
         return usable
@@ -307,14 +307,14 @@ def make_setup(
         )
     if measurement.is_free:
         released = measurement.time_s >= measurement.time_s[free_start_indices(measurement, int(modes))[1]]
-        mask = window_samples(measurement, window) & ~measurement.clipped & released
+        mask = window_samples(measurement, window) & ~measurement.left_out & released
         if np.count_nonzero(mask) < MIN_WINDOW_SAMPLES:
             raise BeamInputError(
                 f"calibration window {window[0]:g}:{window[1]:g} s holds fewer than {MIN_WINDOW_SAMPLES} samples after "
                 f"the start of the free response at {measurement.time_s[np.argmax(released)]:g} s (the release of the beam and its "
                 f"transient left out)"
             )
-        if model.is_nonlinear and np.any(released & ~measurement.clipped & (measurement.time_s < measurement.time_s[mask][0])):
+        if model.is_nonlinear and np.any(released & ~measurement.left_out & (measurement.time_s < measurement.time_s[mask][0])):
             raise BeamInputError(
                 f"{nonlinear} on a free decay is integrated forward from the window's first sample: start the window "
                 f"at the start of the free response ({measurement.time_s[np.argmax(released)]:g} s) or earlier"

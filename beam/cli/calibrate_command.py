@@ -23,7 +23,7 @@ from beam.cli.arguments import (
 )
 from beam.calibration.defaults import AUTO_MODES
 from beam.calibration.spec import CalibrationSpec
-from beam.cli.record_arguments import add_record_arguments, measurement_from_args, several_records
+from beam.cli.record_arguments import add_record_arguments, check_joint_arguments, measurement_from_args, several_records
 
 LIKELIHOOD_CHOICES = ("iid", "ar1")
 
@@ -100,6 +100,10 @@ def run(args: argparse.Namespace) -> int:
     if several_records(args):
         return run_joint(args)
     measurement = measurement_from_args(args, effects=args.effects)  # a bad file fails before the heavy imports
+    taps = len(measurement.taps) if getattr(args, "segment", None) is None else 1
+    check_joint_arguments(args, taps)
+    if taps > 1:
+        return run_taps(args, measurement)
     from beam.calibration import calibrate
     result = calibrate(measurement, spec_of(args))
     summary = result.to_json()
@@ -126,9 +130,40 @@ def run_joint(args: argparse.Namespace) -> int:
 
     measurements = measurements_from_args(args, effects=args.effects)  # bad files fail before the heavy imports
     from beam.calibration.joint import joint_calibrate
+    from beam.io.taps import tap_measurements
 
+    if getattr(args, "segment", None) is None:  # a file of several taps brings every tap
+        measurements = [tap for m in measurements for tap in tap_measurements(m)]
     result = joint_calibrate(measurements, spec_of(args), per_record=args.per_record, shared=args.shared)
     return print_joint(args, result.to_json(), format_joint_summary)
+
+
+def run_taps(args: argparse.Namespace, measurement) -> int:
+    """``beam calibrate FILE`` of a record of several taps: every tap calibrated together
+    (:func:`beam.calibration.joint.joint_calibrate` on :func:`beam.io.taps.tap_measurements`;
+    ``--per-record air_damping`` gives each tap its own damping, to read it against the tap's
+    peak), the taps listed in the summary (``taps``, ``taps_words``)."""
+    from beam.errors import BeamInputError
+
+    for flag in ("save", "report"):
+        if getattr(args, flag, None) is not None:
+            raise BeamInputError(f"--{flag} takes one record; {measurement.name} holds {len(measurement.taps)} taps, "
+                                 "calibrated together: give --segment K to calibrate tap K alone")
+    from beam.calibration.joint import joint_calibrate
+    from beam.io.taps import tap_measurements
+
+    result = joint_calibrate(tap_measurements(measurement), spec_of(args), per_record=args.per_record, shared=args.shared)
+    return print_joint(args, {**result.to_json(), **taps_summary(measurement)}, format_joint_summary)
+
+
+def taps_summary(measurement, diagnosis: bool = False) -> dict:
+    """The JSON of a record's taps: ``taps`` (``tap``, ``record``, ``start_s``, ``end_s``, ``peak``
+    in the output's SI unit) and ``taps_words`` (:func:`beam.io.taps.taps_words`)."""
+    from beam.io.taps import taps_words
+
+    return {"taps": [{"tap": tap.index, "record": tap.measurement.name, "start_s": tap.start_s, "end_s": tap.end_s,
+                      "peak": tap.peak} for tap in measurement.taps],
+            "taps_words": taps_words(measurement, diagnosis)}
 
 
 def print_joint(args: argparse.Namespace, summary: dict, readable) -> int:
@@ -145,8 +180,13 @@ def print_joint(args: argparse.Namespace, summary: dict, readable) -> int:
 
 
 def format_joint_summary(summary: dict) -> str:
-    """A readable report of a joint calibration: the shared parameters, then one line per record."""
-    lines = [f"joint calibration of {len(summary['records'])} records, effects: {', '.join(summary['effects']) or 'none'}, "
+    """A readable report of a joint calibration: the shared parameters, then one line per record
+    (a record's taps: the sentence of :func:`beam.io.taps.taps_words` first, each tap's peak on its line)."""
+    from beam.io.artifacts import amount_text
+
+    peaks = {tap["record"]: tap for tap in summary.get("taps", [])}
+    lines = [summary["taps_words"], ""] if summary.get("taps_words") else []
+    lines += [f"joint calibration of {len(summary['records'])} records, effects: {', '.join(summary['effects']) or 'none'}, "
              f"likelihood {summary['likelihood']}"
              + (f", per record: {', '.join(summary['per_record'])}" if summary["per_record"] else ""), "",
              f"{'shared parameter':32s} {'mean':>12s} {'sd':>11s} {'2.5 %':>12s} {'97.5 %':>12s}"]
@@ -155,7 +195,10 @@ def format_joint_summary(summary: dict) -> str:
     for record in summary["records"]:
         unit = record.get("output_unit", "m")
         own = ", ".join(f"{name} {s['mean']:.5g}" for name, s in record["parameters"].items())
-        lines += ["", f"{record['record']}: window {format_window(record['window_s'])}, {record['modes']} modes"
+        tap = peaks.get(record["record"])
+        where = (f" (tap {tap['tap']}, {tap['start_s']:.3f}-{tap['end_s']:.3f} s of the file, peak "
+                 f"{amount_text(tap['peak'], unit)})" if tap else "")
+        lines += ["", f"{record['record']}{where}: window {format_window(record['window_s'])}, {record['modes']} modes"
                   + (f"; {own}" if own else ""),
                   f"  f (Hz) {', '.join(f'{f:.4g}' for f in record['frequencies_Hz'])}; noise sd "
                   f"{_in_unit(record['noise_sd']['mean'] if record['noise_sd'] else None, unit)}; RMSE calibration "

@@ -18,6 +18,7 @@ from beam.cli.calibrate_command import (
     in_unit as _in_unit,
     percent as _percent,
     print_joint,
+    taps_summary,
 )
 
 
@@ -119,12 +120,13 @@ def wants_progress(args: argparse.Namespace) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
-    from beam.cli.record_arguments import measurement_from_args, several_records
+    from beam.cli.record_arguments import check_joint_arguments, measurement_from_args, several_records
 
     check_suggest_arguments(args)
     if several_records(args):
         return run_joint(args)
     measurement = measurement_from_args(args, effects=args.base)  # a bad file fails before the heavy imports
+    check_joint_arguments(args, 1)  # the diagnosis reads one tap
     progress = TerminalProgress(sys.stderr) if wants_progress(args) else None
     if progress is not None:
         progress(f"loading the calibration engine ({measurement.name})")
@@ -144,6 +146,8 @@ def run(args: argparse.Namespace) -> int:
         if progress is not None:
             progress.close()
     summary = report.to_json()
+    if len(measurement.taps) > 1 and args.segment is None:
+        summary.update(taps_summary(measurement, diagnosis=True))
     if args.report:
         summary["report"] = written
     if args.suggest:
@@ -230,6 +234,7 @@ def format_report(summary: dict) -> str:
         f"{summary['measurement']}: calibration window {format_window(summary['window_s'])}, {summary['modes']} modes, "
         f"base model: {', '.join(summary['base']) or 'bare beam'}",
         *([f"modes: {summary['modes']}, chosen: {summary['modes_reason']}"] if summary.get("modes_reason") else []),
+        *([summary["taps_words"]] if summary.get("taps_words") else []),
         f"held-out RMSE of the base model {_in_unit(summary['rmse_prediction_base'], unit)}, held-out data inside its "
         f"95 % prediction band: {_percent(summary['coverage95_prediction_base'])}",
         "",
@@ -239,7 +244,8 @@ def format_report(summary: dict) -> str:
     for row in summary["modes_table"]:
         lines.append(f"  {row['mode']:>4d} {_m(row['frequency_data_Hz']):>12s} {_m(row['frequency_model_Hz']):>13s} "
                      f"{_m(row['frequency_error_pct']):>16s} {_m(row['damping_data']):>10s} {_m(row['damping_model']):>11s}"
-                     + (f"  not seen: {row['note']}" if row.get("note") else ""))
+                     + (f"  {row['note']}" if row.get("resolved") is False else
+                        f"  not seen: {row['note']}" if row.get("note") else ""))
     lines += ["", "candidate effects, best first (* materially improves the model)",
               f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE':>18s}  why"]
     for c in summary["candidates"]:

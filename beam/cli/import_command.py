@@ -1,8 +1,10 @@
 """``beam import FILE``: read a record in any supported format, describe its beam, write the
 project's own ``PREFIX.csv`` + ``PREFIX.toml`` and say what was read.
 
-The summary lists the file's columns, the signal used and why, the sampling rate, duration and
-clipping, the plucks found, and the record's first spectral peaks beside the ideal beam's
+The summary lists the file's columns, the signal used and why, the sampling rate, duration,
+clipping and the artifacts found (mains hum removed, spikes, rail values: :mod:`beam.io.artifacts`),
+the plucks or taps found (:mod:`beam.io.taps`: the one written, and that the commands take
+them all), and the record's first spectral peaks beside the ideal beam's
 modes (the bare beam of the given geometry at the nominal bending stiffness, with the sensor's
 mass when given), so that a wrong geometry shows at once.
 """
@@ -101,6 +103,7 @@ def ideal_modes_Hz(measurement, count: int = LISTED_PEAKS) -> list[float]:
 def format_import(measurement) -> str:
     """The summary ``beam import`` prints (module notes)."""
     from beam.io.anchor import spectral_peaks
+    from beam.io.taps import taps_words
 
     geometry = measurement.geometry
     lines = [f"{measurement.name}: {measurement.sample_count:,} samples, {measurement.duration_s:.3f} s at "
@@ -112,9 +115,16 @@ def format_import(measurement) -> str:
     if measurement.output_kind == "strain" and not measurement.arbitrary_units:
         shown, unit = output * 1e6, "µε"  # read as a gauge shows it; the files keep SI (m/m)
     stays = "gravity and bias stay" if measurement.output_kind == "acceleration" else "the sensor's offset stays"
+    artifacts = measurement.artifacts
+    flagged = (f", spikes: {artifacts.spike_count}, at the converter's rail: {artifacts.rail_count}"
+               if artifacts is not None else "")
     lines.append(f"output {measurement.output_column}: {shown.min():.4g} to {shown.max():.4g} {unit}, "
                  f"mean {shown.mean():.4g} ({stays}: the calibration's offset takes {'them' if 'bias' in stays else 'it'}); "
-                 f"clipped samples: {measurement.clipped_count}")
+                 f"clipped samples: {measurement.clipped_count}{flagged} (left out of the likelihood)")
+    taps = taps_words(measurement)
+    if taps:
+        kept = next(tap.index for tap in measurement.taps if tap.measurement.name == measurement.name)
+        lines.append(f"{taps} by beam calibrate on the file itself; the files written hold tap {kept} alone")
     lines.append(f"beam: L = {geometry.length_m:g} m, {geometry.linear_density_kg_m:.4g} kg/m, sensor at "
                  f"{geometry.sensor_position_m:g} m")
     for name, value in measurement.nominal.items():

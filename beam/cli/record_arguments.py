@@ -88,7 +88,8 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
                          "arbitrary-acceleration, -velocity, -displacement or -strain when the column's name does not say "
                          "what it measures); the effects that depend on the amplitude then refuse it")
     reading.add_argument("--segment", type=positive_int, default=None, metavar="K",
-                         help="use pluck/tap (or file segment) K (default: the strongest)")
+                         help="use pluck/tap (or file segment) K alone (default: beam calibrate takes every tap of a "
+                         "record of several together, beam diagnose and beam import the strongest)")
     beam = parser.add_argument_group("the beam, in a student's words (or --beam BEAM.toml)")
     beam.add_argument("--beam", dest="beam_file", default=None, metavar="BEAM.toml",
                       help="a sidecar describing the beam (the flags below override its keys)")
@@ -175,14 +176,16 @@ def measurement_from_args(args: argparse.Namespace, default_sensor_at_tip: bool 
     return measurement
 
 
-def check_joint_arguments(args: argparse.Namespace) -> None:
-    """--shared / --per-record need several records; --save and --report one (BeamInputError)."""
+def check_joint_arguments(args: argparse.Namespace, taps: int | None = None) -> None:
+    """--shared / --per-record need several records (or ``taps``, the number of taps of the one
+    record, at least two: pass it once the record is read, None before); --save and --report one
+    (BeamInputError)."""
     from beam.errors import BeamInputError
 
-    several = len(args.data) > 1
+    several = len(args.data) > 1 if isinstance(args.data, list) else False
     for flag, value in (("--shared", args.shared), ("--per-record", args.per_record)):
-        if value is not None and not several:
-            raise BeamInputError(f"{flag} needs several records (DATA DATA ...)")
+        if value is not None and not several and taps is not None and taps < 2:
+            raise BeamInputError(f"{flag} needs several records (DATA DATA ...) or a record of several taps")
     for flag in ("save", "report"):
         if several and getattr(args, flag, None) is not None:
             raise BeamInputError(f"--{flag} takes one record; a joint calibration writes its summary only (--json)")

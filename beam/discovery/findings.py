@@ -652,6 +652,8 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
     except BeamInputError as exc:
         notes.append(f"no modal identification: {exc}")
     comparison = _name_unseen(result, map_values, comparison)
+    if identified is not None:
+        comparison = unresolved_marked(comparison, identified, dx.resolution_reasons(time_s, data, identified))
     first = next((row for row in comparison if row.mode == 1 and row.matched), None)
     if first is not None:  # the identified mode matched to the model's mode 1, not merely the lowest pole
         try:
@@ -718,6 +720,22 @@ def _phase_lag_notes(result: CalibrationResult, time_s: np.ndarray, data: np.nda
             f"f1 {abs(drift.frequency_offset_pct):.2g} % {'above' if ahead else 'below'} the model's there. "
             f"That lag is {100 * drift.lag_share:.0f} % of the error after the window: aligning the phase alone "
             f"would take it from {drift.rmse_total:.3g} to {drift.rmse_aligned_total:.3g} {unit}.{own} {physics}"]
+
+
+def unresolved_marked(comparison: list[dx.ModeMatch], identified, reasons: list[str | None]) -> list[dx.ModeMatch]:
+    """``comparison`` with every row matched to a pole the record does not resolve
+    (:func:`beam.residuals.resolution_reasons`) shown as not resolved: no data values (so no
+    fingerprint reads them), the reason as its note, ``resolved`` False."""
+    nan = float("nan")
+    out = []
+    for row in comparison:
+        j = (int(np.argmin(np.abs(identified.frequency_Hz - row.frequency_data_Hz))) if row.matched else None)
+        if j is None or reasons[j] is None:
+            out.append(row)
+            continue
+        out.append(replace(row, frequency_data_Hz=nan, damping_data=nan, frequency_error_pct=nan, damping_error_pct=nan,
+                           note=reasons[j], resolved=False))
+    return out
 
 
 def _name_unseen(result: CalibrationResult, values: dict, comparison: list[dx.ModeMatch]) -> list[dx.ModeMatch]:

@@ -169,7 +169,8 @@ def diagnosis_handout(base, residuals, candidates: Sequence, ladder: Sequence, v
                     _amount(step.rmse_prediction, unit), _pct(step.coverage95_prediction),
                     "full (MCMC)" if step.mcmc else "preview"] for i, step in enumerate(ladder)]
     mode_rows = [[str(row.mode), _g(row.frequency_data_Hz), _g(row.frequency_model_Hz),
-                  f"{row.frequency_error_pct:+.1f} %" if math.isfinite(row.frequency_error_pct) else "–"]
+                  f"{row.frequency_error_pct:+.1f} %" if math.isfinite(row.frequency_error_pct)
+                  else "not resolved by the record" if not row.resolved else "–"]
                  for row in residuals.comparison]
     tables = [("Candidate effects, best first", ["effect", "evidence gain (nats)", error_name,
                                                   "improves the model", "why"], candidate_rows),

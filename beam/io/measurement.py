@@ -87,6 +87,7 @@ from typing import Any
 import numpy as np
 
 from beam.errors import BeamInputError
+from beam.io.artifacts import clean as clean_artifacts
 from beam.io.limits import (
     LENGTH_RANGE_M,
     LINEAR_DENSITY_RANGE_KG_M,
@@ -227,6 +228,16 @@ class Measurement:
         calibration of a free decay does not need the scale (the initial state and the offset
         absorb it); an effect whose force depends on the amplitude does
         (:func:`true_unit_problem`).
+    artifacts : beam.io.artifacts.Artifacts or None
+        What the reading found in the samples (mains hum subtracted, spikes interpolated, ADC
+        rail values): its spike and rail samples are left out of the likelihood
+        (:attr:`left_out`); None when nothing was searched (a record made in code). A
+        measurement made from another's at other stamps (a decimation, a crop) carries them over
+        (:meth:`beam.io.artifacts.Artifacts.on`).
+    taps : tuple of beam.io.taps.Tap
+        Every tap of a record of several plucks or taps, each a measurement of its own
+        (:mod:`beam.io.taps`); empty for one. This measurement is one of them (the strongest,
+        or the one chosen with ``segment``).
 
     Raises
     ------
@@ -255,6 +266,8 @@ class Measurement:
     nominal_origin: dict[str, str] = field(default_factory=dict)
     source: tuple[str, ...] = ()
     arbitrary_units: bool = False
+    artifacts: Any = field(default=None, repr=False)
+    taps: tuple = field(default=(), repr=False)
     uniform: bool = field(init=False, repr=False)
     clipped: np.ndarray = field(init=False, repr=False)
 
@@ -308,6 +321,12 @@ class Measurement:
         if problem is not None:
             raise BeamInputError(f"{where}: {problem}")
         object.__setattr__(self, "clipped", clipped)
+        if self.artifacts is not None and self.artifacts.time_s is not None:
+            object.__setattr__(self, "artifacts", self.artifacts.on(columns["time_s"]))
+        if self.artifacts is not None and self.artifacts.spikes.size != columns["time_s"].size:
+            raise BeamInputError(f"{where}: artifacts hold {self.artifacts.spikes.size} samples, the record "
+                                 f"{columns['time_s'].size}")
+        object.__setattr__(self, "taps", tuple(self.taps))
         object.__setattr__(self, "uniform", uniform_time_problem(columns["time_s"]) is None)
         object.__setattr__(self, "nominal", check_nominal(self.nominal, f"{where}: nominal"))
         spread = check_nominal(self.nominal_spread, f"{where}: nominal_spread")
@@ -384,6 +403,14 @@ class Measurement:
     def clipped_count(self) -> int:
         """Number of clipped samples (see the module notes)."""
         return int(np.count_nonzero(self.clipped))
+
+    @property
+    def left_out(self) -> np.ndarray:
+        """Samples left out of the likelihood (and of the RMSE): clipped ones, and the spikes and
+        ADC rail values the reading flagged (:attr:`artifacts`)."""
+        if self.artifacts is None:
+            return self.clipped
+        return self.clipped | self.artifacts.flagged
 
     # ------------------------------------------------------------------ time
     @property
@@ -751,14 +778,18 @@ def read_measurement(path: str | os.PathLike[str], *, beam: Any = None, **record
     input_column = next((c for c in header if c in INPUT_COLUMNS), None)
     sidecar = load_sidecar(toml_path, input_kind=INPUT_COLUMNS.get(input_column))
     table = _table_from_lines(csv_path, lines, sidecar.sensor_range)
-    nominal, origin = anchored(sidecar, table.time_s, table.output, OUTPUT_COLUMNS[table.output_column],
+    output, artifacts = clean_artifacts(table.time_s, table.output, table.input)
+    nominal, origin = anchored(sidecar, table.time_s, output, OUTPUT_COLUMNS[table.output_column],
                                INPUT_COLUMNS.get(input_column), table.input)
+    columns = {name: values for name, values in table.arrays().items() if name != "time_s"}
+    columns[table.output_column] = output
     return Measurement(
         name=csv_path.stem, title=sidecar.title if sidecar.title is not None else csv_path.stem,
         geometry=sidecar.geometry, time_s=table.time_s, nominal=nominal, csv_path=csv_path,
         toml_path=toml_path, sensor_range=sidecar.sensor_range, nominal_spread=sidecar.nominal_spread,
         nominal_origin=origin, arbitrary_units=sidecar.arbitrary_units,
-        **{name: values for name, values in table.arrays().items() if name != "time_s"},
+        source=tuple(artifacts.sentences(COLUMN_UNITS[table.output_column])),
+        artifacts=artifacts, **columns,
     )
 
 
@@ -1323,15 +1354,42 @@ def measurement_from_record(record: Any, beam: Any = None) -> Measurement:
         sidecar = load_sidecar(beam, input_kind=input_kind, record=record)
         toml_path = Path(beam)
     name = path.stem if path.suffix else path.name
+    kept = _record_measurement(record, sidecar, name, toml_path, input_kind)
+    if len(record.taps) < 2:
+        return kept
+    from beam.io.taps import Tap
+
+    taps = []
+    for k, piece in enumerate(record.taps):
+        if k == record.segment_index:
+            measurement = kept
+        else:
+            own = replace(record, time_s=piece.time_s, output=piece.output, input=piece.input, artifacts=piece.artifacts,
+                          segment_index=k, taps=())
+            measurement = _record_measurement(own, sidecar, f"{name}_tap{k + 1}", toml_path, input_kind)
+        taps.append(Tap(k + 1, piece.start_s, piece.end_s, piece.peak, measurement))
+    return replace(kept, taps=tuple(taps))
+
+
+def _record_measurement(record: Any, sidecar: Sidecar, name: str, toml_path: Path | None,
+                        input_kind: str | None) -> Measurement:
+    """One measurement of a record's samples: cleaned of its artifacts (:attr:`Record.artifacts`), anchored."""
     output_kind = record.output_column.split("_", 1)[0]
-    nominal, origin = anchored(sidecar, record.time_s, record.output, output_kind, input_kind, record.input)
+    artifacts = record.artifacts
+    if artifacts is None:
+        output, artifacts = clean_artifacts(record.time_s, record.output, record.input)
+    else:
+        output = artifacts.apply(record.time_s, record.output)
+    nominal, origin = anchored(sidecar, record.time_s, output, output_kind, input_kind, record.input)
+    columns = {column: values for column, values in record.arrays().items() if column != "time_s"}
+    columns[record.output_column] = output
     return Measurement(
         name=name, title=sidecar.title if sidecar.title is not None else name, geometry=sidecar.geometry,
         time_s=record.time_s, nominal=nominal, csv_path=None, toml_path=toml_path,
         sensor_range=sidecar.sensor_range, nominal_spread=sidecar.nominal_spread, nominal_origin=origin,
-        source=tuple(describe_record(record)),
+        source=tuple(describe_record(record)) + tuple(artifacts.sentences(COLUMN_UNITS[record.output_column])),
         arbitrary_units=bool(getattr(record, "arbitrary_units", False)) or sidecar.arbitrary_units,
-        **{column: values for column, values in record.arrays().items() if column != "time_s"},
+        artifacts=artifacts, **columns,
     )
 
 

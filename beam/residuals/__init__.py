@@ -55,6 +55,7 @@ from beam.residuals.modal_id import (
     free_decay_start,
     identify_modes,
     matrix_pencil_poles,
+    resolution_reasons,
     unseen_reason,
 )
 from beam.residuals.noise import NoiseFloor, noise_floor, record_noise_floor
@@ -124,6 +125,7 @@ __all__ = [
     "jsonable",
     "ljung_box",
     "matrix_pencil_poles",
+    "resolution_reasons",
     "mode_envelope",
     "residual_spectrum",
     "residual_whiteness",

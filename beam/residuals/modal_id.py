@@ -47,6 +47,7 @@ __all__ = [
     "ModeRow",
     "compare_modes",
     "difference_words",
+    "resolution_reasons",
     "unseen_reason",
     "free_decay_start",
     "identify_modes",
@@ -373,6 +374,66 @@ def identify_modes(
     )
 
 
+#: A mode is resolved by the record when the identifications with another Hankel matrix of the same
+#: decay put it within this relative frequency ...
+RESOLVED_FREQUENCY = 0.01
+#: ... and this relative damping ratio (plus 1e-4 absolute: a ratio of 1e-4 is known to about that).
+RESOLVED_DAMPING = 0.3
+#: The share of the decay the second check uses (its first samples, the same start).
+RESOLVED_SHARE = 2.0 / 3.0
+
+
+def resolution_reasons(time_s: np.ndarray, data: np.ndarray, identified: IdentifiedModes) -> list[str | None]:
+    """Whether the record resolves each identified mode: None when it does, else why not, in words.
+
+    The matrix pencil keeps every pole its singular values allow; a pole fitted to the noise, to a
+    burst in the decay or to two modes it cannot split moves when its Hankel matrix changes, a
+    mode of the beam does not (the stabilisation check of operational modal analysis, Peeters &
+    De Roeck 2001, on the Hankel matrix instead of the model order). The decay is identified again
+    with half the pencil parameter, on the whole decay and on its first :data:`RESOLVED_SHARE`
+    (the same start: a damping that changes with the swing, as a real strip's does, is the same
+    in both); a mode is resolved when each has a mode within :data:`RESOLVED_FREQUENCY` in
+    frequency and :data:`RESOLVED_DAMPING` in damping ratio.
+
+    Parameters
+    ----------
+    time_s, data : (n,) arrays
+        The uniform record the modes were identified on.
+    identified : IdentifiedModes
+        :func:`identify_modes`'s result on it.
+    """
+    time = np.asarray(time_s, dtype=float)
+    values = np.asarray(data, dtype=float)
+    first = int(np.searchsorted(time, identified.start_s - 1e-9 * max(abs(identified.start_s), 1.0)))
+    n = identified.n_samples
+    found = []
+    for count, where in ((n, "the whole decay"), (int(RESOLVED_SHARE * n), f"its first {100 * RESOLVED_SHARE:.0f} %")):
+        pencil = max(8, min(count // 3, MAX_PENCIL) // 2)
+        try:
+            again = identify_modes(time[first: first + count], values[first: first + count], start_s=float(time[first]),
+                                   pencil=pencil)
+            found.append((again.frequency_Hz, again.damping_ratio, where))
+        except BeamInputError:
+            found.append((np.zeros(0), np.zeros(0), where))
+    out: list[str | None] = []
+    for f, zeta in zip(identified.frequency_Hz, identified.damping_ratio):
+        reason = None
+        for f2, z2, where in found:
+            close = np.flatnonzero(np.abs(f2 / f - 1) <= RESOLVED_FREQUENCY) if f2.size else np.zeros(0, int)
+            if close.size and np.min(np.abs(z2[close] - zeta)) <= RESOLVED_DAMPING * zeta + 1e-4:
+                continue
+            if close.size:
+                other = z2[close][np.argmin(np.abs(z2[close] - zeta))]
+                reason = (f"not resolved by the record: {f:.4g} Hz with ζ {zeta:.3g}, but ζ {other:.3g} with half the "
+                          f"pencil on {where}")
+            else:
+                reason = (f"not resolved by the record: the pole at {f:.4g} Hz (ζ {zeta:.3g}) is not found again with "
+                          f"half the pencil on {where}")
+            break
+        out.append(reason)
+    return out
+
+
 #: The sign convention of the modes table, stated once for the command line, the JSON and the dashboard.
 DIFFERENCE_CONVENTION = ("measured relative to the model, 100 (measured / model - 1) %: positive when the "
                          "measured value is higher than the model's")
@@ -404,8 +465,11 @@ class ModeMatch:
     damping_model: float
     frequency_error_pct: float
     damping_error_pct: float
-    #: Why an unmatched mode was not seen (:func:`unseen_reason`), "" otherwise.
+    #: Why an unmatched mode was not seen (:func:`unseen_reason`), or why the record does not
+    #: resolve the mode matched to it (:func:`resolution_reasons`); "" otherwise.
     note: str = ""
+    #: False when the record's pole matched to this mode is not resolved (its data fields are then NaN).
+    resolved: bool = True
 
     @property
     def matched(self) -> bool:

@@ -118,7 +118,9 @@ class RecordRead:
         """What was read, for the view, in the page's words (:data:`PAGE`): file, format, channels,
         the signal used and why, ``findings`` (every decision of the reader: (title, what was
         chosen and why, the control that changes it or '')), rate (Hz), duration (s), samples,
-        segments (with the one used), notes (what was done to the data)."""
+        segments (with the one used), notes (what was done to the data), taps (how many: a record
+        of several is calibrated with every tap together), artifacts (what
+        :mod:`beam.io.artifacts` found, in words)."""
         r = self.record
         signal = next((f for f in r.findings if f.topic == "signal"), None)
         findings = [(PAGE.titles[f.topic], PAGE.finding(f, title=False),
@@ -128,7 +130,8 @@ class RecordRead:
                 "signal": PAGE.finding(signal, title=False) if signal is not None else r.signal, "findings": findings,
                 "rate_Hz": r.rate_Hz, "duration_s": r.duration_s, "samples": int(r.time_s.size),
                 "segments": [(s.start_s, s.end_s, s.peak) for s in r.segments], "segment_used": r.segment_index,
-                "notes": list(r.cleaning), "arbitrary_units": r.arbitrary_units}
+                "notes": list(r.cleaning), "arbitrary_units": r.arbitrary_units, "taps": len(r.taps),
+                "artifacts": r.artifacts.sentences(self.signal_unit) if r.artifacts is not None else []}
 
 
 @dataclass(frozen=True)
@@ -235,14 +238,16 @@ def _uploaded(file_name: str | None, data: bytes | str | None) -> Iterator[tuple
 def _record_read(file_name: str | None, size_bytes: int, record: Record) -> RecordRead:
     """The record with its spectrum, as the page shows it."""
     record.path = Path(_safe_name(file_name))
-    spectrum = welch_spectrum(record.time_s, record.output)
+    # the spectrum and peaks of the signal the calibration takes: hum subtracted, spikes interpolated
+    output = record.artifacts.apply(record.time_s, record.output) if record.artifacts is not None else record.output
+    spectrum = welch_spectrum(record.time_s, output)
     if spectrum is None:
         frequency, psd_db = np.empty(0), np.empty(0)
     else:  # drawn from 1 Hz (below the band searched for peaks: mode 1 of a long ruler is that low)
         f, density, _low, high = spectrum
         frequency, psd_db = reduce_spectrum(f, density, max(LOW_HZ, float(f[1])), high)
     kind = record.output_column.split("_", 1)[0]
-    peaks = tuple(spectral_peaks(record.time_s, record.output, kind, max_peaks=6))
+    peaks = tuple(spectral_peaks(record.time_s, output, kind, max_peaks=6))
     return RecordRead(file_name=file_name or record.path.name, size_bytes=size_bytes, record=record,
                       frequency_Hz=frequency, psd_db=psd_db, peaks=peaks)
 

@@ -256,15 +256,16 @@ class BeamState(_Runs):
         self.add_upload(m)
         return True
 
-    def add_upload(self, measurement: Measurement) -> str:
-        """Select a measurement read elsewhere (e.g. the "Your record" view) as a new upload and
-        calibrate it; returns its dataset id."""
+    def add_upload(self, measurement: Measurement, select: bool = True) -> str:
+        """Add a measurement read elsewhere (e.g. the "Your record" view) as a new upload and,
+        with ``select``, select and calibrate it; returns its dataset id."""
         name = f"upload-{len(self.uploads) + 1}-{measurement.name}"
         with editing(self):
             self.uploads = {**self.uploads, name: measurement}
             self.error = ""
         self.param.dataset.objects = [*self.param.dataset.objects, name]
-        self.dataset = name
+        if select:
+            self.dataset = name
         return name
 
     # -- inputs -> requests ----------------------------------------------------------------------

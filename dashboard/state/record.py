@@ -19,8 +19,10 @@ Param only (no panel import), tested without a server or a browser. The flow:
    ``described``. A description the library refuses sets ``form_error`` and clears
    ``described``.
 3. :meth:`RecordState.load` hands the measurement to the beam calibration
-   (:meth:`dashboard.state.beam.BeamState.add_upload`, which selects and calibrates it);
-   :meth:`RecordState.sidecar_text` is the TOML sidecar for the CLI.
+   (:meth:`dashboard.state.beam.BeamState.add_upload`, which selects and calibrates it); a record
+   of several taps (:mod:`beam.io.taps`) hands every tap to the "Several records" view as records
+   of one beam and calibrates them together there (:meth:`dashboard.state.joint.JointState.calibrate`),
+   the strongest to the beam calibration; :meth:`RecordState.sidecar_text` is the TOML sidecar for the CLI.
 """
 
 from __future__ import annotations
@@ -95,7 +97,8 @@ class RecordState(param.Parameterized):
     time_unit = param.Selector(default=None, objects=list(TIME_UNITS), allow_None=True,
                                label="Time column's unit (s, ms or µs)",
                                doc="Unit of the time column when it is not seconds (an Arduino's micros() is µs).")
-    segment = param.Integer(None, allow_None=True, bounds=(1, None), label="Pluck to use (1 = the first; empty: the strongest)",
+    segment = param.Integer(None, allow_None=True, bounds=(1, None),
+                            label="Pluck to use alone (1 = the first; empty: every tap, calibrated together)",
                             doc="1-based pluck or file segment.")
 
     # -- outputs -------------------------------------------------------------------------------
@@ -116,6 +119,10 @@ class RecordState(param.Parameterized):
                                   doc="The file the beam in the form was described for, while a new file is shown "
                                       "with it and the form is not touched; ''.")
     loaded = param.String("", constant=True, doc="Dataset id of the latest record handed to the beam calibration.")
+    loaded_taps = param.List([], constant=True, doc="Dataset ids of the latest record's taps handed to the joint "
+                             "calibration (empty for a record of one tap).")
+    joint = param.Parameter(None, doc="The session's JointState (the \"Several records\" view), which takes a "
+                            "record's taps; None: the taps are not handed over.")
     requested = param.Integer(0, constant=True, doc="Id of the latest upload request.")
 
     def __init__(self, **params) -> None:
@@ -278,8 +285,25 @@ class RecordState(param.Parameterized):
         nothing to load (:meth:`can_load`)."""
         if not self.can_load():
             return (self.loaded or None) if self._loaded_from is self.described else None
-        name = self.beam.add_upload(self.described.measurement)
+        measurement = self.described.measurement
+        together = len(measurement.taps) > 1 and self.joint is not None and self.segment is None  # no pluck chosen
+        taps = measurement.taps if together else ()
+        ids, name = [], None
+        for tap in taps:
+            if tap.measurement.name != measurement.name:
+                ids.append(self.beam.add_upload(tap.measurement, select=False))
+            else:
+                ids.append(name := self.beam.add_upload(measurement))
+        if name is None:
+            name = self.beam.add_upload(measurement)
         self._loaded_from = self.described
+        status = f"loaded into the beam calibration as {name}"
+        if ids:
+            self.joint.refresh_records()
+            self.joint.records = ids
+            self.joint.calibrate()
+            status = (f"{len(ids)} taps loaded into Several records and calibrated together there; the strongest "
+                      f"into the beam calibration as {name}")
         with editing(self):
-            self.param.update(loaded=name, status=f"loaded into the beam calibration as {name}")
+            self.param.update(loaded=name, loaded_taps=ids, status=status)
         return name

@@ -236,6 +236,7 @@ class SessionState(param.Parameterized):
         self.study = StudyState(beam=beam, dispatch=dispatch)  # the window study (dashboard.state.study)
         self.record = RecordState.attached(self)  # the "Your record" view's state
         self.joint = JointState.attached(self)  # the "Several records" view's state (dashboard.state.joint)
+        self.record.joint = self.joint  # a record of several taps is calibrated there, every tap together
 
     def slot(self, name: str, on_update: Callable[[sch.Update], None], *, debounce_s: float | None = None) -> sch.RunSlot:
         """A new named run slot of this session (one per activity: a new request cancels only its own)."""

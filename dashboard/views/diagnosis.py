@@ -67,7 +67,8 @@ def modes_table(diagnosis) -> pd.DataFrame:
 
     return pd.DataFrame([{
         "mode": m.mode, "measured f (Hz)": f(m.frequency_data_Hz), "model f (Hz)": f(m.frequency_model_Hz),
-        "measured f vs model": difference_words(m.frequency_error_pct, 1) if m.matched or not m.note else f"not seen: {m.note}",
+        "measured f vs model": (difference_words(m.frequency_error_pct, 1) if m.matched or not m.note
+                                else m.note if not m.resolved else f"not seen: {m.note}"),
         "measured damping ζ (%)": f(m.damping_data, 100, "{:.2g}"),
         "model ζ (%)": f(m.damping_model, 100, "{:.2g}"), "measured ζ vs model": difference_words(m.damping_error_pct, 0),
     } for m in diagnosis.residuals.comparison]).set_index("mode")

@@ -91,9 +91,13 @@ def read_html(summary: dict | None, pending: str = "") -> str:
             for k, (a, b, p) in enumerate(summary["segments"], start=1))
     else:
         segments = "one (the whole record)"
+    if summary.get("taps", 0) > 1:
+        segments += (f"<br><b>{summary['taps']} taps: one beam at {summary['taps']} amplitudes, calibrated together</b> "
+                     "when loaded (the pluck chosen under Reading options takes one alone)")
     notes = "<br>".join(esc(n) for n in summary["notes"]) or "nothing dropped"
     previous = (f"<p class='record-previous'><b>Still the previous file's record:</b> {esc(pending)} was not read "
                 "(see the message above).</p>") if pending and pending != summary["file"] else ""
+    artifacts = "<br>".join(esc(n) for n in summary.get("artifacts", [])) or "none found (mains hum, spikes, rail values)"
     rows = [
         _row("File", f"{esc(summary['file'])} ({upload_size_text(summary['size_bytes'])})"),
         _row("Read as", esc(summary["format"])),
@@ -103,8 +107,23 @@ def read_html(summary: dict | None, pending: str = "") -> str:
         _row("Duration", f"{summary['duration_s']:.3f} s ({summary['samples']:,} samples)"),
         _row("Plucks / segments", segments),
         _row("Cleaning", notes),
+        _row("Artifacts", artifacts),
     ]
     return f"{previous}<table class='record-read' style='font-size:inherit;overflow-wrap:anywhere'>{''.join(rows)}</table>"
+
+
+def loaded_html(name: str, taps: list) -> str:
+    """The notice after *Load and calibrate*: where the record went (its taps: calibrated together
+    in the "Several records" tab)."""
+    if not name:
+        return ""
+    if taps:
+        return alert_html("success", f"<b>{len(taps)} taps</b> of one beam at {len(taps)} amplitudes: loaded into the "
+                          "<b>Several records</b> tab and <b>calibrated together</b> there (shared physics; each tap its "
+                          "own initial state, offset and noise; it is calibrating now). The strongest tap is in the "
+                          f"<b>Beam calibration</b> tab as <b>{html.escape(name)}</b>.")
+    return alert_html("success", f"Loaded into the beam calibration as <b>{html.escape(name)}</b>: open the "
+                      "<b>Beam calibration</b> tab to see it calibrated (it is calibrating now).")
 
 
 class RecordView(pn.viewable.Viewer):
@@ -328,10 +347,8 @@ class RecordView(pn.viewable.Viewer):
             label="Download the sidecar (TOML) for the command line", sizing_mode="stretch_width",
             disabled=pn.bind(lambda d: d is None, r.param.described), css_classes=["record-sidecar"])
         r.param.watch(lambda e: setattr(sidecar, "filename", r.sidecar_name()), "read")
-        done = HTML(pn.bind(lambda name: alert_html(
-            "success", f"Loaded into the beam calibration as <b>{html.escape(name)}</b>: open the "
-                       "<b>Beam calibration</b> tab to see it calibrated (it is calibrating now).") if name else "",
-            r.param.loaded), sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-loaded"])
+        done = HTML(pn.bind(loaded_html, r.param.loaded, r.param.loaded_taps), sizing_mode="stretch_width",
+                    margin=(0, 10), css_classes=["record-loaded"])
         self._left.append(pn.Card(
             load, done, sidecar,
             Markdown("Saved next to the record as its name with `.toml`, `beam calibrate FILE` finds it.",

@@ -18,3 +18,14 @@ def pool():
     p = RunPool(max_workers=2, idle_timeout_s=0.2, name="test-run")
     yield p
     p.shutdown(wait=True)
+
+
+@pytest.fixture
+def session(pool):
+    """A browser session's state on the private pool, closed after the test (a module may define its own)."""
+    from dashboard.state.session import SessionState
+
+    s = SessionState(pool=pool, debounce_s=0.0)
+    yield s
+    s.close()
+    s.wait(10)

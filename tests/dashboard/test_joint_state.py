@@ -20,19 +20,10 @@ from beam.discovery.joint import SEPARATING_NATS, joint_diagnose
 from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE
 from beam.discovery.suggest import next_record
 from dashboard.jobs.joint import load_record
-from dashboard.state.session import SessionState
 from dashboard.views.joint import JointView, diagnosis_table_html, interval_html, interval_text, suggestion_html
 
 RUNS = ["adxl_50cm_114655", "adxl_50cm_114759"]
 INPUTS = {"window_s": (0.0, 1.0), "modes": 2, "effects": ["modal_damping", "sensor_mass"], "sampling": 0}
-
-
-@pytest.fixture
-def session(pool):
-    s = SessionState(pool=pool, debounce_s=0.0)
-    yield s
-    s.close()
-    s.wait(10)
 
 
 def _calibrated(session) -> object:

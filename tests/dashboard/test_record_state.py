@@ -20,20 +20,11 @@ from beam.io.materials import MATERIALS
 from beam.io.measurement import read_measurement
 from beam.errors import BeamInputError
 from dashboard.jobs.record import read_upload, reduce_spectrum
-from dashboard.state.session import SessionState
 from dashboard.views.record import RecordView
 
 REPO = Path(__file__).resolve().parents[2]
 PHYPHOX = REPO / "assets" / "real" / "formats" / "adxl_50cm_114655.phyphox.csv"
 STRIP = {"length_m": 0.5, "width_m": 0.05, "thickness_m": 0.002, "material": "aluminium", "sensor_position_m": 0.44}
-
-
-@pytest.fixture
-def session(pool):
-    s = SessionState(pool=pool, debounce_s=0.0)
-    yield s
-    s.close()
-    s.wait(10)
 
 
 def _phyphox_time_s() -> np.ndarray:

@@ -33,8 +33,14 @@ The steps, the same for every format:
    it (over :data:`ONSET_LOOKBACK_S`), staying so in the next block, above
    :data:`ONSET_NOISE_RATIO` times the record's quiet level and
    :data:`ONSET_PEAK_FRACTION` of the loudest block. With two or more onsets the record is
-   split at them; the segment with the loudest block (or ``--segment K``) is kept from
-   one block before its onset, and every segment is listed.
+   split at them, and a free decay also where its swing jumps in the middle of a decay
+   (:func:`beam.io.taps.split_at_disturbances`); the segment with the loudest block (or
+   ``--segment K``) is kept from one block before its onset, every segment is listed and each
+   is kept as a tap of its own (:attr:`Record.taps`).
+6. *Artifacts.* Mains hum, spikes and ADC rail values are searched in the samples kept and in
+   each tap (:func:`beam.io.artifacts.clean`: :attr:`Record.artifacts`); the signal stays as the
+   file holds it, the measurement made of it is cleaned
+   (:func:`beam.io.measurement.measurement_from_record`).
 
 Every decision is a :class:`beam.io.readers.findings.Finding` (:attr:`Record.findings`), every
 refusal a :class:`beam.io.readers.findings.ReadingError` naming the option that resolves it.
@@ -50,6 +56,7 @@ import numpy as np
 from scipy.signal import welch
 
 from beam.errors import BeamInputError
+from beam.io.artifacts import Artifacts, clean
 from beam.io.readers.findings import COMMAND_LINE, Finding, Hint, ReadingError
 from beam.io.readers.table import Block, Column, RawRecord
 from beam.io.readers.units import (
@@ -64,6 +71,7 @@ from beam.io.readers.units import (
     is_known_unit,
     normalise_unit,
 )
+from beam.io.taps import TapPiece, impact_start, split_at_disturbances
 
 #: Lowest frequency counted as vibration (Hz).
 VIBRATION_LOW_HZ = 1.0
@@ -149,6 +157,11 @@ class Record:
     arbitrary_units : bool
         True when the signal is in arbitrary units (its scale unknown: ADC counts, an
         uncalibrated sensor's volts); ``output`` then holds the values as the file does.
+        Everything done to the data (stamps dropped, time shifted, blocks skipped).
+    artifacts : beam.io.artifacts.Artifacts or None
+        Hum, spikes and rail values found in the samples kept (None: not searched).
+    taps : tuple of beam.io.taps.TapPiece
+        Every segment of a record of several plucks or taps, each with its own samples (empty for one).
     """
 
     path: object
@@ -167,6 +180,8 @@ class Record:
     cleaning: list[str] = field(default_factory=list)
     records: list[str] = field(default_factory=list)
     arbitrary_units: bool = False
+    artifacts: Artifacts | None = None
+    taps: tuple[TapPiece, ...] = ()
 
     @property
     def rate_Hz(self) -> float:
@@ -457,14 +472,19 @@ def dominant_frequency(time_s: np.ndarray, values: np.ndarray) -> float | None:
     return float(frequency[band][np.argmax(density[band])])
 
 
+def envelope_block_s(time_s: np.ndarray, values: np.ndarray) -> float:
+    """The envelope's block (s): two periods of the dominant frequency, at least :data:`ENVELOPE_BLOCK_S`."""
+    dominant = dominant_frequency(time_s, values)
+    return max(ENVELOPE_BLOCK_S, 2.0 / dominant) if dominant else ENVELOPE_BLOCK_S
+
+
 def find_segments(time_s: np.ndarray, values: np.ndarray) -> list[Segment]:
     """Plucks or taps in a signal (module notes, step 5); empty when there are fewer than two."""
     n = values.size
     if n < 16:
         return []
     step = float(np.median(np.diff(time_s)))
-    dominant = dominant_frequency(time_s, values)
-    block_s = max(ENVELOPE_BLOCK_S, 2.0 / dominant) if dominant else ENVELOPE_BLOCK_S
+    block_s = envelope_block_s(time_s, values)
     per_block = max(4, int(round(block_s / step)))
     count = n // per_block
     if count < 8:
@@ -644,8 +664,10 @@ def build_record(raw: RawRecord, *, record: str | int | None = None, column: str
     notes.insert(0, time_source)
     segments = block_segments
     segment_index = raw.blocks.index(block) if len(blocks) > 1 else None
+    taps: tuple[TapPiece, ...] = ()
     if len(blocks) == 1:
-        segments = find_segments(time_s, output)
+        segments, taps, more = tap_segments(time_s, output, input_values)
+        notes += more
         if segments:
             if segment is not None:
                 if not 1 <= segment <= len(segments):
@@ -667,6 +689,7 @@ def build_record(raw: RawRecord, *, record: str | int | None = None, column: str
         elif segment is not None and segment != 1:
             raise ReadingError(raw.path, "the record holds one pluck", option="segment", value=segment,
                                **_context(raw, block, findings))
+    artifacts = taps[segment_index].artifacts if taps else clean(time_s, output, input_values)[1]
     return Record(
         path=raw.path, format=raw.format, time_s=np.ascontiguousarray(time_s), output_column=OUTPUT_COLUMN_OF[chosen.meaning.quantity],
         output=np.ascontiguousarray(output), signal=COMMAND_LINE.finding(signal_finding, title=False),
@@ -674,5 +697,30 @@ def build_record(raw: RawRecord, *, record: str | int | None = None, column: str
         input_column=INPUT_COLUMN_OF[input_column.meaning.quantity] if input_column is not None else None,
         input=np.ascontiguousarray(input_values) if input_values is not None else None,
         segments=segments, segment_index=segment_index, notes=notes, findings=findings, cleaning=cleaning,
-        records=records, arbitrary_units=chosen.meaning.arbitrary,
+        records=records, arbitrary_units=chosen.meaning.arbitrary, artifacts=artifacts, taps=taps,
     )
+
+
+def tap_segments(time_s: np.ndarray, output: np.ndarray, input_values: np.ndarray | None
+                 ) -> tuple[list[Segment], tuple[TapPiece, ...], list[str]]:
+    """The segments of one block (module notes, step 6), each as a tap with its own samples, and
+    what was done in words: plucks or taps (:func:`find_segments`), a free decay's split where its
+    swing jumps (:func:`beam.io.taps.split_at_disturbances`), each piece of a free decay from its
+    impact on (:func:`beam.io.taps.impact_start`)."""
+    segments = find_segments(time_s, output)
+    notes: list[str] = []
+    said = [""] * len(segments)
+    if input_values is None and output.size >= 16:
+        block_s = envelope_block_s(time_s, output)
+        pieces, notes = split_at_disturbances(time_s, output, [(s.start_s, s.end_s, s.peak) for s in segments], block_s)
+        segments = [Segment(impact_start(time_s, output, start, block_s), end, peak) for start, end, peak, _ in pieces]
+        said = [note for *_, note in pieces]
+    taps = []
+    for segment, note in zip(segments, said):
+        inside = (time_s >= segment.start_s) & (time_s <= segment.end_s)
+        t, y = time_s[inside] - segment.start_s, output[inside]
+        u = input_values[inside] if input_values is not None else None
+        artifacts = clean(t, y, u)[1]
+        taps.append(TapPiece(segment.start_s, segment.end_s, segment.peak, t, y, u,
+                             artifacts.with_note(note) if note else artifacts))
+    return segments, tuple(taps), notes
