@@ -74,6 +74,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+import scipy.ndimage
 import scipy.signal
 
 from beam.errors import BeamInputError
@@ -381,14 +382,21 @@ class _Record:
     bin_step_s: float
 
 
+#: Samples over which the local scale of the 4th differences is taken (:func:`_spikes`).
+SPIKE_WINDOW = 65
+
+
 def _spikes(t: np.ndarray, y: np.ndarray, valid: np.ndarray, threshold: float) -> np.ndarray:
-    """Spikes found by the centred 4th divided difference (weights annihilating any cubic through
-    five consecutive valid samples, unit norm): a sample whose centred difference is a local
-    maximum beyond ``threshold`` robust sd. A smooth signal's differences stay below the
-    threshold when it is sampled finely (their peak over their MAD is that of a sinusoid, ~1)."""
+    """Spikes: samples whose centred 4th divided difference (weights annihilating any cubic
+    through five consecutive valid samples, unit norm) is a local maximum more than
+    ``threshold`` times the local robust scale of the differences (1.4826 × their running
+    median absolute value over :data:`SPIKE_WINDOW` samples) and than their global one. A
+    sampled sinusoid's differences peak at about their own scale, so the signal, however
+    coarsely sampled, is never taken for a spike; a spike of size S moves its centred
+    difference by 0.72 S."""
     index = np.flatnonzero(valid)
     found = np.zeros(t.size, dtype=bool)
-    if index.size < 16:
+    if index.size < SPIKE_WINDOW:
         return found
     tv, yv = t[index], y[index]
     scale = float(np.median(np.diff(tv)))
@@ -400,8 +408,9 @@ def _spikes(t: np.ndarray, y: np.ndarray, valid: np.ndarray, threshold: float) -
                 weights[:, i] /= windows[:, i] - windows[:, j]
     weights /= np.linalg.norm(weights, axis=1, keepdims=True)
     d = np.abs(np.einsum("ij,ij->i", weights, np.lib.stride_tricks.sliding_window_view(yv, 5)))
-    sd = 1.4826 * float(np.median(d))
-    if not sd > 0:
+    local = 1.4826 * scipy.ndimage.median_filter(d, SPIKE_WINDOW, mode="nearest")
+    sd = np.maximum(local, 1.4826 * float(np.median(d)))
+    if not np.all(sd > 0):
         return found
     peak = (d > threshold * sd) & (d >= np.concatenate([[0.0], d[:-1]])) & (d >= np.concatenate([d[1:], [0.0]]))
     found[index[np.flatnonzero(peak) + 2]] = True
@@ -536,6 +545,7 @@ class _Fit:
     """Per block results of one line (all blocks, resolved or not)."""
 
     centre: np.ndarray
+    half: np.ndarray
     segment: np.ndarray
     s: np.ndarray  # complex s = -sigma + i omega (1/s)
     z: np.ndarray  # complex amplitude at the centre
@@ -654,26 +664,44 @@ def _fit_line(record: _Record, centres: np.ndarray, halves: np.ndarray, owner: n
     sigma_sd, omega_sd = np.sqrt(np.maximum(step_cov[:, 0, 0], 0)), np.sqrt(np.maximum(step_cov[:, 1, 1], 0))
     resolved = (snr >= settings.min_block_snr_db) & np.isfinite(snr) & (omega_sd < 0.02 * np.abs(s.imag)) & (
         count > p + 4)
-    return _Fit(centres, owner, s, z, amplitude_sd, omega_sd, sigma_sd, snr, np.sqrt(variance), resolved)
+    return _Fit(centres, halves, owner, s, z, amplitude_sd, omega_sd, sigma_sd, snr, np.sqrt(variance), resolved)
 
 
-def _block_length(frequency_Hz: float, sigma: float, settings: BackboneSettings) -> float:
-    """The block length (s) for a line: cycles_per_block periods, shortened to max_decay_per_block / sigma."""
+#: Cycles of the difference frequency a block spans at least, so that two lines are told apart in it.
+SEPARATION_CYCLES = 2.0
+
+
+def _block_length(frequency_Hz: float, sigma: float, separation_Hz: float, settings: BackboneSettings) -> float:
+    """The block length (s) for a line: :attr:`BackboneSettings.cycles_per_block` periods, or
+    :data:`SEPARATION_CYCLES` periods of its distance to the nearest other line if longer,
+    shortened to max_decay_per_block / sigma, and at least min_cycles_per_block periods."""
     length = settings.cycles_per_block / frequency_Hz
+    if separation_Hz > 0:
+        length = max(length, SEPARATION_CYCLES / separation_Hz)
     if sigma > 0:
         length = min(length, settings.max_decay_per_block / sigma)
     return max(length, settings.min_cycles_per_block / frequency_Hz)
 
 
+def _summary_s(fit: _Fit) -> complex:
+    """The median s over a line's resolved blocks."""
+    ok = fit.s[fit.resolved]
+    return complex(np.median(ok.real), np.median(ok.imag))
+
+
 def _follow(record: _Record, segments: list[tuple[int, int]], lines: list[float],
-            settings: BackboneSettings) -> list[_Fit]:
-    """Block fits of every line, two sweeps (the second with the others' s from the first)."""
+            settings: BackboneSettings) -> list[_Fit | None]:
+    """Block fits of every line in two sweeps, the second with the other lines' s read from the
+    first at each block; a line without a resolved block in the first sweep (noise) or that the
+    blocks cannot tell from a stronger one (closer than one cycle of their difference per block)
+    is dropped (None) and leaves the others' fits."""
     fits: list[_Fit | None] = [None] * len(lines)
-    s_global = [complex(0.0, 2 * np.pi * f) for f in lines]
+    active = list(range(len(lines)))
+    s_now = [complex(0.0, 2 * np.pi * f) for f in lines]
     for sweep in range(2):
-        for k, f in enumerate(lines):
+        for k in list(active):
             others = []
-            for j in range(len(lines)):
+            for j in active:
                 if j == k:
                     continue
                 previous = fits[j]
@@ -681,30 +709,35 @@ def _follow(record: _Record, segments: list[tuple[int, int]], lines: list[float]
                     ok = previous.resolved
                     others.append((previous.centre[ok], previous.s[ok]))
                 else:
-                    others.append((np.zeros(0), np.array(s_global[j])))
-            sigma = 0.0
-            if fits[k] is not None and fits[k].resolved.any():
-                sigma = float(np.median(-fits[k].s[fits[k].resolved].real))
-                s_start = complex(np.median(fits[k].s[fits[k].resolved].real), np.median(fits[k].s[fits[k].resolved].imag))
-            else:
-                s_start = s_global[k]
-            length = _block_length(f, max(sigma, 0.0), settings)
+                    others.append((np.zeros(0), np.array(s_now[j])))
+            f = abs(s_now[k]) / (2 * np.pi)
+            separation = min((abs(abs(s_now[j]) - abs(s_now[k])) / (2 * np.pi) for j in active if j != k), default=0.0)
+            sigma = max(-s_now[k].real, 0.0)
+            length = _block_length(f, sigma, separation, settings)
             centres, halves, owner = _place_blocks(record.t, segments, length, settings)
             if centres.size == 0:
                 fits[k] = None
                 continue
-            fit = _fit_line(record, centres, halves, owner, s_start, others, settings)
+            fit = _fit_line(record, centres, halves, owner, s_now[k], others, settings)
             if sweep == 0 and fit.resolved.any():
-                # a decay faster than the block allows: shorten the blocks and fit again
-                sigma = float(np.median(-fit.s[fit.resolved].real))
-                shorter = _block_length(f, max(sigma, 0.0), settings)
+                # a decay faster than the blocks allow: shorten them and fit again
+                shorter = _block_length(f, max(-_summary_s(fit).real, 0.0), separation, settings)
                 if shorter < 0.8 * length:
                     centres, halves, owner = _place_blocks(record.t, segments, shorter, settings)
                     if centres.size:
-                        fit = _fit_line(record, centres, halves, owner, s_start, others, settings)
+                        fit = _fit_line(record, centres, halves, owner, s_now[k], others, settings)
             fits[k] = fit
             if fit.resolved.any():
-                s_global[k] = complex(np.median(fit.s[fit.resolved].real), np.median(fit.s[fit.resolved].imag))
+                s_now[k] = _summary_s(fit)
+        if sweep == 0:
+            active = [k for k in active if fits[k] is not None and fits[k].resolved.any()]
+            for k in sorted(active, key=lambda k: float(np.max(np.abs(fits[k].z[fits[k].resolved])))):
+                fit = fits[k]
+                length = 2 * float(np.median(fit.half))
+                close = [j for j in active if j != k and abs(abs(s_now[j]) - abs(s_now[k])) / (2 * np.pi) * length < 1.0]
+                if close:  # the weaker of two lines the blocks cannot tell apart
+                    active.remove(k)
+            fits = [fits[k] if k in active else None for k in range(len(lines))]
     return fits
 
 
@@ -722,10 +755,27 @@ def _mains_harmonic(frequency_Hz: float, settings: BackboneSettings) -> float | 
 
 
 def _fall(fit: _Fit) -> float:
-    """Share of its amplitude a line loses from its first resolved block to its last (of segment 0)."""
+    """Share of its amplitude a line loses over its resolved blocks of its first segment, from a
+    weighted straight line through their log-amplitudes (weights (A / sd_A)²)."""
     ok = fit.resolved & (fit.segment == fit.segment[fit.resolved][0])
-    a = np.abs(fit.z[ok])
-    return float(1.0 - a[-1] / a[0]) if a.size >= 2 and a[0] > 0 else 0.0
+    a, sd, t = np.abs(fit.z[ok]), fit.amplitude_sd[ok], fit.centre[ok]
+    if a.size < 2 or not np.all(a > 0):
+        return 0.0
+    weight = (a / np.maximum(sd, 1e-300)) ** 2
+    slope = np.polyfit(t - t[0], np.log(a), 1, w=np.sqrt(weight))[0]
+    return float(1.0 - math.exp(min(slope * (t[-1] - t[0]), 50.0)))
+
+
+def _clean_stretch(valid: np.ndarray, clipped: np.ndarray) -> slice:
+    """The longest stretch without a clipped sample, when it holds at least a quarter of the
+    valid samples (a spectrum there has no distortion from the clipped runs), else everything."""
+    bad = np.flatnonzero(clipped)
+    if bad.size == 0:
+        return slice(0, valid.size)
+    bounds = np.concatenate([[-1], bad, [valid.size]])
+    longest = int(np.argmax(np.diff(bounds)))
+    a, b = int(bounds[longest]) + 1, int(bounds[longest + 1])
+    return slice(a, b) if np.count_nonzero(valid[a:b]) >= 0.25 * np.count_nonzero(valid) else slice(0, valid.size)
 
 
 def _empty_mode(number: int, frequency_Hz: float, note: str, order: int) -> ModeBackbone:
@@ -825,7 +875,10 @@ def identify_backbone(
         raise BeamInputError(f"the free decay has {int(np.count_nonzero(valid))} valid samples; at least 64 needed")
     step = float(np.median(np.diff(t)))
     rate = 1.0 / step
-    found = _spectral_lines(t[valid], y[valid], settings)
+    spikes = _spikes(t, y, valid, settings.spike_sd)
+    valid &= ~spikes
+    clean = _clean_stretch(valid, mask)
+    found = _spectral_lines(t[clean][valid[clean]], y[clean][valid[clean]], settings)
     asked = None if frequencies_Hz is None else np.asarray(frequencies_Hz, dtype=float)
     if asked is not None and (asked.ndim != 1 or not np.all(np.isfinite(asked)) or np.any(asked <= 0)):
         raise BeamInputError("frequencies_Hz must be positive finite frequencies (Hz)")
@@ -834,11 +887,7 @@ def identify_backbone(
                       for i, f in enumerate(asked if asked is not None else []))
         return FreeDecayBackbone(modes, (), output, (), clipped_count, 0, rate, rate, float("nan"))
     lines = sorted(f for f, _ in found)
-    spikes = np.zeros(t.size, dtype=bool)
     q = int(rate / (settings.samples_per_period * max(lines)))
-    if q >= 2 or rate > 20 * max(lines):
-        spikes = _spikes(t, y, valid, settings.spike_sd)
-        valid &= ~spikes
     segments = _segments(t, y, valid, 1.0 / min(lines), first)
     if q >= 2:
         record = _binned(t, y, valid, q)
