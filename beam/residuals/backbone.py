@@ -74,6 +74,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+import scipy.interpolate
 import scipy.ndimage
 import scipy.signal
 
@@ -301,10 +302,10 @@ class SpectralLine:
         Its frequency over the blocks (Hz).
     kind : str
         ``"hum"`` (a mains harmonic of constant amplitude), ``"harmonic"`` (n × a stronger
-        line, decaying faster than it) or ``"unmatched"`` (a decaying line none of the asked
-        modes matched).
+        line, decaying faster than it), ``"unmatched"`` (a decaying line none of the asked
+        modes matched) or ``"unresolved"`` (a spectral peak too few blocks resolve).
     amplitude : float
-        Its median amplitude over its blocks (the record's unit).
+        Its median amplitude over its usable blocks (the record's unit; 0 when none is).
     note : str
         What it is, in words.
     """
@@ -431,6 +432,14 @@ def _binned(t: np.ndarray, y: np.ndarray, valid: np.ndarray, q: int) -> _Record:
     return _Record(tb[keep], yb[keep], np.ones(int(keep.sum()), dtype=bool), q, step)
 
 
+def _prepared(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tuple[int, int]],
+              q: int) -> tuple[_Record, list[tuple[int, int]]]:
+    """The record binned by ``q`` (:func:`_binned`; as it is for q = 1) and its segments' index ranges in it."""
+    record = _binned(t, y, valid, q) if q > 1 else _Record(t, y, valid.copy(), 1, float(np.median(np.diff(t))))
+    cut = [int(np.searchsorted(record.t, t[a])) for a, _ in segments] + [record.t.size]
+    return record, [(cut[i], max(cut[i + 1], cut[i])) for i in range(len(segments))]
+
+
 def _dirichlet(frequency_Hz: float, q: int, step_s: float) -> float:
     """Gain of the mean of q samples spaced ``step_s`` at ``frequency_Hz``."""
     if q <= 1:
@@ -454,50 +463,83 @@ MAIN_LOBE_BINS = 5.0
 ZERO_PADDING = 4
 
 
+#: A line found in what the first lines leave is new when further than this (relative) from each of them.
+HIDDEN_SEPARATION = 0.03
+#: Least height over the floor of a peak of the one-sided periodogram of the release (dB): one
+#: segment, no averaging, so white noise reaches 10 dB over its 25th percentile in 5 % of the
+#: bins and 17 dB in 5e-7 of them.
+RELEASE_HEIGHT_DB = 17.0
+
+
+def _floor(frequency: np.ndarray, log_psd: np.ndarray) -> np.ndarray:
+    """The spectrum's floor (dB): the :data:`FLOOR_PERCENTILE` th percentile of the log-PSD in bands
+    of 1/:data:`FLOOR_BANDS_PER_DECADE` decade, interpolated in log frequency."""
+    positive = frequency > 0
+    decades = np.log10(frequency[positive])
+    band = np.floor(decades * FLOOR_BANDS_PER_DECADE).astype(int)
+    labels, start = np.unique(band, return_index=True)
+    floors = np.array([np.percentile(part, FLOOR_PERCENTILE) for part in np.split(log_psd[positive], start[1:])])
+    floor = np.full(frequency.size, floors[0])
+    floor[positive] = np.interp(decades, (labels + 0.5) / FLOOR_BANDS_PER_DECADE, floors)
+    return floor
+
+
+def _peaks(frequency: np.ndarray, density: np.ndarray, low: float, high: float,
+           min_height_db: float) -> list[tuple[float, float]]:
+    """(frequency (Hz), height over :func:`_floor` (dB)) of the peaks of a PSD at least
+    :data:`MIN_PEAK_PROMINENCE_DB` above their dips and ``min_height_db`` above the floor, in
+    [low, high] Hz."""
+    log_psd = 10 * np.log10(np.maximum(density, max(float(density.max()), 1e-300) * 1e-30))
+    floor = _floor(frequency, log_psd)
+    peaks, _ = scipy.signal.find_peaks(log_psd, prominence=MIN_PEAK_PROMINENCE_DB)
+    height = log_psd[peaks] - floor[peaks]
+    keep = (frequency[peaks] >= low) & (frequency[peaks] <= high) & (height >= min_height_db)
+    return [(refine_peak(frequency, log_psd, int(i)), float(h)) for i, h in zip(peaks[keep], height[keep])]
+
+
 def _spectral_lines(t: np.ndarray, y: np.ndarray, settings: BackboneSettings) -> list[tuple[float, float]]:
-    """(frequency (Hz), height over the floor (dB)) of the highest peaks of the record's Welch
-    spectrum, highest first.
+    """(frequency (Hz), height over the floor (dB)) of the highest peaks of the record's spectra,
+    highest first.
 
     The valid samples are put on a uniform grid at their median step
-    (:func:`beam.io.anchor.uniform_grid`), a cubic trend removed, and their Welch PSD taken with
-    a 4-term Blackman–Harris window (sidelobes −92 dB, so that a line 60 dB above the noise
-    puts no false peak beside it; segments the largest power of two ≤ n / 2, 50 % overlap,
-    zero-padded :data:`ZERO_PADDING` ×). A peak counts when it stands
-    :attr:`BackboneSettings.min_prominence_db` above the spectrum's floor — the
-    :data:`FLOOR_PERCENTILE` th percentile of the log-PSD in bands of
-    1/:data:`FLOOR_BANDS_PER_DECADE` decade, interpolated in log frequency (a Welch spectrum of a
-    few segments has dips 20 dB deep in white noise: prominences alone pick noise) — and
-    :data:`MIN_PEAK_PROMINENCE_DB` above its own dips, outside the main lobe of a higher peak;
-    between 8 cycles of the record and 0.9 × Nyquist.
+    (:func:`beam.io.anchor.uniform_grid`) and a cubic trend removed. Two spectra, with the
+    4-term Blackman–Harris window (sidelobes −92 dB, so that a line 60 dB above the noise puts
+    no false peak beside it), segments of the largest power of two ≤ n / 2 zero-padded
+    :data:`ZERO_PADDING` ×:
+
+    * the Welch PSD (50 % overlap): lines that last;
+    * the periodogram of one segment from the release (the record's largest excursion in its
+      first half) under the window's descending half: a tapered window hides what decays
+      within its rising flank — a 215 Hz strip mode (ζ = 0.005) gone in 0.3 s did not show in
+      the Welch PSD.
+
+    A peak counts when it stands :attr:`BackboneSettings.min_prominence_db` (the Welch PSD) or
+    :data:`RELEASE_HEIGHT_DB` (the release's) above the spectrum's floor (:func:`_floor`; a
+    Welch spectrum of a few segments has dips 20 dB deep in white noise: prominences alone pick
+    noise) and :data:`MIN_PEAK_PROMINENCE_DB` above its own dips, outside the main lobe of a
+    higher peak; between 8 cycles of the record and 0.9 × Nyquist.
     """
     detrended = y - np.polyval(np.polyfit(t - t[0], y, 3), t - t[0])
     if detrended.size < 256:
         return []
     grid, step = uniform_grid(t, detrended)
     nperseg = int(2 ** int(np.floor(np.log2(max(grid.size / 2, 16)))))
-    frequency, density = scipy.signal.welch(grid, fs=1.0 / step, window="blackmanharris", nperseg=nperseg,
-                                            noverlap=nperseg // 2, nfft=ZERO_PADDING * nperseg, detrend="constant")
     resolution = 1.0 / (nperseg * step)
     low = max(8.0 / (grid.size * step), MAIN_LOBE_BINS * resolution)
     high = 0.45 / step
-    log_psd = 10 * np.log10(np.maximum(density, max(float(density.max()), 1e-300) * 1e-30))
-    positive = frequency > 0
-    decades = np.log10(frequency[positive])
-    band = np.floor(decades * FLOOR_BANDS_PER_DECADE).astype(int)
-    labels, start = np.unique(band, return_index=True)
-    floors = np.array([np.percentile(part, FLOOR_PERCENTILE) for part in np.split(log_psd[positive], start[1:])])
-    centres = (labels + 0.5) / FLOOR_BANDS_PER_DECADE
-    floor = np.full(frequency.size, floors[0])
-    floor[positive] = np.interp(decades, centres, floors)
-    peaks, _ = scipy.signal.find_peaks(log_psd, prominence=MIN_PEAK_PROMINENCE_DB)
-    height = log_psd[peaks] - floor[peaks]
-    keep = (frequency[peaks] >= low) & (frequency[peaks] <= high) & (height >= settings.min_prominence_db)
-    peaks, height = peaks[keep], height[keep]
+    frequency, density = scipy.signal.welch(grid, fs=1.0 / step, window="blackmanharris", nperseg=nperseg,
+                                            noverlap=nperseg // 2, nfft=ZERO_PADDING * nperseg, detrend="constant")
+    found = _peaks(frequency, density, low, high, settings.min_prominence_db)
+    release = int(np.argmax(np.abs(grid[: grid.size // 2])))
+    segment = grid[release: release + nperseg]
+    half = scipy.signal.get_window("blackmanharris", 2 * segment.size, fftbins=False)[segment.size:]
+    frequency, density = scipy.signal.periodogram(segment, fs=1.0 / step, window=half,
+                                                  nfft=ZERO_PADDING * nperseg, detrend="constant")
+    found += _peaks(frequency, density, low, high, RELEASE_HEIGHT_DB)
     accepted: list[tuple[float, float]] = []
-    for i in np.argsort(height)[::-1]:
-        f = refine_peak(frequency, log_psd, int(peaks[i]))
+    for f, h in sorted(found, key=lambda p: -p[1]):
         if all(abs(f - g) > MAIN_LOBE_BINS * resolution for g, _ in accepted):
-            accepted.append((f, float(height[i])))
+            accepted.append((f, h))
         if len(accepted) == settings.max_lines:
             break
     return accepted
@@ -555,18 +597,27 @@ class _Fit:
     snr_db: np.ndarray
     residual_sd: np.ndarray
     resolved: np.ndarray
+    #: Blocks determined well enough to subtract the line and to judge what it is (>= USABLE_DB).
+    usable: np.ndarray
 
 
-def _place_blocks(t: np.ndarray, segments: list[tuple[int, int]], length_s: float,
-                  settings: BackboneSettings) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Centres (s), half-lengths (s) and segment numbers of the blocks of one line."""
+def _place_blocks(t: np.ndarray, segments: list[tuple[int, int]], length_s: float, settings: BackboneSettings,
+                  ends_s: list[float] | None = None, most: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centres (s), half-lengths (s) and segment numbers of the blocks of one line: from each
+    segment's start to its end (or ``ends_s``, where the line falls below the noise), a hop of
+    (1 − overlap) blocks or longer to keep at most ``most`` (default max_blocks) per segment."""
+    most = settings.max_blocks if most is None else most
     centres, halves, owner = [], [], []
     for number, (a, b) in enumerate(segments):
+        if b <= a:
+            continue
         t0, t1 = t[a], t[b - 1]
+        if ends_s is not None:
+            t1 = min(t1, ends_s[number])
         span = t1 - t0
         if span < length_s:
             continue
-        hop = max(length_s * (1.0 - settings.overlap), (span - length_s) / max(settings.max_blocks - 1, 1))
+        hop = max(length_s * (1.0 - settings.overlap), (span - length_s) / max(most - 1, 1))
         count = int(math.floor((span - length_s) / hop)) + 1
         c = t0 + 0.5 * length_s + hop * np.arange(count)
         centres.append(c)
@@ -575,6 +626,33 @@ def _place_blocks(t: np.ndarray, segments: list[tuple[int, int]], length_s: floa
     if not centres:
         return np.zeros(0), np.zeros(0), np.zeros(0, dtype=int)
     return np.concatenate(centres), np.concatenate(halves), np.concatenate(owner)
+
+
+def _life(fit: _Fit, segments_s: list[tuple[float, float]], settings: BackboneSettings) -> list[float]:
+    """Where the line falls below the noise in each segment (s): after the first run of
+    consecutive usable blocks (a decaying line's usable blocks follow each other from the
+    release; a lone usable block later is noise), by the time its median decay rate takes to
+    bring the run's last amplitude z-score down to :data:`USABLE_DB`, plus two half-blocks; the
+    segment's end when no block of it is usable or the line does not decay (median σ ≤ 0)."""
+    floor = 10 ** (USABLE_DB / 20)
+    ends = []
+    for number, (_, stop) in enumerate(segments_s):
+        index = np.flatnonzero(fit.segment == number)
+        ok = fit.usable[index]
+        if not ok.any():
+            ends.append(stop)
+            continue
+        first = int(np.argmax(ok))
+        run_end = first + (int(np.argmin(ok[first:])) if not ok[first:].all() else int(ok[first:].size))
+        run = index[first:run_end]
+        sigma = float(np.median(-fit.s.real[run]))
+        if sigma <= 0:
+            ends.append(stop)
+            continue
+        last = run[-1]
+        z = abs(fit.z[last]) / max(float(fit.amplitude_sd[last]), 1e-300)
+        ends.append(float(min(stop, fit.centre[last] + math.log(max(z / floor, 1.0)) / sigma + 2 * fit.half[last])))
+    return ends
 
 
 def _gather(record: _Record, centres: np.ndarray, halves: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -602,6 +680,18 @@ def _line_columns(tau: np.ndarray, u: np.ndarray, s: np.ndarray, powers: int = 2
     return np.stack(pairs, axis=2)
 
 
+#: A block's frequency stays within this share of its line's (and within half the distance to the
+#: nearest other line): beyond, in a block of noise, the fit wanders to where two nearly collinear
+#: lines cancel with large amplitudes.
+REACH = 0.1
+#: A block whose amplitude is at least this far above its standard error (dB) is used to subtract
+#: its line from the others' blocks and to judge what the line is, though it is not shown on the
+#: curves below min_block_snr_db: a line the spectrum shows but no block resolves (weak hum) would
+#: otherwise stay in the data of every line below it.
+USABLE_DB = 10.0
+#: Largest |σ| T of a block's fit: a block whose envelope would change by more than e^3 over its
+#: length holds no damped sinusoid (it is noise, or a jump) and is not resolved.
+MAX_BLOCK_DECAY = 3.0
 #: Column pairs of the followed line in its blocks: (Z + U u + W u²) e^{sτ}. The quadratic term
 #: takes the curvature of the envelope inside a block (a damping that changes with the
 #: amplitude), so that Z and U are the envelope and its slope at the centre: on the drag's
@@ -609,21 +699,39 @@ def _line_columns(tau: np.ndarray, u: np.ndarray, s: np.ndarray, powers: int = 2
 TARGET_POWERS = 3
 
 
-def _solve(columns: np.ndarray, y: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted least squares of every block at once: coefficients (B, p) and (X^T W X)^-1 (B, p, p)."""
-    xw = columns * weight[:, :, None]
-    gram = np.matmul(np.swapaxes(xw, 1, 2), columns)
-    rhs = np.einsum("bnp,bn->bp", xw, y)
+#: Ridge added to a block's normal matrix scaled to a unit diagonal (:func:`_solve`): a slow line
+#: over a short block and the drift polynomial span nearly the same curves; the ridge leaves the
+#: well-determined coefficients (the followed line's) as they are and shrinks the others'
+#: undetermined combinations towards zero instead of amplifying rounding.
+RIDGE = 1e-10
+
+
+def _products(columns: np.ndarray, other: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """columns^T W other for every block: (B, p, q)."""
+    return np.matmul(np.ascontiguousarray(np.swapaxes(columns * weight[:, :, None], 1, 2)), other)
+
+
+def _solve(gram: np.ndarray, rhs: np.ndarray, wanted: int) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients (B, p) of every block's normal equations ``gram`` (B, p, p) c = ``rhs`` (B, p),
+    ridged (:data:`RIDGE`) after scaling to a unit diagonal, and the first ``wanted`` columns of
+    the inverse (B, p, wanted): one batched :func:`numpy.linalg.solve` (4× cheaper than the
+    inverse, 20× cheaper than a batched ``eigh`` under OpenBLAS's threads)."""
     scale = np.sqrt(np.maximum(np.einsum("bpp->bp", gram), 1e-300))
-    normal = gram / (scale[:, :, None] * scale[:, None, :]) + 1e-12 * np.eye(gram.shape[1])[None]
-    inverse = np.linalg.inv(normal) / (scale[:, :, None] * scale[:, None, :])
-    return np.einsum("bpq,bq->bp", inverse, rhs), inverse
+    normal = gram / (scale[:, :, None] * scale[:, None, :]) + RIDGE * np.eye(gram.shape[1])[None]
+    unit = np.broadcast_to(np.eye(gram.shape[1])[:, :wanted], (gram.shape[0], gram.shape[1], wanted))
+    right = np.concatenate([(rhs / scale)[:, :, None], unit / scale[:, :, None]], axis=2)
+    solved = np.linalg.solve(normal, right) / scale[:, :, None]
+    return solved[:, :, 0], solved[:, :, 1:]
 
 
 def _fit_line(record: _Record, centres: np.ndarray, halves: np.ndarray, owner: np.ndarray, s0: complex,
-              others: list[tuple[np.ndarray, np.ndarray]], settings: BackboneSettings) -> _Fit:
+              others: list[tuple[np.ndarray, np.ndarray]], settings: BackboneSettings, reach_Hz: float) -> _Fit:
     """The blocks of one line: Gauss–Newton on its s in each block, the other lines (their s at
-    each block, ``others``: (block times, s) to interpolate) and the drift as linear columns."""
+    each block, ``others``: (block times, s) to interpolate) and the drift as linear columns.
+
+    The normal matrix is kept in blocks: the fixed columns' part (the drift and the other lines)
+    is formed once (again after the spikes leave), each iteration forms only the followed line's
+    rows: its 2 TARGET_POWERS columns against everything."""
     tau, y, weight = _gather(record, centres, halves)
     u = tau / halves[:, None]
     drift = np.stack([u**k for k in range(settings.drift_order + 1)], axis=2)
@@ -633,36 +741,53 @@ def _fit_line(record: _Record, centres: np.ndarray, halves: np.ndarray, owner: n
                 if times.size else np.full(centres.size, s_other))
         nuisance.append(_line_columns(tau, u, s_at))
     fixed = np.concatenate(nuisance, axis=2)
+    width = 2 * TARGET_POWERS
+    fixed_gram = _products(fixed, fixed, weight)
+    fixed_rhs = _products(fixed, y[:, :, None], weight)[:, :, 0]
     s = np.full(centres.size, complex(s0))
     omega_limit = 0.05 * abs(s0.imag)
+    reach = 2 * np.pi * reach_Hz  # how far a block's frequency may go from the line's
     for iteration in range(settings.iterations + 1):
-        columns = np.concatenate([_line_columns(tau, u, s, TARGET_POWERS), fixed], axis=2)
-        coefficients, inverse = _solve(columns, y, weight)
-        residual = (y - np.einsum("bnp,bp->bn", columns, coefficients)) * weight
+        target = _line_columns(tau, u, s, TARGET_POWERS)
+        cross = _products(target, np.concatenate([target, fixed], axis=2), weight)  # (B, width, p)
+        gram = np.concatenate([cross, np.concatenate([np.swapaxes(cross[:, :, width:], 1, 2), fixed_gram], axis=2)],
+                              axis=1)
+        rhs = np.concatenate([_products(target, y[:, :, None], weight)[:, :, 0], fixed_rhs], axis=1)
+        coefficients, inverse = _solve(gram, rhs, 4)
+        if iteration == 1 or iteration == settings.iterations:
+            fitted = np.matmul(target, coefficients[:, :width, None])[:, :, 0] + np.matmul(
+                fixed, coefficients[:, width:, None])[:, :, 0]
+            residual = (y - fitted) * weight
         if iteration == 1:  # spikes: residuals beyond spike_sd robust sd leave the block
             absolute = np.where(weight > 0, np.abs(residual), np.nan)
             robust = 1.4826 * np.nanmedian(absolute, axis=1)
             outlier = absolute > settings.spike_sd * robust[:, None]
-            weight = np.where(outlier, 0.0, weight)
-            y = y * (weight > 0)
+            if outlier.any():
+                weight = np.where(outlier, 0.0, weight)
+                y = y * (weight > 0)
+                fixed_gram = _products(fixed, fixed, weight)
+                fixed_rhs = _products(fixed, y[:, :, None], weight)[:, :, 0]
         z = coefficients[:, 0] + 1j * coefficients[:, 1]
         v = coefficients[:, 2] + 1j * coefficients[:, 3]
-        if iteration == settings.iterations:
-            break
         with np.errstate(divide="ignore", invalid="ignore"):
             step = np.where(np.abs(z) > 0, v / (z * halves), 0.0)
         step = np.clip(step.real, -omega_limit, omega_limit) + 1j * np.clip(step.imag, -omega_limit, omega_limit)
         s = s + np.nan_to_num(step)
+        # a block's envelope changes by at most e^MAX_BLOCK_DECAY over its length: beyond, it is no
+        # damped sinusoid (noise, a jump)
+        sigma = np.clip(-s.real, -MAX_BLOCK_DECAY / (2 * halves), MAX_BLOCK_DECAY / (2 * halves))
+        s = -sigma + 1j * np.clip(s.imag, s0.imag - reach, s0.imag + reach)
+    columns = fixed.shape[2] + width
     # final: covariance of (Z, U) scaled by the residual variance and its AR(1) colour at the line
     count = weight.sum(axis=1)
-    p = columns.shape[2]
+    p = columns
     variance = (residual**2).sum(axis=1) / np.maximum(count - p, 1.0)
     lagged = (residual[:, 1:] * residual[:, :-1]).sum(axis=1)
     rho = np.clip(lagged / np.maximum((residual**2).sum(axis=1), 1e-300), -0.95, 0.95)
     dt = np.maximum(np.nanmedian(np.where(weight[:, 1:] > 0, np.diff(tau, axis=1), np.nan), axis=1), 1e-300)
     colour = (1 - rho**2) / (1 - 2 * rho * np.cos(s.imag * dt) + rho**2)
     variance = variance * np.maximum(colour, 1.0)
-    cov = inverse[:, :4, :4] * variance[:, None, None]
+    cov = inverse[:, :4, :] * variance[:, None, None]
     magnitude = np.abs(z)
     unit = np.where(magnitude[:, None] > 0, np.stack([z.real, z.imag], axis=1) / np.maximum(magnitude, 1e-300)[:, None], 0)
     # amplitude sd along Z; the step's sd: U / (Z h) rotated by -arg Z
@@ -671,17 +796,27 @@ def _fit_line(record: _Record, centres: np.ndarray, halves: np.ndarray, owner: n
     step_cov = np.einsum("bij,bjk,blk->bil", rotation, cov[:, 2:, 2:], rotation) / (
         np.maximum(magnitude, 1e-300) * halves)[:, None, None] ** 2
     with np.errstate(divide="ignore", invalid="ignore"):
-        snr = 10 * np.log10(magnitude**2 * count / (2 * np.maximum(variance, 1e-300)))
+        snr = 20 * np.log10(magnitude / np.maximum(amplitude_sd, 1e-300))
     sigma_sd, omega_sd = np.sqrt(np.maximum(step_cov[:, 0, 0], 0)), np.sqrt(np.maximum(step_cov[:, 1, 1], 0))
-    resolved = (snr >= settings.min_block_snr_db) & np.isfinite(snr) & (omega_sd < 0.02 * np.abs(s.imag)) & (
-        count > p + 4)
-    return _Fit(centres, halves, owner, s, z, amplitude_sd, omega_sd, sigma_sd, snr, np.sqrt(variance), resolved)
+    inside = (np.abs(s.real) * 2 * halves < MAX_BLOCK_DECAY * (1 - 1e-9)) & (np.abs(s.imag - s0.imag) < reach * (1 - 1e-9))
+    usable = (snr >= USABLE_DB) & np.isfinite(snr) & (omega_sd < 0.05 * np.abs(s.imag)) & (
+        count > p + 4) & inside & np.isfinite(magnitude)
+    resolved = usable & (snr >= settings.min_block_snr_db) & (omega_sd < 0.02 * np.abs(s.imag))
+    return _Fit(centres, halves, owner, s, z, amplitude_sd, omega_sd, sigma_sd, snr, np.sqrt(variance), resolved,
+                usable)
 
 
 #: Cycles of the difference frequency a block spans at least, so that two lines are told apart in it.
 SEPARATION_CYCLES = 2.0
 
 
+#: Block length (s) of a line at a mains harmonic whose first blocks show no decay: its amplitude
+#: is constant and long blocks resolve a weak hum line that 8 of its cycles do not.
+HUM_BLOCK_S = 1.0
+#: ... at most this many per segment (its constancy and frequency need no more), binned to this
+#: many samples per period (the bins' Dirichlet gain, 0.90 at 4, is corrected).
+HUM_BLOCKS = 8
+HUM_SAMPLES_PER_PERIOD = 4.0
 #: Fewest samples per fitted column in a block.
 SAMPLES_PER_COLUMN = 3.0
 
@@ -701,63 +836,149 @@ def _block_length(frequency_Hz: float, sigma: float, separation_Hz: float, short
 
 
 def _summary_s(fit: _Fit) -> complex:
-    """The median s over a line's resolved blocks."""
-    ok = fit.s[fit.resolved]
+    """The median s over a line's resolved blocks (its usable ones when none is resolved)."""
+    ok = fit.s[fit.resolved] if fit.resolved.any() else fit.s[fit.usable]
     return complex(np.median(ok.real), np.median(ok.imag))
 
 
-def _follow(record: _Record, segments: list[tuple[int, int]], lines: list[float], heights: list[float],
-            settings: BackboneSettings) -> list[_Fit | None]:
-    """Block fits of every line in two sweeps, the second with the other lines' s read from the
-    first at each block; a line without a resolved block in the first sweep (noise) or that the
-    blocks cannot tell from a stronger one (closer than one cycle of their difference per block)
-    (the lower spectral peak, ``heights`` in dB) is dropped (None) and leaves the others' fits."""
+def _reconstruct(fit: _Fit, gain: float, t: np.ndarray, segments_s: list[tuple[float, float]]) -> np.ndarray:
+    """The line at stamps ``t`` from its usable blocks (the record's unit).
+
+    Over each run of consecutive usable blocks of a segment (no more than 1.5 hops apart), its
+    phase is the cubic Hermite interpolant of the blocks' phases (unwrapped by their mean
+    frequency, McAulay & Quatieri 1986) and frequencies, its amplitude log-linear between
+    theirs; for one block length before a run and two after it, the nearest block's own
+    sinusoid, its amplitude never growing away from the block; zero elsewhere (where the line is
+    below the noise).
+    """
+    out = np.zeros(t.size)
+    for number, (start, stop) in enumerate(segments_s):
+        mine = fit.segment == number
+        if not (fit.usable & mine).any():
+            continue
+        hop = float(np.median(np.diff(fit.centre[mine]))) if mine.sum() > 1 else np.inf
+        index = np.flatnonzero(fit.usable & mine)
+        breaks = np.flatnonzero(np.diff(fit.centre[index]) > 1.5 * hop) + 1
+        for run in np.split(index, breaks):
+            c, z, sv = fit.centre[run], fit.z[run] / gain, fit.s[run]
+            length = 2 * float(np.median(fit.half[run]))
+            lo, first, last, hi = np.searchsorted(t, [max(start, c[0] - length), c[0], c[-1], min(stop, c[-1] + 2 * length)])
+            hi = int(np.searchsorted(t, min(stop, c[-1] + 2 * length), side="right"))
+            for part, (i, j), block in (("before", (lo, first), 0), ("after", (last, hi), -1)):
+                d = t[i:j] - c[block]
+                growth = np.clip(sv[block].real * d, -50.0, 0.0)  # never growing away from the block
+                out[i:j] = np.real(z[block] * np.exp(growth + 1j * sv[block].imag * d))
+            if c.size >= 2:
+                phase = np.angle(z)
+                for i in range(1, c.size):  # unwrap: the turns the mean frequency predicts
+                    predicted = phase[i - 1] + 0.5 * (sv[i - 1].imag + sv[i].imag) * (c[i] - c[i - 1])
+                    phase[i] += 2 * np.pi * np.round((predicted - phase[i]) / (2 * np.pi))
+                between = t[first:last]
+                theta = scipy.interpolate.CubicHermiteSpline(c, phase, sv.imag)(between)
+                log_a = np.interp(between, c, np.log(np.maximum(np.abs(z), 1e-300)))
+                out[first:last] = np.exp(log_a) * np.cos(theta)
+    return out
+
+
+def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tuple[int, int]], lines: list[float],
+            heights: list[float], settings: BackboneSettings, previous: dict[float, tuple] | None = None
+            ) -> tuple[list[_Fit | None], list[float], list[int], dict[float, tuple]]:
+    """Block fits of every line, highest frequency first, in two sweeps (one when ``previous``
+    holds the fits of an earlier call by line frequency: they start this one).
+
+    For each line the lines above it are subtracted (:func:`_reconstruct` from their fits of
+    this sweep), the rest averaged over bins of q samples (at least
+    :attr:`BackboneSettings.samples_per_period` bins per period of the line: the fit sees only
+    the line and the lines below it, which are columns of its blocks, their s from their last
+    fits). A line without a resolved block in the first sweep (noise), or that its blocks cannot
+    tell from a line of a higher spectral peak (``heights``, dB) closer than one cycle of their
+    difference per block, is dropped (None) and leaves the others' fits.
+
+    Returns the fits, the bins' gain at each line, each line's q, and what a later call may
+    start from.
+    """
+    step = float(np.median(np.diff(t)))
+    rate = 1.0 / step
     fits: list[_Fit | None] = [None] * len(lines)
-    active = list(range(len(lines)))
-    step = float(np.median(np.diff(record.t)))
+    plans: list[tuple[float, list[float]] | None] = [None] * len(lines)
+    most: list[int | None] = [None] * len(lines)
+    gains = [1.0] * len(lines)
+    bins = [1] * len(lines)
+    active = sorted(range(len(lines)), key=lambda k: -lines[k])
     s_now = [complex(0.0, 2 * np.pi * f) for f in lines]
-    for sweep in range(2):
+    for k, f in enumerate(lines):
+        if previous is not None and f in previous:
+            fits[k], plans[k], s_now[k], most[k] = previous[f]
+    segments_s = [(float(t[a]), float(t[b - 1])) for a, b in segments]
+    for sweep in range(1 if previous is not None else 2):
+        contributions: dict[int, np.ndarray] = {}
         for k in list(active):
+            f = abs(s_now[k]) / (2 * np.pi)
+            higher = [j for j in active if lines[j] > lines[k] and j in contributions]
+            lower = [j for j in active if lines[j] < lines[k]]
+            residual = y - sum((contributions[j] for j in higher), np.zeros(t.size))
+            per_period = settings.samples_per_period if most[k] is None else HUM_SAMPLES_PER_PERIOD
+            q = max(1, int(rate / (per_period * f)))
+            record, fit_segments = _prepared(t, residual, valid, segments, q)
             others = []
-            for j in active:
-                if j == k:
-                    continue
+            for j in lower:
                 previous = fits[j]
-                if previous is not None and previous.resolved.any():
-                    ok = previous.resolved
+                if previous is not None and previous.usable.any():
+                    ok = previous.usable
                     others.append((previous.centre[ok], previous.s[ok]))
                 else:
                     others.append((np.zeros(0), np.array(s_now[j])))
-            f = abs(s_now[k]) / (2 * np.pi)
-            separation = min((abs(abs(s_now[j]) - abs(s_now[k])) / (2 * np.pi) for j in active if j != k), default=0.0)
-            sigma = max(-s_now[k].real, 0.0)
-            columns = 2 * TARGET_POWERS + settings.drift_order + 1 + 4 * (len(active) - 1)
-            shortest = SAMPLES_PER_COLUMN * columns * step
-            length = _block_length(f, sigma, separation, shortest, settings)
-            centres, halves, owner = _place_blocks(record.t, segments, length, settings)
+            neighbours = [abs(abs(s_now[j]) - abs(s_now[k])) / (2 * np.pi) for j in active if j != k]
+            separation = min(neighbours, default=0.0)
+            reach = min(0.5 * separation if separation > 0 else np.inf, REACH * f)
+            columns = 2 * TARGET_POWERS + settings.drift_order + 1 + 4 * len(lower)
+            shortest = SAMPLES_PER_COLUMN * columns * step * q
+            length = _block_length(f, max(-s_now[k].real, 0.0), separation, shortest, settings)
+            ends = plans[k][1] if plans[k] is not None else None
+            if plans[k] is not None:
+                length = plans[k][0]
+            centres, halves, owner = _place_blocks(record.t, fit_segments, length, settings, ends, most[k])
             if centres.size == 0:
                 fits[k] = None
                 continue
-            fit = _fit_line(record, centres, halves, owner, s_now[k], others, settings)
-            if sweep == 0 and fit.resolved.any():
-                # a decay faster than the blocks allow: shorten them and fit again
+            fit = _fit_line(record, centres, halves, owner, s_now[k], others, settings, reach)
+            if fit.usable.any():
+                # blocks as long as the line's decay allows, where it lives: fit again when the
+                # plan changes (a line that dies early, decays fast, or lives longer than planned)
                 shorter = _block_length(f, max(-_summary_s(fit).real, 0.0), separation, shortest, settings)
-                if shorter < 0.8 * length:
-                    centres, halves, owner = _place_blocks(record.t, segments, shorter, settings)
+                ok = fit.usable
+                if _mains_harmonic(f, settings) is not None and abs(float(np.median(fit.s.real[ok]))) < 3 * float(
+                        np.median(fit.sigma_sd[ok])):
+                    shorter = max(shorter, HUM_BLOCK_S)  # a line that does not decay: long blocks resolve it
+                    most[k] = HUM_BLOCKS
+                    q = max(1, int(rate / (HUM_SAMPLES_PER_PERIOD * f)))
+                    record, fit_segments = _prepared(t, residual, valid, segments, q)
+                    shortest = SAMPLES_PER_COLUMN * columns * step * q
+                    length = 0.0  # fit again
+                lives = _life(fit, segments_s, settings)
+                span = sum(e - t[a] for e, (a, _) in zip(lives, segments))
+                planned = sum((t[b - 1] if ends is None else min(e, t[b - 1])) - t[a]
+                              for e, (a, b) in zip(ends or [np.inf] * len(segments), segments))
+                if length <= 0 or abs(shorter / length - 1) > 0.2 or abs(span / max(planned, 1e-300) - 1) > 0.3:
+                    centres, halves, owner = _place_blocks(record.t, fit_segments, shorter, settings, lives, most[k])
                     if centres.size:
-                        fit = _fit_line(record, centres, halves, owner, s_now[k], others, settings)
-            fits[k] = fit
-            if fit.resolved.any():
+                        fit = _fit_line(record, centres, halves, owner, s_now[k], others, settings, reach)
+                plans[k] = (shorter, lives)
+            fits[k], bins[k] = fit, q
+            gains[k] = _dirichlet(f, q, step)
+            if fit.usable.any():
                 s_now[k] = _summary_s(fit)
+                contributions[k] = _reconstruct(fit, gains[k], t, segments_s)
         if sweep == 0:
-            active = [k for k in active if fits[k] is not None and fits[k].resolved.any()]
+            active = [k for k in active if fits[k] is not None and fits[k].usable.any()]
             for k in sorted(active, key=lambda k: heights[k]):
-                length = 2 * float(np.median(fits[k].half))
+                length = 2 * float(np.median(fits[k].half)) * bins[k] / max(bins[k], 1)
                 close = [j for j in active if j != k and abs(abs(s_now[j]) - abs(s_now[k])) / (2 * np.pi) * length < 1.0]
                 if close:  # the lower spectral peak of two lines the blocks cannot tell apart
                     active.remove(k)
             fits = [fits[k] if k in active else None for k in range(len(lines))]
-    return fits
+    state = {lines[k]: (fits[k], plans[k], s_now[k], most[k]) for k in active if fits[k] is not None}
+    return fits, gains, bins, state
 
 
 # ---------------------------------------------------------------------------------------------
@@ -774,9 +995,9 @@ def _mains_harmonic(frequency_Hz: float, settings: BackboneSettings) -> float | 
 
 
 def _fall(fit: _Fit) -> float:
-    """Share of its amplitude a line loses over its resolved blocks of its first segment, from a
+    """Share of its amplitude a line loses over its usable blocks of its first segment, from a
     weighted straight line through their log-amplitudes (weights (A / sd_A)²)."""
-    ok = fit.resolved & (fit.segment == fit.segment[fit.resolved][0])
+    ok = fit.usable & (fit.segment == fit.segment[fit.usable][0])
     a, sd, t = np.abs(fit.z[ok]), fit.amplitude_sd[ok], fit.centre[ok]
     if a.size < 2 or not np.all(a > 0):
         return 0.0
@@ -808,6 +1029,24 @@ def _empty_mode(number: int, frequency_Hz: float, note: str, order: int) -> Mode
                         empty, np.zeros(0, dtype=int), order)
 
 
+def _log_rate(t: np.ndarray, omega: np.ndarray, omega_sd: np.ndarray, segment: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """d ln omega / dt at each block (1/s) and its sd, by central differences over the blocks of
+    each segment (one-sided at its ends, 0 for a segment of one block)."""
+    rate, sd = np.zeros(t.size), np.zeros(t.size)
+    for number in np.unique(segment):
+        index = np.flatnonzero(segment == number)
+        if index.size < 2:
+            continue
+        before = np.concatenate([[index[0]], index[:-1]])
+        after = np.concatenate([index[1:], [index[-1]]])
+        before[0], after[0] = index[0], index[1]
+        before[-1], after[-1] = index[-2], index[-1]
+        span = t[after] - t[before]
+        rate[index] = (omega[after] - omega[before]) / span / omega[index]
+        sd[index] = np.hypot(omega_sd[after], omega_sd[before]) / span / omega[index]
+    return rate, sd
+
+
 def _mode_of(fit: _Fit, number: int, peak_Hz: float, gain: float, order: int, settings: BackboneSettings) -> ModeBackbone:
     ok = fit.resolved
     if ok.sum() < settings.min_blocks:
@@ -815,9 +1054,15 @@ def _mode_of(fit: _Fit, number: int, peak_Hz: float, gain: float, order: int, se
         note = (f"not resolved: {int(ok.sum())} of its blocks are {settings.min_block_snr_db:g} dB above the noise "
                 f"({settings.min_blocks} needed; the best is {best:.0f} dB)")
         return _empty_mode(number, peak_Hz, note, order)
-    s = fit.s[ok]
+    s = fit.s[ok].copy()
+    omega_sd, sigma_sd = fit.omega_sd[ok], fit.sigma_sd[ok].copy()
+    if order > 0:
+        # the displacement's decay: a velocity or acceleration amplitude is omega^order times it,
+        # so where the frequency changes it decays by order d ln omega / dt more (or less)
+        rate, rate_sd = _log_rate(fit.centre[ok], s.imag, omega_sd, fit.segment[ok])
+        s = s - order * rate + 0j
+        sigma_sd = np.hypot(sigma_sd, order * rate_sd)
     magnitude = np.abs(s)
-    omega_sd, sigma_sd = fit.omega_sd[ok], fit.sigma_sd[ok]
     return ModeBackbone(
         number=number, peak_frequency_Hz=float(peak_Hz), resolved=True, note="", time_s=fit.centre[ok],
         amplitude=np.abs(fit.z[ok]) / gain, amplitude_sd=fit.amplitude_sd[ok] / gain,
@@ -913,47 +1158,27 @@ def identify_backbone(
     found = sorted(found)
     lines = [f for f, _ in found]
     heights = [h for _, h in found]
-    q = int(rate / (settings.samples_per_period * max(lines)))
     segments = _segments(t, y, valid, 1.0 / min(lines), first)
-    if q >= 2:
-        record = _binned(t, y, valid, q)
-        cut = [int(np.searchsorted(record.t, t[a])) for a, _ in segments] + [record.t.size]
-        fit_segments = [(cut[i], cut[i + 1]) for i in range(len(segments))]
-    else:
-        record = _Record(t, y, valid.copy(), 1, step)
-        fit_segments = segments
-    fits = _follow(record, fit_segments, lines, heights, settings)
+    fits, gains, bins, state = _follow(t, y, valid, segments, lines, heights, settings)
     segments_s = tuple((float(t[a]), float(t[b - 1])) for a, b in segments)
+    # lines the strong ones hid (their leakage raises the release spectrum's floor): searched
+    # again in what the lines found leave, and if any, everything followed again
+    residual = y - sum((_reconstruct(fit, gain, t, list(segments_s)) for fit, gain in zip(fits, gains)
+                        if fit is not None and fit.resolved.any()), np.zeros(t.size))
+    hidden = [(f, h) for f, h in _spectral_lines(t[clean][valid[clean]], residual[clean][valid[clean]], settings)
+              if all(abs(f - g) > max(HIDDEN_SEPARATION * g, 1.0 / (t[-1] - t[0])) for g in lines)]
+    if hidden:
+        found = sorted(found + hidden)
+        lines = [f for f, _ in found]
+        heights = [h for _, h in found]
+        fits, gains, bins, _ = _follow(t, y, valid, segments, lines, heights, settings, state)
 
-    # what each line is
-    strength = [float(np.max(np.abs(f.z[f.resolved]))) if f is not None and f.resolved.any() else 0.0 for f in fits]
+    kinds, notes = _kinds(lines, fits, gains, settings)
+    strength = [_strength(fit, gain) for fit, gain in zip(fits, gains)]
     strongest = int(np.argmax(strength))
-    beam_fall = _fall(fits[strongest]) if strength[strongest] > 0 else 0.0
-    kinds: list[str | None] = [None] * len(lines)
-    notes: list[str] = [""] * len(lines)
-    for k, (f, fit) in enumerate(zip(lines, fits)):
-        if fit is None or not fit.resolved.any():
-            continue
-        frequency = float(np.median(np.abs(fit.s[fit.resolved]))) / (2 * np.pi)
-        mains = _mains_harmonic(frequency, settings)
-        if mains is not None and _fall(fit) < settings.persistent_fall and beam_fall > 2 * settings.persistent_fall:
-            kinds[k] = "hum"
-            notes[k] = (f"mains hum: {frequency:.2f} Hz = {round(frequency / mains)} x {mains:g} Hz, its amplitude "
-                        f"constant while the beam's falls by {100 * beam_fall:.0f} %")
-            continue
-        for j, (g, other) in enumerate(zip(lines, fits)):
-            if j == k or other is None or not other.resolved.any() or strength[j] <= strength[k]:
-                continue
-            n = round(f / g)
-            sigma_k, sigma_j = (float(np.median(-x.s[x.resolved].real)) for x in (fit, other))
-            if n >= 2 and abs(f - n * g) <= settings.harmonic_tolerance * n * g and sigma_k > 1.5 * max(sigma_j, 0.0):
-                kinds[k] = "harmonic"
-                notes[k] = f"harmonic {n} of the {g:.4g} Hz line (decays {sigma_k / max(sigma_j, 1e-300):.1f}x faster)"
-                break
-    gains = [_dirichlet(f, record.bin_samples, record.bin_step_s) for f in lines]
     candidates = [k for k in range(len(lines)) if kinds[k] is None]
     modes: list[ModeBackbone] = []
-    matched: set[int] = set()
+    shown: set[int] = set()
     if asked is not None:
         matches = compare_modes((np.array([lines[k] for k in candidates]), np.zeros(len(candidates))), asked,
                                 np.zeros(asked.size), tolerance=settings.hint_tolerance) if candidates else []
@@ -970,32 +1195,72 @@ def identify_backbone(
                                                           "above the noise", order))
             else:
                 k = by_frequency[match.frequency_data_Hz]
-                matched.add(k)
-                fit = fits[k]
-                mode = (_mode_of(fit, number, lines[k], gains[k], order, settings) if fit is not None else
-                        _empty_mode(number, lines[k], DROPPED, order))
-                modes.append(mode)
+                shown.add(k)
+                modes.append(_mode_of(fits[k], number, lines[k], gains[k], order, settings) if fits[k] is not None
+                             else _empty_mode(number, lines[k], DROPPED, order))
     else:
-        for number, k in enumerate(candidates, start=1):
-            fit = fits[k]
-            modes.append(_mode_of(fit, number, lines[k], gains[k], order, settings) if fit is not None else
-                         _empty_mode(number, lines[k], DROPPED, order))
-        matched = set(candidates)
+        resolved = [k for k in candidates if fits[k] is not None and fits[k].resolved.sum() >= settings.min_blocks]
+        for number, k in enumerate(resolved, start=1):
+            shown.add(k)
+            modes.append(_mode_of(fits[k], number, lines[k], gains[k], order, settings))
     excluded = []
     for k, f in enumerate(lines):
-        fit = fits[k]
-        amplitude = float(np.median(np.abs(fit.z[fit.resolved]))) / gains[k] if fit is not None and fit.resolved.any() else 0.0
+        if k in shown:
+            continue
         if kinds[k] is not None:
-            excluded.append(SpectralLine(float(f), kinds[k], amplitude, notes[k]))
-        elif k not in matched and fit is not None and fit.resolved.sum() >= settings.min_blocks:
-            excluded.append(SpectralLine(float(f), "unmatched", amplitude,
+            excluded.append(SpectralLine(float(f), kinds[k], strength[k], notes[k]))
+        elif fits[k] is not None and fits[k].resolved.sum() >= settings.min_blocks:
+            excluded.append(SpectralLine(float(f), "unmatched", strength[k],
                                          "a decaying line that none of the asked modes matches"))
+        else:
+            excluded.append(SpectralLine(float(f), "unresolved", strength[k],
+                                         "a spectral peak that too few blocks resolve to follow it"))
     noise = float(np.median(fits[strongest].residual_sd)) if fits[strongest] is not None else float("nan")
     return FreeDecayBackbone(
         modes=tuple(modes), lines=tuple(excluded), output_kind=output, segments_s=segments_s,
         clipped_count=clipped_count, spike_count=int(np.count_nonzero(spikes)), sample_rate_Hz=rate,
-        fit_rate_Hz=rate / record.bin_samples, noise_sd=noise,
+        fit_rate_Hz=rate / max(bins), noise_sd=noise,
     )
+
+
+def _strength(fit: _Fit | None, gain: float) -> float:
+    """A line's median amplitude over its usable blocks (the record's unit), 0 without any."""
+    if fit is None or not fit.usable.any():
+        return 0.0
+    return float(np.median(np.abs(fit.z[fit.usable]))) / gain
+
+
+def _kinds(lines: list[float], fits: list[_Fit | None], gains: list[float],
+           settings: BackboneSettings) -> tuple[list[str | None], list[str]]:
+    """What each line is: ``"hum"``, ``"harmonic"`` or None (a mode), with a note (module notes)."""
+    largest = [float(np.max(np.abs(f.z[f.usable]))) / g if f is not None and f.usable.any() else 0.0
+               for f, g in zip(fits, gains)]
+    strongest = int(np.argmax(largest))
+    beam_fall = _fall(fits[strongest]) if largest[strongest] > 0 else 0.0
+    kinds: list[str | None] = [None] * len(lines)
+    notes = [""] * len(lines)
+    for k, (f, fit) in enumerate(zip(lines, fits)):
+        if fit is None or not fit.usable.any():
+            continue
+        ok = fit.usable
+        frequency = float(np.average(np.abs(fit.s[ok]), weights=1.0 / np.maximum(fit.omega_sd[ok], 1e-300) ** 2)) / (
+            2 * np.pi)  # the blocks' weighted mean
+        mains = _mains_harmonic(frequency, settings)
+        if mains is not None and _fall(fit) < settings.persistent_fall and beam_fall > 2 * settings.persistent_fall:
+            kinds[k] = "hum"
+            notes[k] = (f"mains hum: {frequency:.2f} Hz = {round(frequency / mains)} x {mains:g} Hz, its amplitude "
+                        f"constant while the beam's falls by {100 * beam_fall:.0f} %")
+            continue
+        for j, (g, other) in enumerate(zip(lines, fits)):
+            if j == k or other is None or not other.usable.any() or largest[j] <= largest[k]:
+                continue
+            n = round(f / g)
+            sigma_k, sigma_j = -_summary_s(fit).real, -_summary_s(other).real
+            if n >= 2 and abs(f - n * g) <= settings.harmonic_tolerance * n * g and sigma_k > 1.5 * max(sigma_j, 0.0):
+                kinds[k] = "harmonic"
+                notes[k] = f"harmonic {n} of the {g:.4g} Hz line (decays {sigma_k / max(sigma_j, 1e-300):.1f}x faster)"
+                break
+    return kinds, notes
 
 
 def record_backbone(measurement, frequencies_Hz: Sequence[float] | None = None,
