@@ -18,7 +18,7 @@ module                      what
                             ratio, amplitude per mode; matching against model modes
 :mod:`.envelope`            band-pass + Hilbert envelope and instantaneous frequency of one mode:
                             backbone (frequency against amplitude), decay law
-:mod:`.backbone`            amplitude-resolved identification of a free decay: per mode A(t),
+:mod:`.amplitude_id`        amplitude-resolved identification of a free decay: per mode A(t),
                             frequency and damping ratio against amplitude with their errors, at
                             the record's own stamps (phones, clipping, hum, a node, taps)
 :mod:`.fingerprints`        dimensionless fingerprints of missing effects, a score and one
@@ -28,7 +28,7 @@ module                      what
 ==========================  ====================================================================
 """
 
-from beam.residuals.backbone import (
+from beam.residuals.amplitude_id import (
     BackboneSettings,
     CurveLaw,
     FreeDecayBackbone,

@@ -303,7 +303,8 @@ class SpectralLine:
     kind : str
         ``"hum"`` (a mains harmonic of constant amplitude), ``"harmonic"`` (n × a stronger
         line, decaying faster than it), ``"unmatched"`` (a decaying line none of the asked
-        modes matched) or ``"unresolved"`` (a spectral peak too few blocks resolve).
+        modes matched) or ``"unresolved"`` (a spectral peak too few blocks resolve; a peak no
+        block can use at all is not reported).
     amplitude : float
         Its median amplitude over its usable blocks (the record's unit; 0 when none is).
     note : str
@@ -463,6 +464,10 @@ MAIN_LOBE_BINS = 5.0
 ZERO_PADDING = 4
 
 
+#: Highest harmonic a line can be of a stronger one: the drag, a cubic spring, a slipping clamp and
+#: clipping make odd ones (3, 5), a sensor's nonlinearity 2 and 3; a cantilever's mode 2 is 6.3
+#: times its mode 1 (more with a tip mass or a compliant clamp), and must not be taken for one.
+MAX_HARMONIC = 5
 #: A line found in what the first lines leave is new when further than this (relative) from each of them.
 HIDDEN_SEPARATION = 0.03
 #: Least height over the floor of a peak of the one-sided periodogram of the release (dB): one
@@ -471,26 +476,25 @@ HIDDEN_SEPARATION = 0.03
 RELEASE_HEIGHT_DB = 17.0
 
 
-def _floor(frequency: np.ndarray, log_psd: np.ndarray) -> np.ndarray:
+def _floor(frequency: np.ndarray, log_psd: np.ndarray, resolution_Hz: float) -> np.ndarray:
     """The spectrum's floor (dB): the :data:`FLOOR_PERCENTILE` th percentile of the log-PSD in bands
-    of 1/:data:`FLOOR_BANDS_PER_DECADE` decade, interpolated in log frequency."""
-    positive = frequency > 0
-    decades = np.log10(frequency[positive])
-    band = np.floor(decades * FLOOR_BANDS_PER_DECADE).astype(int)
+    of 1/:data:`FLOOR_BANDS_PER_DECADE` decade of f + 40 resolution bins (logarithmic above
+    that, about 10 resolution bins wide below it, so that a low mode's own peak does not fill its
+    band), interpolated between the bands' centres."""
+    shifted = np.log10(frequency + 40.0 * resolution_Hz)
+    band = np.floor(shifted * FLOOR_BANDS_PER_DECADE).astype(int)
     labels, start = np.unique(band, return_index=True)
-    floors = np.array([np.percentile(part, FLOOR_PERCENTILE) for part in np.split(log_psd[positive], start[1:])])
-    floor = np.full(frequency.size, floors[0])
-    floor[positive] = np.interp(decades, (labels + 0.5) / FLOOR_BANDS_PER_DECADE, floors)
-    return floor
+    floors = np.array([np.percentile(part, FLOOR_PERCENTILE) for part in np.split(log_psd, start[1:])])
+    return np.interp(shifted, (labels + 0.5) / FLOOR_BANDS_PER_DECADE, floors)
 
 
-def _peaks(frequency: np.ndarray, density: np.ndarray, low: float, high: float,
-           min_height_db: float) -> list[tuple[float, float]]:
+def _peaks(frequency: np.ndarray, density: np.ndarray, low: float, high: float, min_height_db: float,
+           resolution_Hz: float) -> list[tuple[float, float]]:
     """(frequency (Hz), height over :func:`_floor` (dB)) of the peaks of a PSD at least
     :data:`MIN_PEAK_PROMINENCE_DB` above their dips and ``min_height_db`` above the floor, in
     [low, high] Hz."""
     log_psd = 10 * np.log10(np.maximum(density, max(float(density.max()), 1e-300) * 1e-30))
-    floor = _floor(frequency, log_psd)
+    floor = _floor(frequency, log_psd, resolution_Hz)
     peaks, _ = scipy.signal.find_peaks(log_psd, prominence=MIN_PEAK_PROMINENCE_DB)
     height = log_psd[peaks] - floor[peaks]
     keep = (frequency[peaks] >= low) & (frequency[peaks] <= high) & (height >= min_height_db)
@@ -529,13 +533,13 @@ def _spectral_lines(t: np.ndarray, y: np.ndarray, settings: BackboneSettings) ->
     high = 0.45 / step
     frequency, density = scipy.signal.welch(grid, fs=1.0 / step, window="blackmanharris", nperseg=nperseg,
                                             noverlap=nperseg // 2, nfft=ZERO_PADDING * nperseg, detrend="constant")
-    found = _peaks(frequency, density, low, high, settings.min_prominence_db)
+    found = _peaks(frequency, density, low, high, settings.min_prominence_db, resolution)
     release = int(np.argmax(np.abs(grid[: grid.size // 2])))
     segment = grid[release: release + nperseg]
     half = scipy.signal.get_window("blackmanharris", 2 * segment.size, fftbins=False)[segment.size:]
     frequency, density = scipy.signal.periodogram(segment, fs=1.0 / step, window=half,
                                                   nfft=ZERO_PADDING * nperseg, detrend="constant")
-    found += _peaks(frequency, density, low, high, RELEASE_HEIGHT_DB)
+    found += _peaks(frequency, density, low, high, RELEASE_HEIGHT_DB, resolution)
     accepted: list[tuple[float, float]] = []
     for f, h in sorted(found, key=lambda p: -p[1]):
         if all(abs(f - g) > MAIN_LOBE_BINS * resolution for g, _ in accepted):
@@ -543,6 +547,14 @@ def _spectral_lines(t: np.ndarray, y: np.ndarray, settings: BackboneSettings) ->
         if len(accepted) == settings.max_lines:
             break
     return accepted
+
+
+def _merged(first: list[tuple[float, float]], second: list[tuple[float, float]],
+            apart_Hz: float) -> list[tuple[float, float]]:
+    """``first`` and the lines of ``second`` further than HIDDEN_SEPARATION (relative) and
+    ``apart_Hz`` from each of them."""
+    return first + [(f, h) for f, h in second
+                    if all(abs(f - g) > max(HIDDEN_SEPARATION * g, apart_Hz) for g, _ in first)]
 
 
 def _segments(t: np.ndarray, y: np.ndarray, valid: np.ndarray, period_s: float, start: int) -> list[tuple[int, int]]:
@@ -900,7 +912,7 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
     step = float(np.median(np.diff(t)))
     rate = 1.0 / step
     fits: list[_Fit | None] = [None] * len(lines)
-    plans: list[tuple[float, list[float]] | None] = [None] * len(lines)
+    plans: list[list[float] | None] = [None] * len(lines)  # where each line lives (s, per segment)
     most: list[int | None] = [None] * len(lines)
     gains = [1.0] * len(lines)
     bins = [1] * len(lines)
@@ -934,9 +946,7 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
             columns = 2 * TARGET_POWERS + settings.drift_order + 1 + 4 * len(lower)
             shortest = SAMPLES_PER_COLUMN * columns * step * q
             length = _block_length(f, max(-s_now[k].real, 0.0), separation, shortest, settings)
-            ends = plans[k][1] if plans[k] is not None else None
-            if plans[k] is not None:
-                length = plans[k][0]
+            ends = plans[k]
             centres, halves, owner = _place_blocks(record.t, fit_segments, length, settings, ends, most[k])
             if centres.size == 0:
                 fits[k] = None
@@ -963,7 +973,7 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
                     centres, halves, owner = _place_blocks(record.t, fit_segments, shorter, settings, lives, most[k])
                     if centres.size:
                         fit = _fit_line(record, centres, halves, owner, s_now[k], others, settings, reach)
-                plans[k] = (shorter, lives)
+                plans[k] = lives
             fits[k], bins[k] = fit, q
             gains[k] = _dirichlet(f, q, step)
             if fit.usable.any():
@@ -1147,7 +1157,10 @@ def identify_backbone(
     spikes = _spikes(t, y, valid, settings.spike_sd)
     valid &= ~spikes
     clean = _clean_stretch(valid, mask)
+    lobe = MAIN_LOBE_BINS * 4.0 / (t[-1] - t[0])  # the main lobe of the spectra's segments (n / 4 to n / 2 long)
     found = _spectral_lines(t[clean][valid[clean]], y[clean][valid[clean]], settings)
+    if clean != slice(0, t.size):  # and the whole record's, for what the unclipped stretch is too short to show
+        found = _merged(found, _spectral_lines(t[valid], y[valid], settings), lobe)
     asked = None if frequencies_Hz is None else np.asarray(frequencies_Hz, dtype=float)
     if asked is not None and (asked.ndim != 1 or not np.all(np.isfinite(asked)) or np.any(asked <= 0)):
         raise BeamInputError("frequencies_Hz must be positive finite frequencies (Hz)")
@@ -1165,10 +1178,9 @@ def identify_backbone(
     # again in what the lines found leave, and if any, everything followed again
     residual = y - sum((_reconstruct(fit, gain, t, list(segments_s)) for fit, gain in zip(fits, gains)
                         if fit is not None and fit.resolved.any()), np.zeros(t.size))
-    hidden = [(f, h) for f, h in _spectral_lines(t[clean][valid[clean]], residual[clean][valid[clean]], settings)
-              if all(abs(f - g) > max(HIDDEN_SEPARATION * g, 1.0 / (t[-1] - t[0])) for g in lines)]
-    if hidden:
-        found = sorted(found + hidden)
+    more = _merged(found, _spectral_lines(t[clean][valid[clean]], residual[clean][valid[clean]], settings), lobe)
+    if len(more) > len(found):
+        found = sorted(more)
         lines = [f for f, _ in found]
         heights = [h for _, h in found]
         fits, gains, bins, _ = _follow(t, y, valid, segments, lines, heights, settings, state)
@@ -1212,7 +1224,7 @@ def identify_backbone(
         elif fits[k] is not None and fits[k].resolved.sum() >= settings.min_blocks:
             excluded.append(SpectralLine(float(f), "unmatched", strength[k],
                                          "a decaying line that none of the asked modes matches"))
-        else:
+        elif fits[k] is not None and fits[k].usable.any():
             excluded.append(SpectralLine(float(f), "unresolved", strength[k],
                                          "a spectral peak that too few blocks resolve to follow it"))
     noise = float(np.median(fits[strongest].residual_sd)) if fits[strongest] is not None else float("nan")
@@ -1254,9 +1266,17 @@ def _kinds(lines: list[float], fits: list[_Fit | None], gains: list[float],
         for j, (g, other) in enumerate(zip(lines, fits)):
             if j == k or other is None or not other.usable.any() or largest[j] <= largest[k]:
                 continue
-            n = round(f / g)
+            n = round(frequency / g)
+            if not 2 <= n <= MAX_HARMONIC:
+                continue
+            # n times the other line's frequency at the same times (a nonlinear response's
+            # harmonic follows its fundamental's backbone)
+            there = n * np.interp(fit.centre[ok], other.centre[other.usable], np.abs(other.s[other.usable]))
+            weight = 1.0 / np.maximum(fit.omega_sd[ok], 1e-300) ** 2
+            off = float(np.sum(weight * (np.abs(fit.s[ok]) - there)) / np.sum(weight))
             sigma_k, sigma_j = -_summary_s(fit).real, -_summary_s(other).real
-            if n >= 2 and abs(f - n * g) <= settings.harmonic_tolerance * n * g and sigma_k > 1.5 * max(sigma_j, 0.0):
+            if (abs(off) <= 3.0 / math.sqrt(float(np.sum(weight))) + settings.harmonic_tolerance * float(np.median(there))
+                    and sigma_k > 1.5 * max(sigma_j, 0.0)):
                 kinds[k] = "harmonic"
                 notes[k] = f"harmonic {n} of the {g:.4g} Hz line (decays {sigma_k / max(sigma_j, 1e-300):.1f}x faster)"
                 break

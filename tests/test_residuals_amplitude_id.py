@@ -1,4 +1,4 @@
-"""The amplitude-resolved identification of a free decay (:mod:`beam.residuals.backbone`) against
+"""The amplitude-resolved identification of a free decay (:mod:`beam.residuals.amplitude_id`) against
 closed forms (a linear decay, the quadratic damper's and the cubic spring's describing functions,
 each integrated by DOP853 as an independent reference), against the beam's full integrator with
 the drag, the tip spring and the clamp friction (the describing functions of
