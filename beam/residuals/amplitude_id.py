@@ -83,7 +83,7 @@ from beam.io.anchor import refine_peak, uniform_grid
 from beam.io.measurement import clipped_samples
 from beam.residuals.common import jsonable
 from beam.residuals.modal_id import compare_modes
-from beam.residuals.noise import difference_noise_sd
+from beam.residuals.noise import fourth_differences
 
 __all__ = [
     "BackboneSettings",
@@ -400,16 +400,7 @@ def _spikes(t: np.ndarray, y: np.ndarray, valid: np.ndarray, threshold: float) -
     found = np.zeros(t.size, dtype=bool)
     if index.size < SPIKE_WINDOW:
         return found
-    tv, yv = t[index], y[index]
-    scale = float(np.median(np.diff(tv)))
-    windows = np.lib.stride_tricks.sliding_window_view(tv / scale, 5)
-    weights = np.ones_like(windows)
-    for i in range(5):
-        for j in range(5):
-            if i != j:
-                weights[:, i] /= windows[:, i] - windows[:, j]
-    weights /= np.linalg.norm(weights, axis=1, keepdims=True)
-    d = np.abs(np.einsum("ij,ij->i", weights, np.lib.stride_tricks.sliding_window_view(yv, 5)))
+    d = np.abs(fourth_differences(t[index], y[index]))
     local = 1.4826 * scipy.ndimage.median_filter(d, SPIKE_WINDOW, mode="nearest")
     sd = np.maximum(local, 1.4826 * float(np.median(d)))
     if not np.all(sd > 0):
