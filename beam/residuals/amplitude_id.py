@@ -533,19 +533,37 @@ def _spectral_lines(t: np.ndarray, y: np.ndarray, settings: BackboneSettings) ->
     found += _peaks(frequency, density, low, high, RELEASE_HEIGHT_DB, resolution)
     accepted: list[tuple[float, float]] = []
     for f, h in sorted(found, key=lambda p: -p[1]):
-        if all(abs(f - g) > MAIN_LOBE_BINS * resolution for g, _ in accepted):
+        if all(abs(f - g) > max(MAIN_LOBE_BINS * resolution, _inseparable(f, g, settings, hg - h)) for g, hg in accepted):
             accepted.append((f, h))
         if len(accepted) == settings.max_lines:
             break
     return accepted
 
 
-def _merged(first: list[tuple[float, float]], second: list[tuple[float, float]],
-            apart_Hz: float) -> list[tuple[float, float]]:
+def _longest_block(frequency_Hz: float, settings: BackboneSettings) -> float:
+    """The longest block (s) a line's fits may take: :data:`LONGEST_BLOCK` × cycles_per_block of
+    its periods, or :data:`HUM_BLOCK_S`."""
+    return max(LONGEST_BLOCK * settings.cycles_per_block / frequency_Hz, HUM_BLOCK_S)
+
+
+def _inseparable(f: float, g: float, settings: BackboneSettings, below_db: float = 0.0) -> float:
+    """Below this distance (Hz) a line at f cannot be told from one at g (:data:`SEPARATION_CYCLES`
+    cycles of their difference per block): in the longest block of the higher one, or, when f's
+    peak is :data:`DOMINANCE_DB` or more below g's (``below_db``), in g's own block (a line that
+    weak would stretch g's blocks for little: it is left to g's fit, where it moves g's amplitude
+    by a few % at most); a mains harmonic's own block is HUM_BLOCK_S."""
+    if below_db >= DOMINANCE_DB and _mains_harmonic(g, settings) is None:
+        return SEPARATION_CYCLES * g / settings.cycles_per_block
+    return SEPARATION_CYCLES / _longest_block(max(f, g), settings)
+
+
+def _merged(first: list[tuple[float, float]], second: list[tuple[float, float]], apart_Hz: float,
+            settings: BackboneSettings) -> list[tuple[float, float]]:
     """``first`` and the lines of ``second`` further than HIDDEN_SEPARATION (relative) and
-    ``apart_Hz`` from each of them."""
+    ``apart_Hz`` from each of them, and separable from them (:func:`_inseparable`)."""
     return first + [(f, h) for f, h in second
-                    if all(abs(f - g) > max(HIDDEN_SEPARATION * g, apart_Hz) for g, _ in first)]
+                    if all(abs(f - g) > max(HIDDEN_SEPARATION * g, apart_Hz, _inseparable(f, g, settings, hg - h))
+                           for g, hg in first)]
 
 
 def _segments(t: np.ndarray, y: np.ndarray, valid: np.ndarray, period_s: float, start: int) -> list[tuple[int, int]]:
@@ -632,9 +650,9 @@ def _place_blocks(t: np.ndarray, segments: list[tuple[int, int]], length_s: floa
 
 
 def _life(fit: _Fit, segments_s: list[tuple[float, float]], settings: BackboneSettings) -> list[float]:
-    """Where the line falls below the noise in each segment (s): after the first run of
+    """Where the line falls below the noise in each segment (s): after the longest run of
     consecutive usable blocks (a decaying line's usable blocks follow each other from the
-    release; a lone usable block later is noise), by the time its median decay rate takes to
+    release; a lone usable block elsewhere is noise), by the time its median decay rate takes to
     bring the run's last amplitude z-score down to :data:`USABLE_DB`, plus two half-blocks; the
     segment's end when no block of it is usable or the line does not decay (median σ ≤ 0)."""
     floor = 10 ** (USABLE_DB / 20)
@@ -645,9 +663,10 @@ def _life(fit: _Fit, segments_s: list[tuple[float, float]], settings: BackboneSe
         if not ok.any():
             ends.append(stop)
             continue
-        first = int(np.argmax(ok))
-        run_end = first + (int(np.argmin(ok[first:])) if not ok[first:].all() else int(ok[first:].size))
-        run = index[first:run_end]
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
+        starts, stops = edges[0::2], edges[1::2]
+        longest = int(np.argmax(stops - starts))
+        run = index[starts[longest]: stops[longest]]
         sigma = float(np.median(-fit.s.real[run]))
         if sigma <= 0:
             ends.append(stop)
@@ -802,8 +821,12 @@ def _fit_line(record: _Record, centres: np.ndarray, halves: np.ndarray, owner: n
         snr = 20 * np.log10(magnitude / np.maximum(amplitude_sd, 1e-300))
     sigma_sd, omega_sd = np.sqrt(np.maximum(step_cov[:, 0, 0], 0)), np.sqrt(np.maximum(step_cov[:, 1, 1], 0))
     inside = (np.abs(s.real) * 2 * halves < MAX_BLOCK_DECAY * (1 - 1e-9)) & (np.abs(s.imag - s0.imag) < reach * (1 - 1e-9))
+    # no sinusoid in a block is larger than the block's own swing: a larger amplitude is two
+    # nearly collinear lines cancelling (a spurious line latched onto a neighbour)
+    centred = np.where(weight > 0, y - (y * weight).sum(axis=1, keepdims=True) / np.maximum(count, 1)[:, None], 0.0)
+    plausible = magnitude <= 2.0 * np.max(np.abs(centred), axis=1) * np.exp(np.abs(s.real) * halves)
     usable = (snr >= USABLE_DB) & np.isfinite(snr) & (omega_sd < 0.05 * np.abs(s.imag)) & (
-        count > p + 4) & inside & np.isfinite(magnitude)
+        count > p + 4) & inside & np.isfinite(magnitude) & plausible
     resolved = usable & (snr >= settings.min_block_snr_db) & (omega_sd < 0.02 * np.abs(s.imag))
     return _Fit(centres, halves, owner, s, z, amplitude_sd, omega_sd, sigma_sd, snr, np.sqrt(variance), resolved,
                 usable)
@@ -820,6 +843,20 @@ HUM_BLOCK_S = 1.0
 #: many samples per period (the bins' Dirichlet gain, 0.90 at 4, is corrected).
 HUM_BLOCKS = 8
 HUM_SAMPLES_PER_PERIOD = 4.0
+#: A line's blocks are at most this many times cycles_per_block of its periods long (or
+#: HUM_BLOCK_S): lines closer than two cycles of their difference in such a block are one line to
+#: the fits (:func:`_inseparable`): a cluster of lines 0.3-2 Hz apart near 360 Hz in a shared
+#: run's accelerometer asked for blocks of 6-12 s at 4 kHz and took 20 s of CPU.
+LONGEST_BLOCK = 4.0
+#: A line's first fit spans this many block lengths from each segment's start (5 blocks; a probe: a decaying
+#: line is largest there, a lasting one everywhere); a line no block of it holds is dropped.
+PROBE_BLOCKS = 3.0
+#: A spectral peak this far (dB) below a neighbour's must be told from it in the neighbour's own
+#: blocks (:func:`_inseparable`): on a shared run, a peak 31 dB below mode 2 and 2 Hz from it
+#: stretched mode 2's blocks from 0.2 to 1 s and cost it two thirds of its resolved blocks.
+DOMINANCE_DB = 20.0
+#: Most samples (blocks × samples per block) one fit of one line takes: beyond, fewer blocks.
+ROWS_PER_FIT = 32768
 #: Fewest samples per fitted column in a block.
 SAMPLES_PER_COLUMN = 3.0
 
@@ -827,15 +864,23 @@ SAMPLES_PER_COLUMN = 3.0
 def _block_length(frequency_Hz: float, sigma: float, separation_Hz: float, shortest_s: float,
                   settings: BackboneSettings) -> float:
     """The block length (s) for a line: :attr:`BackboneSettings.cycles_per_block` periods, or
-    :data:`SEPARATION_CYCLES` periods of its distance to the nearest other line, or
+    :data:`SEPARATION_CYCLES` periods of its distance to the nearest other line (at most
+    :func:`_longest_block`), or
     ``shortest_s`` (:data:`SAMPLES_PER_COLUMN` samples per column) if longer; shortened to
     max_decay_per_block / sigma, and at least min_cycles_per_block periods and ``shortest_s``."""
     length = max(settings.cycles_per_block / frequency_Hz, shortest_s)
     if separation_Hz > 0:
-        length = max(length, SEPARATION_CYCLES / separation_Hz)
+        length = max(length, min(SEPARATION_CYCLES / separation_Hz, _longest_block(frequency_Hz, settings)))
     if sigma > 0:
         length = min(length, settings.max_decay_per_block / sigma)
     return max(length, settings.min_cycles_per_block / frequency_Hz, shortest_s)
+
+
+def _most(most: int | None, length_s: float, step_s: float, settings: BackboneSettings) -> int:
+    """Most blocks per segment of a fit: ``most`` (default max_blocks), fewer when their samples
+    would exceed :data:`ROWS_PER_FIT`."""
+    blocks = settings.max_blocks if most is None else most
+    return int(max(settings.min_blocks + 1, min(blocks, ROWS_PER_FIT // max(int(length_s / step_s), 1))))
 
 
 def _summary_s(fit: _Fit) -> complex:
@@ -893,7 +938,8 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
     this sweep), the rest averaged over bins of q samples (at least
     :attr:`BackboneSettings.samples_per_period` bins per period of the line: the fit sees only
     the line and the lines below it, which are columns of its blocks, their s from their last
-    fits). A line without a resolved block in the first sweep (noise), or that its blocks cannot
+    fits). A line with fewer than min_blocks usable blocks in the first sweep (noise; not a line at
+    a mains harmonic that does not decay), or that its blocks cannot
     tell from a line of a higher spectral peak (``heights``, dB) closer than one cycle of their
     difference per block, is dropped (None) and leaves the others' fits.
 
@@ -911,7 +957,10 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
     s_now = [complex(0.0, 2 * np.pi * f) for f in lines]
     for k, f in enumerate(lines):
         if previous is not None and f in previous:
-            fits[k], plans[k], s_now[k], most[k] = previous[f]
+            if previous[f] is None:  # dropped before
+                active.remove(k)
+            else:
+                fits[k], plans[k], s_now[k], most[k] = previous[f]
     segments_s = [(float(t[a]), float(t[b - 1])) for a, b in segments]
     for sweep in range(1 if previous is not None else 2):
         contributions: dict[int, np.ndarray] = {}
@@ -925,24 +974,39 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
             record, fit_segments = _prepared(t, residual, valid, segments, q)
             others = []
             for j in lower:
-                previous = fits[j]
-                if previous is not None and previous.usable.any():
-                    ok = previous.usable
-                    others.append((previous.centre[ok], previous.s[ok]))
+                earlier = fits[j]
+                if earlier is not None and earlier.usable.any():
+                    ok = earlier.usable
+                    others.append((earlier.centre[ok], earlier.s[ok]))
                 else:
                     others.append((np.zeros(0), np.array(s_now[j])))
-            neighbours = [abs(abs(s_now[j]) - abs(s_now[k])) / (2 * np.pi) for j in active if j != k]
+            # the lines that set how long the blocks must be to tell them apart: not those
+            # DOMINANCE_DB weaker (they are left to this line's fit), and in a later call only
+            # those with a fit (a new line not yet probed may be noise)
+            distance = [abs(abs(s_now[j]) - abs(s_now[k])) / (2 * np.pi) for j in active if j != k]
+            neighbours = [abs(abs(s_now[j]) - abs(s_now[k])) / (2 * np.pi) for j in active
+                          if j != k and (previous is None or fits[j] is not None)
+                          and heights[k] - heights[j] < DOMINANCE_DB]
             separation = min(neighbours, default=0.0)
-            reach = min(0.5 * separation if separation > 0 else np.inf, REACH * f)
+            reach = min(0.5 * min(distance, default=np.inf), REACH * f)
             columns = 2 * TARGET_POWERS + settings.drift_order + 1 + 4 * len(lower)
             shortest = SAMPLES_PER_COLUMN * columns * step * q
             length = _block_length(f, max(-s_now[k].real, 0.0), separation, shortest, settings)
+            # a line's first fit probes the start of each segment, where a decaying line is
+            # largest, in blocks of its own cycles (cheap: a noise line is dropped at that cost)
             ends = plans[k]
-            centres, halves, owner = _place_blocks(record.t, fit_segments, length, settings, ends, most[k])
+            if plans[k] is None:
+                length = max(settings.cycles_per_block / f, shortest)
+                ends = [start + PROBE_BLOCKS * length for start, _ in segments_s]
+            centres, halves, owner = _place_blocks(record.t, fit_segments, length, settings, ends,
+                                                   _most(most[k], length, q * step, settings))
             if centres.size == 0:
                 fits[k] = None
                 continue
             fit = _fit_line(record, centres, halves, owner, s_now[k], others, settings, reach)
+            if plans[k] is None and not fit.usable.any():
+                fits[k] = None  # no block of the probe holds it: noise
+                continue
             if fit.usable.any():
                 # blocks as long as the line's decay allows, where it lives: fit again when the
                 # plan changes (a line that dies early, decays fast, or lives longer than planned)
@@ -961,7 +1025,8 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
                 planned = sum((t[b - 1] if ends is None else min(e, t[b - 1])) - t[a]
                               for e, (a, b) in zip(ends or [np.inf] * len(segments), segments))
                 if length <= 0 or abs(shorter / length - 1) > 0.2 or abs(span / max(planned, 1e-300) - 1) > 0.3:
-                    centres, halves, owner = _place_blocks(record.t, fit_segments, shorter, settings, lives, most[k])
+                    centres, halves, owner = _place_blocks(record.t, fit_segments, shorter, settings, lives,
+                                                           _most(most[k], shorter, q * step, settings))
                     if centres.size:
                         fit = _fit_line(record, centres, halves, owner, s_now[k], others, settings, reach)
                 plans[k] = lives
@@ -971,14 +1036,16 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
                 s_now[k] = _summary_s(fit)
                 contributions[k] = _reconstruct(fit, gains[k], t, segments_s)
         if sweep == 0:
-            active = [k for k in active if fits[k] is not None and fits[k].usable.any()]
+            active = [k for k in active if fits[k] is not None and (fits[k].usable.sum() >= settings.min_blocks
+                                                                     or most[k] is not None)]
             for k in sorted(active, key=lambda k: heights[k]):
                 length = 2 * float(np.median(fits[k].half)) * bins[k] / max(bins[k], 1)
                 close = [j for j in active if j != k and abs(abs(s_now[j]) - abs(s_now[k])) / (2 * np.pi) * length < 1.0]
                 if close:  # the lower spectral peak of two lines the blocks cannot tell apart
                     active.remove(k)
             fits = [fits[k] if k in active else None for k in range(len(lines))]
-    state = {lines[k]: (fits[k], plans[k], s_now[k], most[k]) for k in active if fits[k] is not None}
+    state = {lines[k]: (fits[k], plans[k], s_now[k], most[k]) if k in active and fits[k] is not None else None
+             for k in range(len(lines))}
     return fits, gains, bins, state
 
 
@@ -1151,7 +1218,7 @@ def identify_backbone(
     lobe = MAIN_LOBE_BINS * 4.0 / (t[-1] - t[0])  # the main lobe of the spectra's segments (n / 4 to n / 2 long)
     found = _spectral_lines(t[clean][valid[clean]], y[clean][valid[clean]], settings)
     if clean != slice(0, t.size):  # and the whole record's, for what the unclipped stretch is too short to show
-        found = _merged(found, _spectral_lines(t[valid], y[valid], settings), lobe)
+        found = _merged(found, _spectral_lines(t[valid], y[valid], settings), lobe, settings)
     asked = None if frequencies_Hz is None else np.asarray(frequencies_Hz, dtype=float)
     if asked is not None and (asked.ndim != 1 or not np.all(np.isfinite(asked)) or np.any(asked <= 0)):
         raise BeamInputError("frequencies_Hz must be positive finite frequencies (Hz)")
@@ -1169,7 +1236,8 @@ def identify_backbone(
     # again in what the lines found leave, and if any, everything followed again
     residual = y - sum((_reconstruct(fit, gain, t, list(segments_s)) for fit, gain in zip(fits, gains)
                         if fit is not None and fit.resolved.any()), np.zeros(t.size))
-    more = _merged(found, _spectral_lines(t[clean][valid[clean]], residual[clean][valid[clean]], settings), lobe)
+    more = _merged(found, _spectral_lines(t[clean][valid[clean]], residual[clean][valid[clean]], settings), lobe,
+                   settings)
     if len(more) > len(found):
         found = sorted(more)
         lines = [f for f, _ in found]
