@@ -96,9 +96,9 @@ class FamilyRecord:
         Modes the simulation retained.
     release_eta : ndarray
         Modal state of the release (for the describing functions).
-    reference : object or None
-        For a shared run's variant: the identification of the run as recorded, and the time
-        scale s (t' = s t) of the variant.
+    reference : tuple or None
+        For a shared run's variant: the identification of the run as recorded, the time scale s
+        (t' = s t) of the variant, and its phone filter's gain against the run's frequency.
     """
 
     family: str
@@ -213,13 +213,13 @@ class FamilyRecord:
         """A shared run's variant: the run's own identification as recorded, its frequencies
         divided by the time scale, read at the variant's amplitudes (an acceleration scales by
         1 / s²); tolerances 3e-4 and 5 % as the simulated records'."""
-        reference, scale = self.reference
+        reference, scale, gain = self.reference
         out: dict[int, tuple | None] = {}
         for mode in identified.modes:
             if not mode.resolved or mode.number > len(reference.resolved):
                 continue
             ref = reference.resolved[mode.number - 1]
-            a_ref = ref.amplitude / scale**2  # the variant's amplitude of the same swing
+            a_ref = ref.amplitude * gain(ref.frequency_Hz) / scale**2  # the variant's amplitude of the same swing
             order = np.argsort(a_ref)
             inside = (mode.amplitude >= a_ref.min()) & (mode.amplitude <= a_ref.max())
             f = np.interp(mode.amplitude, a_ref[order], ref.frequency_Hz[order]) / scale
@@ -426,23 +426,31 @@ def shared_runs() -> list[Path]:
 
 
 def _phone_version(record: Measurement, rate: float, start: float, stop: float, scale: float,
-                   rng: np.random.Generator) -> Measurement:
-    """A run resampled to jittered phone stamps at ``rate`` after a low-pass at 0.4 × rate (a
-    phone's sensor filter), cut to [start, stop] s of the run, then stretched in time by ``scale``
-    (its acceleration divided by scale²)."""
+                   rng: np.random.Generator):
+    """A run cut to [start, stop] s, stretched in time by ``scale`` (t' = scale t: frequencies
+    divided by it, the acceleration by its square) and recorded by a phone at ``rate`` (jittered
+    stamps, its sensor's low-pass at 0.4 × rate: a 4th-order Butterworth run forwards and
+    backwards on the run put on a uniform grid). Returns the measurement and the filter's gain
+    (a function of the run's frequency, Hz), which scales each mode's amplitude."""
     t, y = record.time_s, record.output
     step = float(np.median(np.diff(t)))
     grid = np.arange(t[0], t[-1], step)
     uniform = np.interp(grid, t, y)
     sos = scipy.signal.butter(4, 0.4 * rate * scale, fs=1.0 / step, output="sos")
     smooth = scipy.signal.sosfiltfilt(sos, uniform)
-    n = int((stop - start) * rate / scale)
-    stamps = np.sort(start + (np.arange(n) + rng.uniform(-0.3, 0.3, n)) * scale / rate)
+    n = int((stop - start) * rate * scale)
+    stamps = np.sort(start + (np.arange(n) + rng.uniform(-0.3, 0.3, n)) / (rate * scale))
     stamps = stamps[(stamps > grid[0]) & (stamps < grid[-1])]
     values = np.interp(stamps, grid, smooth) / scale**2
-    return Measurement(name=f"{record.name}-{rate:g}Hz", title=record.title,
-                       geometry=record.geometry.with_free_length(record.geometry.length_m * math.sqrt(scale)),
-                       time_s=(stamps - start) * scale, nominal=dict(record.nominal), acceleration_m_s2=values)
+
+    def gain(frequency_Hz):
+        _, response = scipy.signal.sosfreqz(sos, worN=np.atleast_1d(frequency_Hz), fs=1.0 / step)
+        return np.abs(response) ** 2
+
+    measurement = Measurement(name=f"{record.name}-{rate:g}Hz", title=record.title,
+                              geometry=record.geometry.with_free_length(record.geometry.length_m * math.sqrt(scale)),
+                              time_s=(stamps - start) * scale, nominal=dict(record.nominal), acceleration_m_s2=values)
+    return measurement, gain
 
 
 def shared_family() -> list[FamilyRecord]:
@@ -457,14 +465,14 @@ def shared_family() -> list[FamilyRecord]:
         reference = identify_backbone(run.time_s, run.output, output=run.output_kind, clipped=run.clipped)
         rng = np.random.default_rng(index)
         end = float(run.time_s[-1])
-        variants = [("as recorded", run, 1.0)]  # its own reference: timed, not scored
+        variants = [("as recorded", (run, np.ones_like), 1.0)]  # its own reference: timed, not scored
         for rate in (100.0, 200.0, 400.0):
             variants.append((f"{rate:g} Hz", _phone_version(run, rate, 0.0, end, 1.0, rng), 1.0))
         variants.append(("200 Hz, 2-12 s", _phone_version(run, 200.0, 2.0, 12.0, 1.0, rng), 1.0))
         for length in (0.3, 0.7):
             scale = (length / 0.5) ** 2
             variants.append((f"400 Hz as {length:g} m", _phone_version(run, 400.0, 0.0, end, scale, rng), scale))
-        for k, (label, measurement, scale) in enumerate(variants):
+        for k, (label, (measurement, gain), scale) in enumerate(variants):
             out.append(FamilyRecord("shared", "recorded" if k == 0 else "real", k, f"shared/{path.stem}/{label}",
-                                    measurement, None, reference=(reference, scale)))
+                                    measurement, None, reference=(reference, scale, gain)))
     return out

@@ -301,8 +301,9 @@ class SpectralLine:
     frequency_Hz : float
         Its frequency over the blocks (Hz).
     kind : str
-        ``"hum"`` (a mains harmonic of constant amplitude), ``"harmonic"`` (n × a stronger
-        line, decaying faster than it), ``"unmatched"`` (a decaying line none of the asked
+        ``"hum"`` (a mains harmonic of constant amplitude), ``"mixed"`` (a decaying line on a
+        harmonic of the hum the record holds: a mode and the hum in one), ``"harmonic"`` (n × a
+        stronger line, decaying faster than it), ``"unmatched"`` (a decaying line none of the asked
         modes matched) or ``"unresolved"`` (a spectral peak too few blocks resolve; a peak no
         block can use at all is not reported).
     amplitude : float
@@ -855,20 +856,31 @@ PROBE_BLOCKS = 3.0
 #: blocks (:func:`_inseparable`): on a shared run, a peak 31 dB below mode 2 and 2 Hz from it
 #: stretched mode 2's blocks from 0.2 to 1 s and cost it two thirds of its resolved blocks.
 DOMINANCE_DB = 20.0
+#: A block of the strongest line whose residual sd peaks above this multiple of the line's median
+#: holds a disturbance (:func:`_disturbances`).
+DISTURBANCE = 5.0
 #: Most samples (blocks × samples per block) one fit of one line takes: beyond, fewer blocks.
 ROWS_PER_FIT = 32768
+#: A segment holding fewer blocks of cycles_per_block than this gets shorter blocks: a steel ruler's
+#: 1.9 Hz mode over 12 s made 4 blocks of 8 cycles, too few for a curve and each spanning much of
+#: its frequency's change.
+SHORT_RECORD_BLOCKS = 8.0
 #: Fewest samples per fitted column in a block.
 SAMPLES_PER_COLUMN = 3.0
 
 
 def _block_length(frequency_Hz: float, sigma: float, separation_Hz: float, shortest_s: float,
-                  settings: BackboneSettings) -> float:
+                  settings: BackboneSettings, span_s: float = np.inf) -> float:
     """The block length (s) for a line: :attr:`BackboneSettings.cycles_per_block` periods, or
     :data:`SEPARATION_CYCLES` periods of its distance to the nearest other line (at most
     :func:`_longest_block`), or
     ``shortest_s`` (:data:`SAMPLES_PER_COLUMN` samples per column) if longer; shortened to
-    max_decay_per_block / sigma, and at least min_cycles_per_block periods and ``shortest_s``."""
-    length = max(settings.cycles_per_block / frequency_Hz, shortest_s)
+    max_decay_per_block / sigma, and at least min_cycles_per_block periods and ``shortest_s``; a
+    segment of ``span_s`` shorter than :data:`SHORT_RECORD_BLOCKS` blocks of cycles_per_block takes
+    shorter blocks (down to min_cycles_per_block), so that a slow mode still gets a curve."""
+    cycles = max(min(settings.cycles_per_block, span_s * frequency_Hz / SHORT_RECORD_BLOCKS),
+                 settings.min_cycles_per_block)
+    length = max(cycles / frequency_Hz, shortest_s)
     if separation_Hz > 0:
         length = max(length, min(SEPARATION_CYCLES / separation_Hz, _longest_block(frequency_Hz, settings)))
     if sigma > 0:
@@ -962,6 +974,7 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
             else:
                 fits[k], plans[k], s_now[k], most[k] = previous[f]
     segments_s = [(float(t[a]), float(t[b - 1])) for a, b in segments]
+    longest_span = max(b - a for a, b in segments_s)
     for sweep in range(1 if previous is not None else 2):
         contributions: dict[int, np.ndarray] = {}
         for k in list(active):
@@ -991,7 +1004,7 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
             reach = min(0.5 * min(distance, default=np.inf), REACH * f)
             columns = 2 * TARGET_POWERS + settings.drift_order + 1 + 4 * len(lower)
             shortest = SAMPLES_PER_COLUMN * columns * step * q
-            length = _block_length(f, max(-s_now[k].real, 0.0), separation, shortest, settings)
+            length = _block_length(f, max(-s_now[k].real, 0.0), separation, shortest, settings, longest_span)
             # a line's first fit probes the start of each segment, where a decaying line is
             # largest, in blocks of its own cycles (cheap: a noise line is dropped at that cost)
             ends = plans[k]
@@ -1010,7 +1023,8 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
             if fit.usable.any():
                 # blocks as long as the line's decay allows, where it lives: fit again when the
                 # plan changes (a line that dies early, decays fast, or lives longer than planned)
-                shorter = _block_length(f, max(-_summary_s(fit).real, 0.0), separation, shortest, settings)
+                shorter = _block_length(f, max(-_summary_s(fit).real, 0.0), separation, shortest, settings,
+                                        longest_span)
                 ok = fit.usable
                 if _mains_harmonic(f, settings) is not None and abs(float(np.median(fit.s.real[ok]))) < 3 * float(
                         np.median(fit.sigma_sd[ok])):
@@ -1049,17 +1063,69 @@ def _follow(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tupl
     return fits, gains, bins, state
 
 
+def _disturbances(t: np.ndarray, y: np.ndarray, valid: np.ndarray, fits: list[_Fit | None],
+                  segments: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Stretches (sample index ranges) that hold a disturbance of a decay: in the blocks of the
+    strongest line, a block whose residual sd is a local peak above :data:`DISTURBANCE` times the
+    median of its usable blocks, with the blocks two hops before and after it below half that
+    peak (a tap or a second pluck spoils the one or two blocks that straddle it; a decay's slowly
+    changing misfit does not peak). The disturbance is found inside that block by a linear
+    predictor (:func:`_jump`); the decay before it ends there and a new one starts a tenth of a
+    block after it. None within two blocks of a segment's start."""
+    candidates = [f for f in fits if f is not None and f.usable.sum() >= 5]
+    if not candidates:
+        return []
+    fit = max(candidates, key=lambda f: float(np.max(np.abs(f.z[f.usable]))))
+    ratio = fit.residual_sd / float(np.median(fit.residual_sd[fit.usable]))
+    starts = np.array([t[a] for a, _ in segments])
+    order = int(min(2 * sum(f is not None for f in fits) + 2, 32))
+    gaps: list[tuple[int, int]] = []
+    for b in range(2, ratio.size - 2):
+        if not (ratio[b] > DISTURBANCE and ratio[b] >= ratio[b - 1] and ratio[b] >= ratio[b + 1]
+                and ratio[b - 2] < 0.5 * ratio[b] and ratio[b + 2] < 0.5 * ratio[b]):
+            continue
+        c, h = float(fit.centre[b]), float(fit.half[b])
+        jump = _jump(t, y, valid, c - h, c + h, order)
+        if jump is not None and np.all(np.abs(t[jump] - starts) > 4 * h) and all(
+                abs(t[jump] - t[a]) > 4 * h for a, _ in gaps):
+            gaps.append((max(jump - 2, 0), int(np.searchsorted(t, t[jump] + 0.1 * h))))
+    return gaps
+
+
+def _jump(t: np.ndarray, y: np.ndarray, valid: np.ndarray, start: float, stop: float, order: int) -> int | None:
+    """The sample (index) of [start, stop] s where a decay is disturbed: the largest one-step error
+    of a linear predictor of ``order`` (least squares on the valid samples of the stretch and two
+    of its lengths around it, put on a uniform grid at their median step). A sum of damped
+    sinusoids is predicted to the noise; a tap or a second pluck is not, at the sample it
+    happens."""
+    span = stop - start
+    inside = valid & (t >= start - 2 * span) & (t <= stop + 2 * span)
+    if np.count_nonzero(inside) < 4 * order + 8:
+        return None
+    grid, step = uniform_grid(t[inside], y[inside])
+    rows = np.lib.stride_tricks.sliding_window_view(grid, order + 1)
+    coefficients, *_ = np.linalg.lstsq(rows[:, :-1], rows[:, -1], rcond=None)
+    error = np.abs(rows[:, -1] - rows[:, :-1] @ coefficients)
+    times = t[inside][0] + step * (np.arange(error.size) + order)
+    window = (times >= start) & (times <= stop)
+    if not window.any():
+        return None
+    return int(np.searchsorted(t, times[window][int(np.argmax(error[window]))]))
+
+
 # ---------------------------------------------------------------------------------------------
 # classification and results
 
 
 def _mains_harmonic(frequency_Hz: float, settings: BackboneSettings) -> float | None:
-    """The mains frequency of which ``frequency_Hz`` is a harmonic (within the tolerance), or None."""
+    """The mains frequency of which ``frequency_Hz`` is a harmonic (within the tolerance), or None;
+    of two (300 Hz is 5 × 60 and 6 × 50), the one of the lower harmonic."""
+    found = []
     for mains in settings.mains_Hz:
         k = round(frequency_Hz / mains)
         if k >= 1 and abs(frequency_Hz - k * mains) <= settings.mains_tolerance * k * mains:
-            return mains
-    return None
+            found.append((k, mains))
+    return min(found)[1] if found else None
 
 
 def _fall(fit: _Fit) -> float:
@@ -1232,10 +1298,21 @@ def identify_backbone(
     segments = _segments(t, y, valid, 1.0 / min(lines), first)
     fits, gains, bins, state = _follow(t, y, valid, segments, lines, heights, settings)
     segments_s = tuple((float(t[a]), float(t[b - 1])) for a, b in segments)
-    # lines the strong ones hid (their leakage raises the release spectrum's floor): searched
-    # again in what the lines found leave, and if any, everything followed again
     residual = y - sum((_reconstruct(fit, gain, t, list(segments_s)) for fit, gain in zip(fits, gains)
                         if fit is not None and fit.resolved.any()), np.zeros(t.size))
+    # a disturbance inside a decay (a tap, a second pluck, a knock): a new segment there, and
+    # everything followed again
+    gaps = _disturbances(t, y, valid, fits, segments)
+    if gaps:
+        for lo, hi in gaps:
+            segments = [piece for a, b in segments for piece in (
+                ((a, lo), (hi, b)) if a < lo < b else ((a, b),)) if piece[1] - piece[0] > 1]
+        fits, gains, bins, state = _follow(t, y, valid, segments, lines, heights, settings)
+        segments_s = tuple((float(t[a]), float(t[b - 1])) for a, b in segments)
+        residual = y - sum((_reconstruct(fit, gain, t, list(segments_s)) for fit, gain in zip(fits, gains)
+                            if fit is not None and fit.resolved.any()), np.zeros(t.size))
+    # lines the strong ones hid (their leakage raises the release spectrum's floor): searched
+    # again in what the lines found leave, and if any, everything followed again
     more = _merged(found, _spectral_lines(t[clean][valid[clean]], residual[clean][valid[clean]], settings), lobe,
                    settings)
     if len(more) > len(found):
@@ -1260,10 +1337,15 @@ def identify_backbone(
                 modes.append(_empty_mode(number, f_asked, f"not resolved: above the record's Nyquist frequency "
                                                           f"({0.5 * rate:.4g} Hz)", order))
             elif match is None:
-                modes.append(_empty_mode(number, f_asked, f"not resolved: no spectral peak within "
-                                                          f"{100 * (math.exp(settings.hint_tolerance) - 1):.0f} % of "
-                                                          f"{f_asked:.4g} Hz rises {settings.min_prominence_db:g} dB "
-                                                          "above the noise", order))
+                near = [k for k in range(len(lines)) if kinds[k] in ("hum", "mixed")
+                        and abs(math.log(lines[k] / f_asked)) <= settings.hint_tolerance]
+                if near:
+                    note = (f"not resolved: near {f_asked:.4g} Hz the record holds mains hum "
+                            f"({', '.join(f'{lines[k]:.2f} Hz' for k in near)}), which a mode there cannot be told from")
+                else:
+                    note = (f"not resolved: no spectral peak within {100 * (math.exp(settings.hint_tolerance) - 1):.0f} % "
+                            f"of {f_asked:.4g} Hz rises {settings.min_prominence_db:g} dB above the noise")
+                modes.append(_empty_mode(number, f_asked, note, order))
             else:
                 k = by_frequency[match.frequency_data_Hz]
                 shown.add(k)
@@ -1303,29 +1385,42 @@ def _strength(fit: _Fit | None, gain: float) -> float:
 
 def _kinds(lines: list[float], fits: list[_Fit | None], gains: list[float],
            settings: BackboneSettings) -> tuple[list[str | None], list[str]]:
-    """What each line is: ``"hum"``, ``"harmonic"`` or None (a mode), with a note (module notes)."""
+    """What each line is: ``"hum"``, ``"mixed"`` (a decaying line on a harmonic of the hum the
+    record holds), ``"harmonic"`` or None (a mode), with a note (module notes)."""
     largest = [float(np.max(np.abs(f.z[f.usable]))) / g if f is not None and f.usable.any() else 0.0
                for f, g in zip(fits, gains)]
-    strongest = int(np.argmax(largest))
-    beam_fall = _fall(fits[strongest]) if largest[strongest] > 0 else 0.0
     kinds: list[str | None] = [None] * len(lines)
     notes = [""] * len(lines)
-    for k, (f, fit) in enumerate(zip(lines, fits)):
-        if fit is None or not fit.usable.any():
+    frequency = [float(np.average(np.abs(f.s[f.usable]), weights=1.0 / np.maximum(f.omega_sd[f.usable], 1e-300) ** 2))
+                 / (2 * np.pi) if f is not None and f.usable.any() else 0.0 for f in fits]  # the blocks' weighted mean
+    mains = [_mains_harmonic(f, settings) if f > 0 else None for f in frequency]
+    falls = [_fall(f) if f is not None and f.usable.any() else 0.0 for f in fits]
+    # the record's beam decays: the largest fall of a line that is no mains harmonic
+    beam_fall = max((fall for fall, m, f in zip(falls, mains, fits) if m is None and f is not None), default=0.0)
+    for k, fit in enumerate(fits):
+        if mains[k] is None or fit is None or not fit.usable.any():
             continue
         ok = fit.usable
-        frequency = float(np.average(np.abs(fit.s[ok]), weights=1.0 / np.maximum(fit.omega_sd[ok], 1e-300) ** 2)) / (
-            2 * np.pi)  # the blocks' weighted mean
-        mains = _mains_harmonic(frequency, settings)
-        if mains is not None and _fall(fit) < settings.persistent_fall and beam_fall > 2 * settings.persistent_fall:
+        steady = falls[k] < settings.persistent_fall or (
+            falls[k] < 0.5 and abs(float(np.median(fit.s.real[ok]))) < 3 * float(np.median(fit.sigma_sd[ok])))
+        if steady and beam_fall > 2 * settings.persistent_fall:
             kinds[k] = "hum"
-            notes[k] = (f"mains hum: {frequency:.2f} Hz = {round(frequency / mains)} x {mains:g} Hz, its amplitude "
-                        f"constant while the beam's falls by {100 * beam_fall:.0f} %")
+            notes[k] = (f"mains hum: {frequency[k]:.2f} Hz = {round(frequency[k] / mains[k])} x {mains[k]:g} Hz, its "
+                        f"amplitude constant while the beam's falls by {100 * beam_fall:.0f} %")
+    hum = {mains[k] for k in range(len(lines)) if kinds[k] == "hum"}
+    for k, fit in enumerate(fits):
+        if kinds[k] is None and mains[k] in hum:  # a decaying line on a harmonic of the hum the record holds
+            kinds[k] = "mixed"
+            notes[k] = (f"at {frequency[k]:.2f} Hz = {round(frequency[k] / mains[k])} x {mains[k]:g} Hz, a harmonic of the "
+                        "mains hum the record holds: a mode there cannot be told from the hum")
+    for k, (f, fit) in enumerate(zip(lines, fits)):
+        if kinds[k] is not None or fit is None or not fit.usable.any():
             continue
+        ok = fit.usable
         for j, (g, other) in enumerate(zip(lines, fits)):
             if j == k or other is None or not other.usable.any() or largest[j] <= largest[k]:
                 continue
-            n = round(frequency / g)
+            n = round(frequency[k] / g)
             if not 2 <= n <= MAX_HARMONIC:
                 continue
             # n times the other line's frequency at the same times (a nonlinear response's
