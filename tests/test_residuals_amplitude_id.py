@@ -282,6 +282,42 @@ def test_a_tap_starts_a_second_decay_whose_curves_continue_the_first():
         assert np.sqrt(np.mean(_z(mode.damping_ratio[part], 0.005, mode.damping_ratio_sd[part]) ** 2)) < 1.6
 
 
+def test_a_second_pluck_that_does_not_raise_the_swing_is_found_and_cut():
+    """A mode plucked again at 6.3 s from rest, at 0.6 of its first release while it still swings
+    at 0.67 of it (the envelope does not jump): the blocks' residuals find it, a linear predictor
+    places it within 10 ms, and both decays give the damping ratio within errors."""
+    rng = np.random.default_rng(10)
+    t = np.arange(0.0, 12.0, 1 / 1000)
+    y = _decay(t, 5.0, 0.002, 5.0, 0.0)
+    later = t >= 6.3
+    y[later] = _decay(t[later] - 6.3, 5.0, 0.002, 3.0, 0.0)
+    y += 0.01 * rng.standard_normal(t.size)
+    result = identify_backbone(t, y, output="acceleration")
+    assert len(result.segments_s) == 2
+    assert result.segments_s[0][1] == pytest.approx(6.3, abs=0.01)
+    mode = result.mode(1)
+    for part in (0, 1):
+        inside = mode.segment == part
+        assert inside.sum() >= 5
+        assert np.sqrt(np.mean(_z(mode.damping_ratio[inside], 0.002, mode.damping_ratio_sd[inside]) ** 2)) < 1.6
+
+
+def test_a_mode_on_a_harmonic_of_the_hum_is_not_taken_for_either():
+    """A strain record with 60 Hz hum and its 3rd and 5th harmonics, and a mode at 60.3 Hz beside a
+    clean one at 21 Hz: the hum harmonics are hum, the mode at 60.3 Hz (0.3 Hz from the hum) is
+    reported not resolved with the hum named, the 21 Hz mode is resolved."""
+    rng = np.random.default_rng(11)
+    t = np.arange(0.0, 12.0, 1 / 2000)
+    y = _decay(t, 21.0, 0.004, 1e-4) + _decay(t, 60.3, 0.005, 2e-5, 1.0) + 1e-7 * rng.standard_normal(t.size)
+    for harmonic, size in ((1, 2e-6), (3, 8e-7), (5, 3e-7)):
+        y += size * np.cos(2 * np.pi * harmonic * 60.01 * t + harmonic)
+    result = identify_backbone(t, y, output="strain", frequencies_Hz=[21.0, 60.3])
+    clean, mixed = result.modes
+    assert clean.resolved and not mixed.resolved and "hum" in mixed.note
+    kinds = {round(line.frequency_Hz): line.kind for line in result.lines}
+    assert kinds.get(180) == "hum" and kinds.get(300) == "hum"
+
+
 def test_a_measurement_is_read_with_its_clipping_and_an_asked_mode_above_nyquist():
     """:func:`record_backbone` on a Measurement of irregular stamps whose sensor range clips the
     release: the clipped samples are left out, and a mode asked above the Nyquist frequency is

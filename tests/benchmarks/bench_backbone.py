@@ -6,14 +6,16 @@ record (median and slowest), with their ratio to the linear preview
 run. Run on demand:
 
     python tests/benchmarks/bench_backbone.py [--families accelerometer,phone,...,shared]
-        [--seeds 0-4] [--no-preview] [--hilbert]
+        [--seeds 0-4] [--no-preview] [--hilbert] [--scaling]
 
 CPU time is ``time.process_time`` (the machine is shared: wall time would measure the others'
 load); the 1-minute load average is printed with each family. ``--hilbert`` adds, for mode 1 of
 every simulated record, the band-pass + Hilbert envelope of :mod:`beam.residuals.envelope` (the
 record put on a uniform grid first) judged by the same truth: its damping ratio per amplitude
 bin within 3 of the spread of its bin plus the tolerance, on at least 80 % of the bins — the
-figure behind the method's choice (``docs/decisions.md``).
+figure behind the method's choice (``docs/decisions.md``). ``--scaling`` first times a linear
+decay of the 50 cm strip (three modes, an accelerometer at 4 kHz, 50 Hz hum) of 5, 20 and 60 s,
+and the 20 s one at 100, 500 and 1000 Hz: CPU against the number of samples.
 """
 
 from __future__ import annotations
@@ -81,13 +83,38 @@ def hilbert_agrees(record) -> bool | None:
     return bool(np.mean(np.abs(zeta - expected) <= 3 * spread + tolerance * expected) >= 0.8)
 
 
+def scaling() -> None:
+    """CPU of the identification against the record's duration and rate (module notes)."""
+    from beam.io.release import simulate_release
+    from beam.physics.geometry import BeamGeometry
+    from beam.physics.model import BeamModel
+
+    model = BeamModel(BeamGeometry(0.5, 0.27, None, None, 0.44, width_m=0.05), ["modal_damping"], input_kind=None)
+    values = {"bending_stiffness_Nm2": 2.333, "damping_ratio_mode_1": 0.002, "damping_ratio_mode_2": 0.003,
+              "damping_ratio_mode_3": 0.004}
+    rng = np.random.default_rng(0)
+    print("duration_s  rate_Hz  samples  cpu_s  cpu_us_per_sample  resolved_modes")
+    for duration, rate in ((5, 4000), (20, 4000), (60, 4000), (20, 100), (20, 500), (20, 1000)):
+        t = np.arange(0.0, duration, 1.0 / rate)
+        y = simulate_release(model, values, t, 0.02, modes=3 if rate > 300 else 2)
+        y = y + 0.03 * rng.standard_normal(t.size) + 0.05 * np.cos(2 * np.pi * 50.02 * t)
+        from beam.residuals import identify_backbone
+
+        identify_backbone(t, y, output="acceleration")
+        result, seconds = cpu(lambda: identify_backbone(t, y, output="acceleration"))
+        print(f"{duration}  {rate}  {t.size}  {seconds:.3f}  {1e6 * seconds / t.size:.2f}  {len(result.resolved)}", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--families", default=",".join(families.FAMILIES + ("shared",)))
     parser.add_argument("--seeds", default="0-4")
     parser.add_argument("--no-preview", action="store_true")
     parser.add_argument("--hilbert", action="store_true")
+    parser.add_argument("--scaling", action="store_true")
     args = parser.parse_args()
+    if args.scaling:
+        scaling()
     lo, _, hi = args.seeds.partition("-")
     seeds = range(int(lo), int(hi or lo) + 1)
     from beam.calibration import calibration_preview
