@@ -139,8 +139,8 @@ class BackboneSettings:
     iterations : int
         Gauss–Newton iterations per line and sweep.
     samples_per_period : float
-        Records sampled finer than this many samples per period of their highest line are
-        averaged over bins down to it.
+        Each line is fitted on the record (less the lines above it) averaged over bins of as
+        many samples as leave at least this many per period of the line.
     mains_Hz : tuple of float
         Mains frequencies whose harmonics are hum candidates.
     mains_tolerance : float
@@ -344,7 +344,7 @@ class FreeDecayBackbone:
     sample_rate_Hz : float
         1 / median step of the record.
     fit_rate_Hz : float
-        The rate the blocks were fitted at (the record's, or its bins').
+        The lowest rate a line was fitted at (its bins'; the record's when nothing was binned).
     noise_sd : float
         Median residual sd of the blocks of the strongest mode (the record's unit).
     """
@@ -388,8 +388,6 @@ class _Record:
     t: np.ndarray
     y: np.ndarray
     valid: np.ndarray
-    bin_samples: int
-    bin_step_s: float
 
 
 #: Samples over which the local scale of the 4th differences is taken (:func:`_spikes`).
@@ -428,14 +426,13 @@ def _binned(t: np.ndarray, y: np.ndarray, valid: np.ndarray, q: int) -> _Record:
     safe = np.where(count > 0, count, 1.0)
     tb = (t[:n].reshape(-1, q) * w).sum(axis=1) / safe
     yb = (y[:n].reshape(-1, q) * w).sum(axis=1) / safe
-    step = float(np.median(np.diff(t)))
-    return _Record(tb[keep], yb[keep], np.ones(int(keep.sum()), dtype=bool), q, step)
+    return _Record(tb[keep], yb[keep], np.ones(int(keep.sum()), dtype=bool))
 
 
 def _prepared(t: np.ndarray, y: np.ndarray, valid: np.ndarray, segments: list[tuple[int, int]],
               q: int) -> tuple[_Record, list[tuple[int, int]]]:
     """The record binned by ``q`` (:func:`_binned`; as it is for q = 1) and its segments' index ranges in it."""
-    record = _binned(t, y, valid, q) if q > 1 else _Record(t, y, valid.copy(), 1, float(np.median(np.diff(t))))
+    record = _binned(t, y, valid, q) if q > 1 else _Record(t, y, valid.copy())
     cut = [int(np.searchsorted(record.t, t[a])) for a, _ in segments] + [record.t.size]
     return record, [(cut[i], max(cut[i + 1], cut[i])) for i in range(len(segments))]
 

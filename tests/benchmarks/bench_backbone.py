@@ -129,7 +129,7 @@ def main() -> None:
         print(f"\n## {name} ({len(records)} records; load {os.getloadavg()[0]:.1f})", flush=True)
         print("record  samples  rate_Hz  cpu_s  preview_cpu_s  ratio  agreement (mode: True/False/None)  "
               "resolved  hilbert_mode1", flush=True)
-        times, ratios, agreed, hilbert = [], [], {}, []
+        times, ratios, agreed, hilbert, unresolved = [], [], {}, [], {}
         for record in records:
             m = record.measurement
             identified, seconds = cpu(lambda: record_backbone(m, frequencies_Hz=record.frequencies_Hz()))
@@ -144,6 +144,9 @@ def main() -> None:
             agreement = record.agreement(identified)
             for number, ok in agreement.items():
                 agreed.setdefault(number, []).append(ok)
+            for mode in identified.modes:
+                if not mode.resolved:
+                    unresolved.setdefault(mode.number, []).append(mode.note)
             h = hilbert_agrees(record) if args.hilbert and record.model is not None else None
             if h is not None:
                 hilbert.append(h)
@@ -156,7 +159,9 @@ def main() -> None:
                 + (f"ratio to the preview median {statistics.median(ratios):.3f}, slowest {max(ratios):.3f}; "
                    if ratios else "")
                 + "agree " + ", ".join(f"mode {n} {a}/{b}" for n, (a, b) in sorted(shares.items()) if b)
-                + (f"; Hilbert mode 1 {sum(hilbert)}/{len(hilbert)}" if hilbert else ""))
+                + (f"; Hilbert mode 1 {sum(hilbert)}/{len(hilbert)}" if hilbert else "")
+                + "; not resolved " + ", ".join(f"mode {n} {len(notes)}/{len(records)}"
+                                                for n, notes in sorted(unresolved.items())))
         print(line, flush=True)
         summary.append(line)
     print("\n# summary")
