@@ -18,6 +18,9 @@ module                      what
                             ratio, amplitude per mode; matching against model modes
 :mod:`.envelope`            band-pass + Hilbert envelope and instantaneous frequency of one mode:
                             backbone (frequency against amplitude), decay law
+:mod:`.amplitude_id`        amplitude-resolved identification of a free decay: per mode A(t),
+                            frequency and damping ratio against amplitude with their errors, at
+                            the record's own stamps (phones, clipping, hum, a node, taps)
 :mod:`.fingerprints`        dimensionless fingerprints of missing effects, a score and one
                             sentence per effect id
 :mod:`.phase`               the phase lag of mode 1 after the window, block by block, and how
@@ -25,6 +28,15 @@ module                      what
 ==========================  ====================================================================
 """
 
+from beam.residuals.amplitude_id import (
+    BackboneSettings,
+    CurveLaw,
+    FreeDecayBackbone,
+    ModeBackbone,
+    SpectralLine,
+    identify_backbone,
+    record_backbone,
+)
 from beam.residuals.common import jsonable
 from beam.residuals.envelope import (
     Backbone,
@@ -84,52 +96,59 @@ from beam.residuals.whiteness import (
 )
 
 __all__ = [
-    "DIFFERENCE_CONVENTION",
-    "NoiseFloor",
-    "PhaseDrift",
-    "phase_drift",
-    "noise_floor",
-    "record_noise_floor",
-    "THRESHOLDS",
-    "Backbone",
-    "BandResiduals",
-    "DecayLaw",
-    "ExceedanceInterval",
-    "IdentifiedModes",
-    "ModeAnalysis",
-    "ModeEnvelope",
-    "ModeMatch",
-    "ModePower",
-    "ModeRow",
-    "ResidualSpectrum",
-    "SpectralPeak",
-    "Whiteness",
-    "WindowScore",
-    "WindowScores",
     "analyse_mode",
     "autocorrelation",
+    "Backbone",
     "backbone",
+    "BackboneSettings",
     "band_residuals",
+    "BandResiduals",
     "check_backbone",
     "compare_modes",
+    "CurveLaw",
     "decay_law",
-    "difference_words",
+    "DecayLaw",
     "default_max_lag",
     "default_nperseg",
+    "DIFFERENCE_CONVENTION",
+    "difference_words",
     "effect_scores",
+    "ExceedanceInterval",
     "explain",
     "extrapolate",
     "fingerprints",
     "free_decay_start",
+    "FreeDecayBackbone",
+    "IdentifiedModes",
+    "identify_backbone",
     "identify_modes",
     "jsonable",
     "ljung_box",
     "matrix_pencil_poles",
     "resolution_reasons",
     "mode_envelope",
+    "ModeAnalysis",
+    "ModeBackbone",
+    "ModeEnvelope",
+    "ModeMatch",
+    "ModePower",
+    "ModeRow",
+    "noise_floor",
+    "NoiseFloor",
+    "phase_drift",
+    "PhaseDrift",
+    "record_backbone",
+    "record_noise_floor",
     "residual_spectrum",
     "residual_whiteness",
+    "ResidualSpectrum",
     "spectral_drift",
+    "SpectralLine",
+    "SpectralPeak",
+    "THRESHOLDS",
     "unseen_reason",
+    "Whiteness",
     "window_scores",
+    "WindowScore",
+    "WindowScores",
 ]

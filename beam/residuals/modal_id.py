@@ -520,7 +520,10 @@ def compare_modes(
     assigned: dict[int, int] = {}
     if f_data.size and valid.size:
         cost = np.abs(np.log(f_model[valid][:, None] / f_data[None, :]))
-        rows, cols = scipy.optimize.linear_sum_assignment(cost)
+        # pairs beyond the tolerance cost more than any set of pairs within it: the assignment
+        # never gives up a close pair to place a far one it then discards
+        bounded = np.where(cost <= tolerance, cost, 1e6)
+        rows, cols = scipy.optimize.linear_sum_assignment(bounded)
         assigned = {int(valid[r]): int(c) for r, c in zip(rows, cols) if cost[r, c] <= tolerance}
     out = []
     nan = float("nan")

@@ -38,7 +38,7 @@ import numpy as np
 
 from beam.errors import BeamInputError
 
-__all__ = ["NoiseFloor", "noise_floor", "record_noise_floor", "difference_noise_sd"]
+__all__ = ["NoiseFloor", "noise_floor", "record_noise_floor", "difference_noise_sd", "fourth_differences"]
 
 #: Sub-bands of the spectrum searched for the quietest level, and their span (fractions of Nyquist).
 SUB_BANDS = 8
@@ -133,6 +133,20 @@ def difference_noise_sd(time_s: np.ndarray, output: np.ndarray) -> float:
     float
         The noise sd (the output's unit).
     """
+    differences = fourth_differences(time_s, output)
+    return float(1.4826 * np.median(np.abs(differences - np.median(differences))))
+
+
+def fourth_differences(time_s: np.ndarray, output: np.ndarray) -> np.ndarray:
+    """The unit-norm 4th divided differences of each five consecutive samples at their own stamps
+    (:func:`difference_noise_sd`): (n - 4,) values, the k-th centred on sample k + 2; white noise
+    of sd sigma gives differences of sd sigma, any cubic through the five samples gives 0.
+
+    Parameters
+    ----------
+    time_s, output : ndarray, shape (n,), n >= 5
+        Increasing stamps (s) and samples (any unit).
+    """
     t = np.asarray(time_s, dtype=float)
     y = np.asarray(output, dtype=float)
     scale = float(np.median(np.diff(t)))
@@ -143,8 +157,7 @@ def difference_noise_sd(time_s: np.ndarray, output: np.ndarray) -> float:
             if i != j:
                 weights[:, i] /= windows[:, i] - windows[:, j]
     weights /= np.linalg.norm(weights, axis=1, keepdims=True)
-    differences = np.einsum("ij,ij->i", weights, np.lib.stride_tricks.sliding_window_view(y, 5))
-    return float(1.4826 * np.median(np.abs(differences - np.median(differences))))
+    return np.einsum("ij,ij->i", weights, np.lib.stride_tricks.sliding_window_view(y, 5))
 
 
 def record_noise_floor(measurement) -> NoiseFloor:
