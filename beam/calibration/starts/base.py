@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from beam.calibration.setup import BeamCalibrationSetup, BeamForwardModel, prior_centre
+from dataclasses import replace
+
+from beam.calibration.forward import BeamForwardModel
+from beam.calibration.setup import BeamCalibrationSetup, prior_centre
 from beam.inference import Problem
 from beam.physics.effects.base import BENDING_STIFFNESS, PATCH_COUPLING
 from beam.physics.model import BeamModel
@@ -117,8 +120,9 @@ def pure_damping_parameter(name: str) -> bool:
 
 
 def model_setup(setup: BeamCalibrationSetup, effects: tuple[str, ...], modes: int) -> BeamCalibrationSetup:
-    """The setup of the model with ``effects`` and ``modes`` retained modes on the same record,
-    window and likelihood."""
+    """The setup of the driven model with ``effects`` and ``modes`` retained modes on the same
+    record, window and likelihood (the same calibration model: the engine's sub-models of a model
+    driven by the patch voltage)."""
     model = BeamModel(setup.measurement.geometry, effects, setup.model.intervals)
-    return BeamCalibrationSetup(setup.measurement, setup.window, model.effects, modes, setup.likelihood, model,
-                                BeamForwardModel(model, setup.measurement, modes))
+    spec = replace(setup.spec, effects=model.effects, modes=int(modes))
+    return replace(setup, spec=spec, model=model, forward=BeamForwardModel(model, setup.measurement, modes))
