@@ -39,8 +39,10 @@ from beam.calibration import (
     AUTO_MODES,
     DEFAULT_EFFECTS,
     CalibrationResult,
+    CalibrationSpec,
     calibration_preview,
 )
+from beam.calibration.defaults import DEFAULT_LIKELIHOOD
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, applicable, effect_needs, parse_effects
@@ -189,16 +191,17 @@ Fitter = Callable[[list[tuple[str, ...]]], list["CalibrationResult | Exception"]
 FIT_ERRORS = (RuntimeError, FloatingPointError, ValueError, BeamInputError)
 
 
-def thread_fitter(measurement: Measurement, window: tuple[float, float], modes: int, workers: int = 2,
-                  search: bool = True, on_fit: Callable[[tuple[str, ...], int, int], None] | None = None) -> Fitter:
-    """The default :data:`Fitter`: previews in ``workers`` threads (the compiled kernels release
-    the GIL; the Python between them does not, so two threads gain ~1.2x on two cores);
-    ``search=False``: screening fits (:func:`beam.calibration.calibration_preview`).
-    ``on_fit(effects, done, total)``, if given, is called (from the fitting thread) as each fit
-    of a call ends: its effect set, how many of the call's ``total`` fits have ended."""
+def thread_fitter(measurement: Measurement, spec: CalibrationSpec, workers: int = 2, search: bool = True,
+                  on_fit: Callable[[tuple[str, ...], int, int], None] | None = None) -> Fitter:
+    """The default :data:`Fitter`: previews of ``spec`` (its window, modes and likelihood; each
+    set's effects) in ``workers`` threads (the compiled kernels release the GIL; the Python
+    between them does not, so two threads gain ~1.2x on two cores); ``search=False``: screening
+    fits (:func:`beam.calibration.calibration_preview`). ``on_fit(effects, done, total)``, if
+    given, is called (from the fitting thread) as each fit of a call ends: its effect set, how
+    many of the call's ``total`` fits have ended."""
     def fit(effects: tuple[str, ...]) -> CalibrationResult | Exception:
         try:
-            return calibration_preview(measurement, window=window, effects=effects, modes=modes, search=search)
+            return calibration_preview(measurement, spec.for_model(effects), search=search)
         except FIT_ERRORS as exc:  # a failed fit: ranked last
             return exc
 
@@ -235,17 +238,19 @@ def rank_candidates(
     base_result: CalibrationResult | None = None,
     workers: int = 2,
     fitter: Fitter | None = None,
+    likelihood: str = DEFAULT_LIKELIHOOD,
 ) -> Ranking:
     """Calibrate the current model and each candidate (preview; by ``fitter``, default
     :func:`thread_fitter` with ``workers`` threads), ranked best first."""
     base = parse_effects(base)
     if base_result is None:
-        base_result = calibration_preview(measurement, window=window, effects=base, modes=modes)
-    window, modes = base_result.setup.window, base_result.setup.modes  # "auto" resolved once, for every candidate
+        base_result = calibration_preview(measurement, CalibrationSpec(window=window, effects=base, modes=modes,
+                                                                       likelihood=likelihood))
+    spec = CalibrationSpec.of_setup(base_result.setup)  # "auto" resolved once, for every candidate
     names = candidate_effects(base, measurement) if candidates is None else parse_effects(candidates)
     if set(names) & set(base):
         raise BeamInputError(f"candidate {sorted(set(names) & set(base))[0]!r} is already in the model")
-    fitter = fitter or thread_fitter(measurement, window, modes, workers)
+    fitter = fitter or thread_fitter(measurement, spec, workers)
     fits = dict(zip(names, fitter([with_effect(base, effect) for effect in names])))
     return rank_fits(base_result, names, fits, explain)
 
