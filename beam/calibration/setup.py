@@ -11,8 +11,9 @@ number of retained modes; rho is fixed from the measurement's sidecar.
 Priors
 ------
 A parameter with a ``[nominal]`` value gets a log-normal prior centred (median) on it, truncated
-at ±4 sigma; sigma (of log x) depends on how well such a quantity is usually known
-(:data:`NOMINAL_LOG_SD`): stiffness and density 0.5 (a factor 1.6 at one sigma), the patch's
+at ±4 sigma; sigma (of log x) depends on how well such a quantity is usually known (each
+parameter's :attr:`~beam.physics.effects.effect.ParameterSpec.nominal_log_sd`, collected in
+:data:`NOMINAL_LOG_SD`; a record's own spread overrides it): stiffness and density 0.5 (a factor 1.6 at one sigma), the patch's
 coupling 0.7, masses 1.0, damping, clamp stiffness and the cubic spring 1.5 (a factor 4.5).
 Without a nominal value the prior is log-uniform over the catalogue's default range
 (:class:`beam.physics.effects.ParameterSpec`). The noise sd is log-uniform from 1e-4 to 2 times the RMS
