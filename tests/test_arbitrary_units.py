@@ -59,3 +59,14 @@ def test_the_amplitude_effects_are_not_offered_on_a_record_of_unknown_scale():
     words = true_unit_problem(counts, "air_damping,quadratic_drag,clamp_friction")
     assert words.startswith("quadratic_drag, clamp_friction need the signal in its true unit: their forces depend "
                             "on the amplitude")
+
+
+def test_the_library_refuses_an_amplitude_effect_on_a_record_of_unknown_scale():
+    """The refusal holds where every front end builds its setup (``make_setup``), not only in the CLI."""
+    from beam.calibration import make_setup
+    from beam.errors import BeamInputError
+
+    counts = _counts(read_measurement(REAL), width_m=0.05, thickness_m=0.002)
+    with pytest.raises(BeamInputError, match="true unit"):
+        make_setup(counts, window=(0.0, 2.0), effects="modal_damping,quadratic_drag", modes=2)
+    assert make_setup(counts, window=(0.0, 2.0), effects="modal_damping", modes=2).effects == ("modal_damping",)

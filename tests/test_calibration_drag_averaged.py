@@ -11,7 +11,7 @@ from test_calibration_drag import STRIP, TRUTH, _drag_decay
 from beam.calibration import calibration_preview
 from beam.calibration.engine import Engine
 from beam.calibration.free import ProjectedFreeModel
-from beam.calibration.drag_preview import averaged_drag_preview
+from beam.calibration.pipeline import averaged_drag_preview
 from beam.calibration.free_averaged import AVERAGED_NOTE, AveragedDragModel
 from beam.calibration.free_nonlinear import NonlinearFreeModel
 from beam.physics.model import BeamModel

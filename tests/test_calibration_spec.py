@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
+import numpy as np
 import pytest
 
 from beam.calibration import CalibrationSpec
@@ -83,7 +84,7 @@ def test_a_default_changed_in_one_place_is_seen_by_the_cli_the_api_and_the_dashb
     assert (args.modes, args.effects, args.likelihood, args.seed) == (3, "air_damping", "ar1", 7)
     assert CalibrationSpec.of() == spec
     record = simulated_measurement(TRUE_BASE, duration_s=2.0)
-    from beam.calibration.setup import make_setup
+    from beam.calibration.pipeline import make_setup
 
     assert make_setup(record, modes=4).window[1] == pytest.approx(0.4 * record.time_s[-1])
     from dashboard.jobs.beam import CalibrationKey
@@ -109,3 +110,22 @@ def test_resolve_fills_the_window_and_auto_modes_once():
     assert fixed.modes == DEFAULT_MODES and fixed.mode_choice is None
     with pytest.raises(ValueError):
         spec.model_key()
+
+
+def test_the_spec_checks_every_field_when_made():
+    """Every field is checked where the spec is made, the record-dependent bounds (the window in
+    the record, the modes the mesh holds) where the setup is; the likelihoods it accepts are the
+    inference engine's."""
+    from beam.calibration.defaults import LIKELIHOOD_NAMES
+    from beam.inference import LIKELIHOODS
+
+    assert set(LIKELIHOOD_NAMES) == set(LIKELIHOODS)
+    for bad, words in [(dict(likelihood="gauss"), "unknown likelihood"), (dict(window=(1.0, 0.5)), "start < end"),
+                       (dict(window=(0.0, float("nan"))), "start < end"), (dict(modes=0), "modes"),
+                       (dict(modes="many"), "modes"), (dict(walkers=1), "walkers"), (dict(steps=5), "steps"),
+                       (dict(target_ess=0.0), "target_ess"), (dict(max_steps=0), "max_steps"),
+                       (dict(window_fraction=1.5), "window_fraction"), (dict(seed=0.5), "seed"),
+                       (dict(effects="tip_masss"), "unknown effect")]:
+        with pytest.raises(BeamInputError, match=words):
+            CalibrationSpec(**bad)
+    assert CalibrationSpec(modes="3", seed=2.0, walkers=np.int64(40)).modes == 3

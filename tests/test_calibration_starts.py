@@ -341,7 +341,7 @@ def test_the_spring_linearised_at_the_records_amplitude_puts_the_first_mode_on_i
     values = {name: np.atleast_1d(truth.parameters[name]) for name in setup.physical_names}
     reduced, _, _ = setup.model.reduced_system(values, 4)
     linear = np.sqrt(reduced["omega2"][0]) / (2 * np.pi)
-    linearised = np.sqrt(equivalent_linear_omega2(setup, reduced, values["tip_cubic_stiffness_N_m3"])[0]) / (2 * np.pi)
+    linearised = np.sqrt(equivalent_linear_omega2(setup, reduced, values)[0]) / (2 * np.pi)
     frequencies, power = window_spectrum(setup)
 
     def peak(low, high):

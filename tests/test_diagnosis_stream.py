@@ -84,3 +84,30 @@ def test_a_bad_base_model_stops_the_stream_with_its_error():
     assert isinstance(done.value, BeamInputError)  # run_request hands the failure over as the value
     with pytest.raises(BeamInputError):
         stream.send(done)
+
+
+def test_the_likelihood_reaches_every_fit_of_a_diagnosis():
+    """The spec's likelihood is the base fit's and every candidate's (the stream's requests), and the
+    ranking's threaded fitter calibrates with it."""
+    from beam.discovery.ranking import thread_fitter
+    from beam.discovery.stream import FitRequest
+
+    record = read_measurement(RECORD)
+    spec = CalibrationSpec(window=WINDOW, modes=MODES, likelihood="ar1")
+    engine = Engine()
+    stream = diagnosis_stream(engine, record, spec)
+    base, fits = None, []
+    event = next(stream)
+    while not (fits and event is WAIT):
+        if isinstance(event, BaseRequest):
+            base = event
+        elif isinstance(event, FitRequest):
+            fits.append(event)
+        if event is WAIT:
+            event = stream.send(run_request(base, record, engine))
+            continue
+        event = next(stream)
+    stream.close()
+    assert base.spec.likelihood == "ar1" and fits and all(f.spec.likelihood == "ar1" for f in fits)
+    (fitted,) = thread_fitter(record, spec)([("air_damping", "kelvin_voigt", "tip_mass")])
+    assert fitted.setup.likelihood == "ar1" and "ar1_coefficient" in fitted.laplace.map.values

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import beam.residuals as dx
-from beam.calibration import calibration_preview, known_map, remember_maps
+from beam.calibration import CalibrationSpec, calibration_preview, known_map, remember_maps
 from beam.calibration.run import FIRST_STAGE
 from beam.calibration import starts
 from beam.calibration.engine import default_engine, forget_maps
@@ -70,7 +70,7 @@ def test_the_screened_climb_adds_what_the_full_climb_adds_with_the_same_rung():
     assert remaining.outside_catalogue  # a climb is needed
     screened, left_screened = climb_on(record, leader, remaining, floor)
     full, left_full = climb_on(record, leader, remaining, floor,
-                               screen=thread_fitter(record, WINDOW, 7, search=True))
+                               screen=thread_fitter(record, CalibrationSpec(window=WINDOW, modes=7), search=True))
     assert [e for e, _ in screened] == [e for e, _ in full] == ["patch_damping"]
     for (_, a), (_, b) in zip(screened, full):
         assert not a.screened

@@ -8,6 +8,7 @@ import shutil
 import numpy as np
 import pytest
 
+from beam.calibration.spec import CalibrationSpec
 from beam.cli.arguments import BUNDLED_MEASUREMENTS
 from beam.errors import BeamInputError
 from beam.io.measurement import read_measurement
@@ -28,13 +29,16 @@ def test_a_records_fingerprint_is_its_content_not_its_name(tmp_path):
 
 
 def test_the_key_changes_with_every_option_and_the_code_but_not_the_shown_name():
-    cell = StudyCell("lab_run_1", "abc", (0.0, 1.0), ("air_damping",), "iid", "auto", 0)
+    cell = StudyCell("lab_run_1", "abc", CalibrationSpec(window=(0.0, 1.0), effects=("air_damping",), modes="auto",
+                                                         likelihood="iid", seed=0))
     key = cell.key("v1")
     assert dataclasses.replace(cell, record="other name").key("v1") == key
     assert cell.key("v2") != key
     for change in [dict(record_hash="abd"), dict(window=(0.0, 1.5)), dict(effects=()), dict(likelihood="ar1"),
                    dict(modes=4), dict(seed=1), dict(steps=100), dict(walkers=32)]:
-        assert dataclasses.replace(cell, **change).key("v1") != key, change
+        changed = (dataclasses.replace(cell, **change) if "record_hash" in change
+                   else dataclasses.replace(cell, spec=dataclasses.replace(cell.spec, **change)))
+        assert changed.key("v1") != key, change
     assert cell.calibration_options() == dict(window=(0.0, 1.0), effects=("air_damping",), modes="auto",
                                               likelihood="iid", walkers=None, steps=None, seed=0)
 

@@ -13,6 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from beam.calibration.spec import CalibrationSpec
 from beam.study import StudyCell, default_windows, parse_windows, study_cells
 from beam.study.cells import record_fingerprint
 from beam.study.engine import stream_cells
@@ -64,8 +65,8 @@ def test_the_state_lays_out_the_cells_of_beam_study(session):
     st.param.update(windows="0:0.3,0:0.6", likelihoods=["ar1", "iid"],
                     effect_sets=["air_damping,kelvin_voigt,patch_stiffening", "air_damping,kelvin_voigt"])
     m = load_bundled("lab_run_1")
-    expected = [(i, StudyCell(record="lab_run_1", record_hash=record_fingerprint(m), window=w, effects=e, likelihood=lk,
-                              modes="auto", seed=0))
+    expected = [(i, StudyCell(record="lab_run_1", record_hash=record_fingerprint(m),
+                              spec=CalibrationSpec(window=w, effects=e, likelihood=lk, modes="auto", seed=0)))
                 for i, w in enumerate([(0.0, 0.3), (0.0, 0.6)])
                 for e in [("air_damping", "kelvin_voigt"), ("air_damping", "kelvin_voigt", "patch_stiffening")]
                 for lk in ["iid", "ar1"]]
@@ -134,8 +135,9 @@ def test_a_stop_cancels_the_cells_left_on_the_cluster(client):
 def test_a_cell_opens_in_the_beam_view(session):
     st, beam = session.study, session.beam
     m = load_bundled("lab_run_1")
-    cell = StudyCell(record="lab_run_1", record_hash=record_fingerprint(m), window=(0.0, 0.6),
-                     effects=("air_damping", "kelvin_voigt", "patch_stiffening"), likelihood="ar1", modes="auto", seed=0)
+    cell = StudyCell(record="lab_run_1", record_hash=record_fingerprint(m), spec=CalibrationSpec(
+        window=(0.0, 0.6), effects=("air_damping", "kelvin_voigt", "patch_stiffening"), likelihood="ar1", modes="auto",
+        seed=0))
     before = beam.requested
     st.open_cell({"position": 0, "index": 1, "cell": cell, "row": {"error": None}, "extra": {"modes": 5}})
     key = beam.key()

@@ -33,9 +33,11 @@ _LAZY = {
     "DEFAULT_WINDOW_FRACTION": "beam.calibration.spec",
     "CalibrationSpec": "beam.calibration.spec",
     "BeamCalibrationSetup": "beam.calibration.setup",
-    "BeamForwardModel": "beam.calibration.setup",
+    "BeamForwardModel": "beam.calibration.forward",
     "build_problem": "beam.calibration.setup",
-    "make_setup": "beam.calibration.setup",
+    "make_setup": "beam.calibration.pipeline",
+    "CalibrationModel": "beam.calibration.pipeline",
+    "averaged_drag_preview": "beam.calibration.pipeline",
     "parameter_prior": "beam.calibration.setup",
 }
 

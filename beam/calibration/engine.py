@@ -26,6 +26,7 @@ from typing import NamedTuple
 import numpy as np
 
 from beam.calibration.fit import fast_map
+from beam.calibration.free import StartMemo, free_start_indices
 from beam.calibration.setup import BeamCalibrationSetup, build_problem
 from beam.calibration.spec import CalibrationSpec
 from beam.inference import MapResult, Problem
@@ -82,6 +83,7 @@ class Engine:
         self._memory: dict[str, OrderedDict[tuple, MapResult]] = {MAP: OrderedDict(), FIRST_STAGE: OrderedDict()}
         self._lock = threading.Lock()
         self._digests: dict[int, tuple[object, str]] = {}
+        self._starts = StartMemo()
 
     def __repr__(self) -> str:
         return f"Engine({len(self)} optima, strategies={[s.name for s in self.strategies]})"
@@ -145,10 +147,17 @@ class Engine:
                     if k[:-1] == context and set(k[-1]) < effects]
 
     def forget(self) -> None:
-        """Drop every remembered optimum."""
+        """Drop every remembered optimum (and the free responses' starts)."""
         with self._lock:
             for memory in self._memory.values():
                 memory.clear()
+        self._starts.clear()
+
+    def free_start_indices(self, measurement, modes: int) -> tuple[int, int]:
+        """(release, first sample of the free response) of a free record fitted with ``modes``
+        modes (:func:`beam.calibration.free.free_start_indices`), remembered for the engine's
+        last few records (every model of a record in a diagnosis asks the same question)."""
+        return free_start_indices(measurement, modes, self._starts)
 
     def export(self) -> tuple[Memory, ...]:
         """Every remembered optimum (picklable: send it to another process's :meth:`merge`)."""

@@ -633,9 +633,6 @@ def fast_map(problem: Problem, guesses: Sequence[Mapping[str, float]]) -> MapRes
     guesses = list(guesses)
     if not guesses:
         raise ValueError("fast_map needs at least one initial guess")
-    search = getattr(problem.model, "map_search", None)  # a model with its own search (a nonlinear free decay)
-    if search is not None:
-        return search(problem, guesses)
     lm = levenberg_marquardt(problem, internal_starts(problem, guesses))
     if not np.isfinite(lm.log_posterior[lm.best]):
         raise ValueError("no starting point has a finite log posterior")

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
 from collections.abc import Mapping
 from typing import NamedTuple
 
@@ -51,9 +52,10 @@ from beam.errors import BeamInputError
 from beam.inference import AR1_COEFFICIENT, NOISE_SD
 from beam.inference.likelihood import whiten
 from beam.physics import modal
+from beam.physics.effects.base import BENDING_STIFFNESS
 from beam.physics.model import BeamModel
 
-__all__ = ["AMPLITUDE_PRIOR_SCALE", "OFFSET_NAME", "ProjectedFreeModel", "free_basis_at", "free_prediction_at", "free_rows_at",
+__all__ = ["AMPLITUDE_PRIOR_SCALE", "OFFSET_NAME", "ProjectedFreeModel", "StartMemo", "free_basis_at", "free_prediction_at", "free_rows_at",
            "has_offset", "retained_poles", "stamp_grid"]
 
 #: The prior sd of each linear coefficient, in units of max |data| of the calibration window.
@@ -921,11 +923,11 @@ def free_response_start(time_s: np.ndarray, output: np.ndarray, band_edge_Hz: fl
 
 
 @functools.lru_cache(maxsize=64)
-def _bare_frequencies(geometry, bending_stiffness_Nm2: float, count: int, input_kind: str) -> tuple[float, ...]:
-    """The first ``count`` natural frequencies (Hz) of the bare beam (no effect) at ``bending_stiffness_Nm2``."""
+def _bare_frequencies(geometry, stiffness_Nm2: float, count: int, input_kind: str) -> tuple[float, ...]:
+    """The first ``count`` natural frequencies (Hz) of the bare beam (no effect) at the bending stiffness ``stiffness_Nm2``."""
     model = BeamModel(geometry, (), input_kind=input_kind)
     count = min(count, model.size)
-    frequencies, _ = model.natural_modes({"bending_stiffness_Nm2": bending_stiffness_Nm2}, count)
+    frequencies, _ = model.natural_modes({BENDING_STIFFNESS.name: stiffness_Nm2}, count)
     return tuple(float(f) for f in frequencies)
 
 
@@ -938,38 +940,57 @@ def retained_band(measurement, modes: int) -> tuple[float | None, float]:
     geometric mean of the frequencies of the highest retained mode and the next (None when the
     mesh has no next mode).
     """
-    from beam.physics.effects import PARAMETER_SPECS
-
-    name = "bending_stiffness_Nm2"
-    spec = PARAMETER_SPECS[name]
+    name = BENDING_STIFFNESS.name
+    spec = BENDING_STIFFNESS
     stiffness = float(measurement.nominal.get(name, math.sqrt(spec.prior_low * spec.prior_high)))
     frequencies = _bare_frequencies(measurement.geometry, stiffness, int(modes) + 1, measurement.input_kind)
     edge = math.sqrt(frequencies[modes - 1] * frequencies[modes]) if len(frequencies) > modes else None
     return edge, 1.0 / frequencies[0]
 
 
-#: Records whose free-response start was found last (:func:`free_start_indices`): copies of the
-#: stamps and output, the band edge and period, and the result.
-_START_MEMO: list[tuple[np.ndarray, np.ndarray, float | None, float, tuple[int, int]]] = []
-_START_MEMO_SIZE = 4
+class StartMemo:
+    """The free-response starts found last (:func:`free_start_indices`), for the last ``size``
+    records: copies of the stamps and output, the band edge and period, and the result (an
+    :class:`~beam.calibration.engine.Engine` holds one; thread-safe)."""
+
+    def __init__(self, size: int = 4) -> None:
+        self.size = int(size)
+        self._entries: list[tuple[np.ndarray, np.ndarray, float | None, float, tuple[int, int]]] = []
+        self._lock = threading.Lock()
+
+    def find(self, t: np.ndarray, y: np.ndarray, edge: float | None, period_s: float) -> tuple[int, int] | None:
+        with self._lock:
+            for time_s, output, memo_edge, memo_period, found in self._entries:
+                if (memo_edge == edge and memo_period == period_s and time_s.shape == t.shape
+                        and np.array_equal(time_s, t) and np.array_equal(output, y)):
+                    return found
+        return None
+
+    def keep(self, t: np.ndarray, y: np.ndarray, edge: float | None, period_s: float, found: tuple[int, int]) -> None:
+        with self._lock:
+            self._entries.insert(0, (t.copy(), y.copy(), edge, period_s, found))
+            del self._entries[self.size:]
+
+    def clear(self) -> None:
+        with self._lock:
+            self._entries.clear()
 
 
-def free_start_indices(measurement, modes: int) -> tuple[int, int]:
+def free_start_indices(measurement, modes: int, memo: StartMemo | None = None) -> tuple[int, int]:
     """(release, first sample of the free response) of a free record fitted with ``modes`` modes
     (:func:`free_response_start` with the band of :func:`retained_band`).
 
-    Remembered for the last :data:`_START_MEMO_SIZE` records (stamps and output compared in
-    full, ~30 µs): a preview asked twice (its setup and the window's check, ~2 ms each on the
-    strip's 20 s record), and every model of a record in a diagnosis, the same question.
+    With a ``memo`` (the engine's, :meth:`beam.calibration.engine.Engine.free_start_indices`)
+    remembered for its last records (stamps and output compared in full, ~30 µs): a preview asked
+    twice (its setup and the window's check, ~2 ms each on the strip's 20 s record), and every
+    model of a record in a diagnosis, the same question.
     """
     edge, period_s = retained_band(measurement, modes)
     t = np.asarray(measurement.time_s, dtype=float)
     y = np.asarray(measurement.output, dtype=float)
-    for time_s, output, memo_edge, memo_period, found in _START_MEMO:
-        if (memo_edge == edge and memo_period == period_s and time_s.shape == t.shape
-                and np.array_equal(time_s, t) and np.array_equal(output, y)):
-            return found
-    found = free_response_start(t, y, edge, period_s)
-    _START_MEMO.insert(0, (t.copy(), y.copy(), edge, period_s, found))
-    del _START_MEMO[_START_MEMO_SIZE:]
+    found = None if memo is None else memo.find(t, y, edge, period_s)
+    if found is None:
+        found = free_response_start(t, y, edge, period_s)
+        if memo is not None:
+            memo.keep(t, y, edge, period_s, found)
     return found

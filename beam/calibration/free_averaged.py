@@ -1,40 +1,19 @@
-"""The averaged (slow-flow) model of a free decay under linear + quadratic damping: a closed-form
-preview of the ``quadratic_drag`` calibration and the start of the full one.
+"""The averaged (slow-flow) model of a free decay with one nonlinear effect: a closed-form preview
+of its calibration and the start of the full one.
 
-Each retained mode k rings at its damped frequency omega_d,k with an envelope A_k(t). The mode p
-of the largest velocity amplitude (a_k omega_k at the window's start; mode 1 on a released
-strip) decays by its own drag, averaged over one cycle of |v| v (the mean of |sin|³, 4 / 3 pi):
-
-    dA_p/dt = -c_p A_p - b_p A_p²,   b_p = (4 / 3 pi) kappa_pp omega_p C_d,
-    kappa_jk = ½ rho_air b ∫ |psi_j| psi_k² dx   (psi mass-normalised, A a modal amplitude),
-
-with the closed form (c_k = zeta_k omega_k = -Re(pole_k), tau the time since the window's start)
-
-    A_p(tau) = a_p e^(-c_p tau) / (1 + b_p a_p tau phi(c_p tau)),   phi(x) = (1 - e^(-x)) / x,
-
-which tends to a_p / (1 + b_p a_p tau) as zeta_p -> 0 (phi -> 1). Every other mode k is damped
-by mode p's velocity: linearised in v_k, |v| v ≈ 2 |v_p| v_k, whose average over mode p's cycle
-(the mean of |sin|, 2 / pi) gives dA_k/dt = -c_k A_k - beta_k A_p(t) A_k, beta_k =
-(2 / pi) kappa_pk omega_p C_d, and since ∫ A_p dt = ln(1 + b_p a_p tau phi) / b_p,
-
-    A_k(tau) = a_k e^(-c_k tau) (1 + b_p a_p tau phi(c_p tau))^(-beta_k / b_p).
-
-The phases are the linear model's: at first order the drag does not change the frequency. The
-response is the linear free-response basis of :class:`~beam.calibration.free.ProjectedFreeModel`
-with each mode's exponential envelope e^(-c_k tau) replaced by A_k(tau) / a_k: at C_d = 0 it
-*is* the linear model, and its amplitudes (two per mode: cosine and sine at the window's start)
-and offset are the coordinates of :class:`~beam.calibration.free_nonlinear.NonlinearFreeModel`
-(the same initial modal state, a_k = hypot(eta_k, (eta'_k - Re(pole_k) eta_k) / omega_d,k)).
-
-Limits of the approximation: it keeps, of the drag's coupling of the modes through |v| v, the
-dominant mode's own term and its damping of the others; it drops the weaker modes' own drag
-and their drag on the dominant one (second order in v_k / v_p), the beating of two modes inside
-|v|, the drag's harmonics (3 omega, 5 omega, ... components of relative order b A / omega) and
-its second-order frequency shift. It holds while the envelope changes little over one cycle
-and one mode dominates the velocity; with two comparable velocities it is not the drag's
-averaged model any more (the full integrator is). Its error against the full integrator on a
-strip decay (relative L2) is in ``docs/decisions.md`` (nonlinear free decays); its Laplace intervals are those of
-the averaged model and do not include that error.
+The effect's averaged form (:attr:`beam.physics.effects.effect.Effect.averaged`, the contract
+of :mod:`beam.physics.effects.averaged`; the quadratic drag's is in
+:mod:`beam.physics.effects.quadratic_drag`) says how each retained mode's envelope and phase
+depart from the linear model's. Here the calibration around it: the response is the linear
+free-response basis of :class:`~beam.calibration.free.ProjectedFreeModel` with each mode's two
+columns scaled (and turned) by the form, so at the effect's null value it *is* the linear model;
+its amplitudes (two per mode: cosine and sine at the window's start) and offset are the
+coordinates of :class:`~beam.calibration.free_nonlinear.NonlinearFreeModel` (the same initial
+modal state, a_k = hypot(eta_k, (eta'_k - Re(pole_k) eta_k) / omega_d,k)). Its MAP and Laplace
+covariance (:meth:`AveragedDragModel.fit`), its linearised bands (:meth:`AveragedDragModel.bands`)
+and the Laplace result that shows them (:func:`averaged_laplace`) are the averaged model's: they
+do not include its approximation error (the drag's against the full integrator on a strip decay,
+relative L2, is in ``docs/decisions.md``, nonlinear free decays).
 
 Why hand-written: the response is a closed form (no library evaluates it), and it is what makes
 the preview cheaper than the ETDRK4 integration it stands for (no integration at all).
@@ -50,13 +29,10 @@ import numpy as np
 
 from beam.errors import BeamInputError
 from beam.inference import AR1_COEFFICIENT, LaplaceResult, MapResult, PredictiveBands, Problem
+from beam.physics.effects import EFFECTS
+from beam.physics.effects.quadratic_drag import AVERAGED_NOTE  # noqa: F401 - the drag's label, re-exported
 
 __all__ = ["AVERAGED_NOTE", "AveragedDragFit", "AveragedDragModel", "averaged_laplace"]
-
-#: The label of every result of the averaged model.
-AVERAGED_NOTE = ("averaged (slow-flow) approximation of the quadratic drag: each mode's envelope decays by "
-                 "dA/dt = -zeta omega A - b A² (cycle-averaged, the modes' cross terms neglected); a preview, "
-                 "not the full integration")
 
 
 #: The averaged model's search stops once its Gauss–Newton step is shorter than this (posterior
@@ -89,7 +65,7 @@ class AveragedDragFit:
     ar1_coefficient : float or None
         The AR(1) coefficient the residuals were whitened with (the start's), None for i.i.d. noise.
     note : str
-        :data:`AVERAGED_NOTE`.
+        The averaged form's label (the drag's :data:`AVERAGED_NOTE`).
     """
 
     values: dict
@@ -110,15 +86,19 @@ class AveragedDragModel:
     Parameters
     ----------
     free : NonlinearFreeModel
-        A free decay whose only nonlinear effect is ``quadratic_drag``.
+        A free decay whose only nonlinear effect has an averaged form (``quadratic_drag``).
     time_s : ndarray, optional
         Times (s, none before the window's first sample) the response is evaluated at: the
         window's (``free.fit_time_s``) by default, the record's after the window to predict it.
     """
 
     def __init__(self, free, time_s: np.ndarray | None = None) -> None:
-        if tuple(free.nonlinear_names) != ("drag_coefficient",):
-            raise BeamInputError("the averaged model covers the quadratic drag alone")
+        nonlinear = [e for e in free.model.effects if EFFECTS[e].nonlinear]
+        if len(nonlinear) != 1 or EFFECTS[nonlinear[0]].averaged is None:
+            forms = ", ".join(e for e in EFFECTS if EFFECTS[e].averaged is not None)
+            raise BeamInputError(f"the averaged model covers one nonlinear effect that has an averaged form ({forms})")
+        self.effect = EFFECTS[nonlinear[0]]
+        self.form = self.effect.averaged
         self.free = free
         self.time_s = free.fit_time_s if time_s is None else np.asarray(time_s, dtype=float)
         self.tau = self.time_s - free.reference_s
@@ -128,9 +108,7 @@ class AveragedDragModel:
 
     def _theta(self, one: Mapping[str, float]) -> dict:
         """What depends on the parameters only (cached): the linear basis (n, 2m), c_k, omega_d,k,
-        the state map, and b_k per unit modal amplitude."""
-        from beam.physics.nonlinear import AIR_DENSITY_KG_M3, drag_quadrature
-
+        the state map, and the averaged form's own constants."""
         free, m = self.free, self.free.modes
         one = {n: float(one[n]) for n in free.names}
         key = np.array([one[n] for n in free.names]).tobytes()
@@ -143,20 +121,10 @@ class AveragedDragModel:
             raise BeamInputError("the averaged model needs every retained mode underdamped")
         basis = free.design(poles[None, :], self.time_s)[0][:, : 2 * m]  # (n, 2m)
         sigma, omega_d = upper.real, np.abs(upper.imag)
-        omega2, shapes = free.model.mode_shapes({n: one[n] for n in free.names}, m)
-        nodes, weights = drag_quadrature(free.model.geometry.length_m)
-        psi = free.model.parts.basis.evaluate(nodes, 0) @ shapes
-        kappa = 0.5 * AIR_DENSITY_KG_M3 * free.model.geometry.width_m * (weights @ np.abs(psi) ** 3)
+        omega2, shapes = free.model.mode_shapes(one, m)
         omega = np.sqrt(np.maximum(omega2, 0.0))
-        b = 4.0 / (3.0 * math.pi) * kappa * omega * one["drag_coefficient"]
-        # cross[p, k] = beta_k / b_p: mode p's velocity damping mode k, (2 / pi) kappa_pk omega_p over b_p
-        kappa_pk = np.einsum("g,gp,gk->pk", weights, np.abs(psi), psi**2)  # (m, m), per ½ rho b C_d
-        cross = (2.0 / math.pi) * kappa_pk / ((4.0 / (3.0 * math.pi)) * np.maximum(np.diag(kappa_pk), 1e-300)[:, None])
-        x = -sigma[None, :] * self.tau[:, None]
-        phi = np.where(x > 1e-12, -np.expm1(-x) / np.where(x > 1e-12, x, 1.0), 1.0)
-        entry = {"basis": basis, "sigma": sigma, "omega_d": omega_d, "T": free.state_matrix(one), "b": b,
-                 "omega": omega, "cross": cross,
-                 "slow": self.tau[:, None] * phi}  # tau phi(c tau) (n, m)
+        entry = {"basis": basis, "sigma": sigma, "omega_d": omega_d, "T": free.state_matrix(one),
+                 "form": self.form.prepare(free.model, one, shapes, omega, sigma, self.tau)}
         if len(self._cache) > 64:
             self._cache.clear()
         self._cache[key] = entry
@@ -172,15 +140,15 @@ class AveragedDragModel:
     def response(self, one: Mapping[str, float], amplitudes: np.ndarray) -> np.ndarray:
         """The averaged response (n,) on the window, the offset included (output units)."""
         entry, m = self._theta(one), self.free.modes
-        a0 = self.modal_amplitudes(one, amplitudes)
-        p = int(np.argmax(a0 * entry["omega"]))  # the mode of the largest velocity
-        growth = entry["b"][p] * a0[p] * entry["slow"][:, p]  # (n,)
-        ratio = np.exp(-np.log1p(growth)[:, None] * entry["cross"][p][None, :])  # A(tau) / (a e^(-c tau)) (n, m)
-        ratio[:, p] = 1.0 / (1.0 + growth)
+        ratio, phase = self.form.envelope(entry["form"], self.modal_amplitudes(one, amplitudes))
+        basis = entry["basis"]
         out = np.zeros(self.tau.size)
         for k in range(m):
-            out += ratio[:, k] * (entry["basis"][:, 2 * k] * amplitudes[2 * k] + entry["basis"][:, 2 * k + 1]
-                                  * amplitudes[2 * k + 1])
+            cosine, sine = basis[:, 2 * k], basis[:, 2 * k + 1]
+            if phase is not None:  # each mode's phase turned: the columns at omega_d tau + phase
+                c, s = np.cos(phase[:, k]), np.sin(phase[:, k])
+                cosine, sine = c * cosine - s * sine, s * cosine + c * sine
+            out += ratio[:, k] * (cosine * amplitudes[2 * k] + sine * amplitudes[2 * k + 1])
         return out + (amplitudes[-1] if self.free.offset else 0.0)
 
     def bands(self, fit: AveragedDragFit, problem: Problem, time_s: np.ndarray, level: float = 0.95) -> PredictiveBands:
@@ -251,7 +219,7 @@ class AveragedDragModel:
         state = self._theta(dict(start))["T"] @ a[:m2]
         best = (float(np.sum(data_residual(np.concatenate([z0, a])) ** 2)), z0, a)
         keep = [*free.names, *([AR1_COEFFICIENT] if AR1_COEFFICIENT in start else [])]  # the AR(1) whitens the linear fit
-        for other in free.equivalent_starts({n: start[n] for n in keep}):
+        for other in free.equivalent_starts({n: start[n] for n in keep}, (self.effect.id,)):
             z = internal_starts(problem, [other])[0][:d]
             b = np.concatenate([np.linalg.solve(self._theta(natural(z))["T"], state), a[m2:]])
             scale0 = max(math.sqrt(float(np.mean(data_residual(np.concatenate([z, b])) ** 2))), 1e-300)
@@ -301,19 +269,22 @@ class AveragedDragModel:
                          float(problem.parameter(n).prior.from_internal(x[i] + spread[i])))
                      for i, n in enumerate(physical)}
         return AveragedDragFit(values=natural(x[:d]), internal=x[:d].copy(), covariance=cov, intervals=intervals,
-                               amplitudes=x[d:].copy(), noise_sd=noise, n_evaluations=evaluations, ar1_coefficient=rho)
+                               amplitudes=x[d:].copy(), noise_sd=noise, n_evaluations=evaluations, ar1_coefficient=rho,
+                               note=self.form.note)
 
     def fit_nested(self, problem: Problem, sub_values: Mapping[str, float]) -> AveragedDragFit:
         """:meth:`fit` from the optimum ``sub_values`` (natural units) of the model without the
-        drag (the linear sub-model): its parameters (and AR(1) coefficient) with C_d at its null
-        value, clipped into the priors, and the linear model's amplitudes there."""
+        effect (the linear sub-model): its parameters (and AR(1) coefficient) with the effect's at
+        their null values, clipped into the priors, and the linear model's amplitudes there."""
         from beam.calibration.fit import internal_starts
         from beam.calibration.free import ProjectedFreeModel
         from beam.calibration.nulls import null_value
 
         physical = [n for n in problem.names if n not in problem.noise_names]
         one = {n: float(v) for n, v in sub_values.items() if n in physical or n == AR1_COEFFICIENT}
-        one["drag_coefficient"] = null_value(problem, "drag_coefficient")
+        for name in self.effect.parameter_names:
+            if name in physical:
+                one[name] = null_value(problem, name)
         one = {n: float(problem.from_internal(internal_starts(problem, [one]))[n][0]) for n in one}  # in the priors
         amplitudes = ProjectedFreeModel.fit(self.free, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
         return self.fit(problem, one, amplitudes)

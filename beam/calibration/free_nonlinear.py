@@ -26,9 +26,10 @@ lock-step search with its finite-difference Newton polish evaluates 150-500 para
 instead runs one trust-region least squares (:func:`scipy.optimize.least_squares`) over the
 physical parameters (internal coordinates), the amplitudes and the offset together, from the
 best of the linear sub-model's optimum (the nested start: C_d at its null value, and at a few
-values across its plausible range) and its equivalent starts (the slow-flow approximation: the
-drag's cycle-averaged viscous share taken out of the modal damping ratios,
-:meth:`NonlinearFreeModel.equivalent_starts`) and the MAP of the averaged model
+values across its plausible range) and each nonlinear effect's own starts from it (its
+:attr:`~beam.physics.effects.effect.StartHints.free_decay` hint, :meth:`NonlinearFreeModel.equivalent_starts`:
+the drag's cycle-averaged viscous share taken out of the modal damping ratios, the friction's
+grid of joints) and the MAP of the averaged model where the effect has an averaged form
 (:mod:`beam.calibration.free_averaged`, closed form, no integration), each Jacobian one batched integration of
 1 + d + 2m sets, until its Gauss–Newton step is shorter than :data:`JOINT_STOP_SD` posterior
 sd (in the posterior's own metric: the trust-region search otherwise spends its last iterations
@@ -73,18 +74,9 @@ JOINT_BOUND_FRACTION = 1e-4
 #: How far (internal scales of its prior) the noise search reaches from its start along an
 #: unbounded coordinate (the AR(1) coefficient's logit: ±10 of it is 0.99995 either way).
 UNBOUNDED_NOISE_REACH = 10.0
-#: Fractions of the sub-model's mode-1 damping ratio that the drag's equivalent viscous damping
-#: takes over in the equivalent starts (:meth:`NonlinearFreeModel.equivalent_starts`).
-EQUIVALENT_FRACTIONS = (0.5, 0.7, 0.85)
-#: The clamp friction's starts (:meth:`NonlinearFreeModel.friction_starts`): the joint's stick
-#: stiffness k_f in units of the strip's EI / L (a clamp far stiffer than the strip's root, which
-#: still lowers f1 by 0.1-3 %) ...
-FRICTION_STIFFNESS_RATIOS = (100.0, 300.0, 1000.0, 3000.0)
-#: ... and the root rotation's amplitude at the window's start in units of the slip rotation
-#: theta_s = 2 M_s / k_f (microslip to whole slip over a swing).
-FRICTION_SLIP_RATIOS = (0.5, 1.0, 2.0)
-#: Equivalent and friction starts whose amplitudes are refined by the inner solve before the
-#: search picks its start (the best screened; each refinement costs ~6 batched integrations).
+#: Effects' own starts (:meth:`NonlinearFreeModel.equivalent_starts`) whose amplitudes are refined
+#: by the inner solve before the search picks its start (the best screened; each refinement costs
+#: ~6 batched integrations).
 REFINED_STARTS = 1
 
 
@@ -277,8 +269,8 @@ class NonlinearFreeModel(ProjectedFreeModel):
         sources, derived = [], []
         for i in nulls:
             sub = {n: float(values[n][i]) for n in values if n in self.names or n == AR1_COEFFICIENT}
-            more = ((self.equivalent_starts(sub) if "drag_coefficient" in off[i] else [])
-                    + (self.friction_starts(sub) if "clamp_slip_moment_Nm" in off[i] else []))
+            more = self.equivalent_starts(sub, [e for e in self.model.effects if EFFECTS[e].channel is not None
+                                                and EFFECTS[e].channel.switch in off[i]])
             sources += [i] * len(more)
             derived += more
         if derived:
@@ -393,7 +385,8 @@ class NonlinearFreeModel(ProjectedFreeModel):
         from beam.calibration.free_averaged import AveragedDragModel
 
         self.averaged = None
-        if not nulls or tuple(self.nonlinear_names) != ("drag_coefficient",) or not self.model.geometry.width_m:
+        nonlinear = [e for e in self.model.effects if EFFECTS[e].nonlinear]
+        if not nulls or len(nonlinear) != 1 or EFFECTS[nonlinear[0]].averaged is None:
             return None
         source = min(nulls, key=lambda i: rss[i])
         values = problem.from_internal(starts[source : source + 1])
@@ -410,98 +403,37 @@ class NonlinearFreeModel(ProjectedFreeModel):
         refined = self._inner({n: fit.values.get(n, one[n]) for n in self.names}, fit.amplitudes, rho)
         return point, refined["amplitudes"], float(np.sum((self.fit_data - refined["fitted"]) ** 2))
 
-    def equivalent_starts(self, one: Mapping[str, float]) -> list[dict[str, float]]:
-        """Starts with the drag on, from a sub-model's optimum ``one`` (natural units, the drag at
-        its null value), by the slow-flow (averaging) approximation of each mode.
+    def equivalent_starts(self, one: Mapping[str, float], effects: Sequence[str] | None = None) -> list[dict[str, float]]:
+        """Starts with nonlinear effects on, from a sub-model's optimum ``one`` (natural units, the
+        effects at their null values): each effect's own (its
+        :attr:`~beam.physics.effects.effect.StartHints.free_decay` hint: the drag's slow-flow
+        equivalent damping, :func:`beam.physics.effects.quadratic_drag.equivalent_starts`; the
+        friction's grid of joints, :func:`beam.physics.effects.clamp_friction.friction_starts`)
+        from the sub-model's initial modal state at the window's start (its linear profile),
+        in catalogue order.
 
-        Averaged over a cycle, the drag on mode k of amplitude A_k (modal coordinate) acts as a
-        viscous damping ratio zeta_eq,k = (4 / 3 pi) kappa_k A_k, kappa_k = ½ rho_air C_d b
-        ∫ |psi_k|³ dx (``docs/physics-drag.md``). For each fraction f of
-        :data:`EQUIVALENT_FRACTIONS`, C_d is chosen so that the drag takes over f of the mode-1
-        damping ratio at its mean amplitude over the window (the sub-model's exponential
-        envelope from its fitted initial state), and every modal damping ratio is lowered by the
-        drag's equivalent share at its own mean amplitude (to no less than a tenth of it): a
-        start near the valley of the posterior where the two damping laws trade off, instead of
-        the drag switched on over an unchanged viscous damping.
-
-        Returns
-        -------
-        list of dict
-            Natural-unit starts; empty when the model has no drag or no modal damping ratios.
-        """
-        from beam.physics.nonlinear import AIR_DENSITY_KG_M3, drag_quadrature
-
-        m = self.modes
-        ratios = [f"damping_ratio_mode_{j + 1}" for j in range(m)]
-        width = self.model.geometry.width_m
-        if "drag_coefficient" not in one or ratios[0] not in one or not width:
-            return []
-        omega2, shapes = self.model.mode_shapes({n: one[n] for n in self.names}, m)
-        omega = np.sqrt(np.maximum(omega2, 1e-300))
-        nodes, weights = drag_quadrature(self.model.geometry.length_m)
-        psi = self.model.parts.basis.evaluate(nodes, 0) @ shapes  # (G, m)
-        kappa = 0.5 * AIR_DENSITY_KG_M3 * width * (weights @ np.abs(psi) ** 3)  # per unit C_d
-        amplitudes = ProjectedFreeModel.fit(self, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
-        state = self.state_matrix({n: one[n] for n in self.names}) @ amplitudes[: 2 * m]
-        start_amplitude = np.hypot(state[:m], state[m:] / omega)
-        decay = np.array([one.get(r, 0.0) for r in ratios]) * omega * (self.fit_time_s[-1] - self.reference_s)
-        mean = start_amplitude * np.where(decay > 1e-9, -np.expm1(-decay) / np.maximum(decay, 1e-300), 1.0)
-        per_unit = 4.0 / (3.0 * math.pi) * kappa * mean  # zeta_eq per unit C_d
-        if not (np.isfinite(per_unit).all() and per_unit[0] > 0.0):
-            return []
-        starts = []
-        for fraction in EQUIVALENT_FRACTIONS:
-            drag = fraction * one[ratios[0]] / per_unit[0]
-            start = dict(one, drag_coefficient=float(drag))
-            for j, name in enumerate(ratios):
-                if name in one:
-                    start[name] = float(max(one[name] - drag * per_unit[j], 0.1 * one[name]))
-            starts.append(start)
-        return starts
-
-    def friction_starts(self, one: Mapping[str, float]) -> list[dict[str, float]]:
-        """Starts with the clamp friction on, from a sub-model's optimum ``one`` (natural units, the
-        friction at its null values: a rigid joint that never slips).
-
-        For each stick stiffness k_f of :data:`FRICTION_STIFFNESS_RATIOS` (times EI / L), EI is
-        raised so that the compliant root keeps the sub-model's f1 (one correction, f1² ∝ EI),
-        and for each ratio q of :data:`FRICTION_SLIP_RATIOS` the slip moment is set so that the
-        root's rotation at the window's start, |r_1| A_1 (r_1 the root rotation per unit mode-1
-        coordinate, A_1 the sub-model's mode-1 amplitude there), is q slip rotations:
-        M_s = k_f |r_1| A_1 / 2 q. The joint's softening and loss are of order (theta / theta_s)
-        times its share of the mode's strain energy, so the grid spans a drift of f1 from
-        negligible to several times what a strip's decay shows.
+        Parameters
+        ----------
+        one : mapping
+            The sub-model's optimum (the effects' parameters at their nulls).
+        effects : sequence of str, optional
+            Whose hints; default every nonlinear effect of the model.
 
         Returns
         -------
         list of dict
-            Natural-unit starts; empty when the model has no clamp friction.
+            Natural-unit starts; empty when no effect has a hint that applies.
         """
-        m = self.modes
-        names = ("clamp_friction_stiffness_Nm_rad", "clamp_slip_moment_Nm", "bending_stiffness_Nm2")
-        if not all(n in one for n in names):
+        wanted = [e for e in self.model.effects if EFFECTS[e].nonlinear] if effects is None else effects
+        hints = [EFFECTS[e].hints.free_decay for e in self.model.effects if e in set(wanted)]
+        hints = [hint for hint in hints if hint is not None]
+        if not hints:
             return []
+        m = self.modes
         amplitudes = ProjectedFreeModel.fit(self, {n: np.array([v]) for n, v in one.items()})["amplitudes"][0]
         state = self.state_matrix({n: one[n] for n in self.names}) @ amplitudes[: 2 * m]
-        omega2, _ = self.model.mode_shapes({n: one[n] for n in self.names}, m)
-        if not (np.all(np.isfinite(state)) and omega2[0] > 0.0):
-            return []
-        mode_1 = math.hypot(state[0], state[m] / math.sqrt(omega2[0]))
-        stiffness = one["bending_stiffness_Nm2"]
-        root = self.model.parts.basis.evaluate(np.zeros(1), 1)[0]
-        starts = []
-        for ratio in FRICTION_STIFFNESS_RATIOS:
-            trial = dict(one, clamp_friction_stiffness_Nm_rad=ratio * stiffness / self.model.geometry.length_m)
-            softened, _ = self.model.mode_shapes({n: trial[n] for n in self.names}, m)
-            trial["bending_stiffness_Nm2"] = stiffness * float(omega2[0] / softened[0])
-            _, shapes = self.model.mode_shapes({n: trial[n] for n in self.names}, m)
-            rotation = abs(float(root @ shapes[:, 0])) * mode_1  # rad at the window's start
-            if not (math.isfinite(rotation) and rotation > 0.0):
-                continue
-            for slip in FRICTION_SLIP_RATIOS:
-                moment = trial["clamp_friction_stiffness_Nm_rad"] * rotation / (2.0 * slip)
-                starts.append(dict(trial, clamp_slip_moment_Nm=float(moment)))
-        return starts
+        duration = float(self.fit_time_s[-1] - self.reference_s)
+        return [start for hint in hints for start in hint(self.model, dict(one), state, duration)]
 
     def _joint_columns(self, problem: Problem, x: np.ndarray, d: int, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The response at a joint point ``x`` (internal theta, amplitudes, offset) at ``time_s``

@@ -27,6 +27,8 @@ import numpy as np
 from beam.calibration.starts import SCALE_GRID, design_points, prior_centres
 from beam.errors import BeamInputError
 from beam.inference.likelihood import AR1_COEFFICIENT
+from beam.physics.effects import EFFECTS, effect_of_parameter
+from beam.physics.effects.base import BENDING_STIFFNESS
 
 __all__ = ["DAMPED_AWAY", "damped_away_base", "damped_away_starts", "projected_starting_points", "record_spectrum", "spectral_scales"]
 
@@ -138,7 +140,7 @@ def projected_starting_points(problem, setup, warm: Mapping[str, float] | None =
     mask = setup.fit_mask
     spectrum = record_spectrum(measurement.time_s[mask], measurement.output[mask])
     centres = prior_centres(setup)
-    ei = "bending_stiffness_Nm2"
+    ei = BENDING_STIFFNESS.name
     prior = {name: problem.parameter(name).prior for name in centres}
 
     def clip(name: str, value):
@@ -177,6 +179,15 @@ def _screening_values(problem, batch: Mapping[str, np.ndarray]) -> dict[str, np.
     return dict(batch, **{name: np.zeros(size) for name in problem.noise_names if name == AR1_COEFFICIENT})
 
 
+def _per_mode(name: str) -> bool:
+    """Whether ``name`` belongs to a per-mode family (the modal damping ratios)."""
+    effect = effect_of_parameter(name) if name in _KNOWN else None
+    return effect is not None and EFFECTS[effect].per_mode
+
+
+_KNOWN = frozenset(name for effect in EFFECTS.values() for name in effect.parameter_names)
+
+
 def damped_away_base(centre: Mapping[str, float], best: Mapping[str, float]) -> dict[str, float]:
     """The point the damped-away starts are built on (see the module notes): the per-mode damping
     ratios of the spectral ``centre``, every other parameter (EI, a point mass, ...) of the
@@ -188,18 +199,15 @@ def damped_away_base(centre: Mapping[str, float], best: Mapping[str, float]) -> 
     tell which mode to damp away. For a model whose design varies only damping ratios (every
     row has the same frequencies, hence the same spectral EI) this is the centre itself.
     """
-    return {name: (centre[name] if name.startswith("damping_ratio") else value) for name, value in best.items()}
+    return {name: (centre[name] if _per_mode(name) else value) for name, value in best.items()}
 
 
 def damped_away_starts(problem, start: Mapping[str, float]) -> list[dict[str, float]]:
     """``start`` with one mode damped away, for each per-mode damping ratio of the model (see the
     module notes): that ratio :data:`DAMPED_AWAY` of its log prior range below its upper bound."""
-    from beam.physics.effects import EFFECTS, effect_of_parameter
-
     out = []
     for name in start:
-        effect = effect_of_parameter(name)
-        if effect is None or not EFFECTS[effect].per_mode or not name.startswith("damping_ratio"):
+        if not _per_mode(name):
             continue
         prior = problem.parameter(name).prior
         low, high = np.log(prior.lower), np.log(prior.upper)

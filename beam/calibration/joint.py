@@ -23,12 +23,14 @@ from 0); :meth:`JointCalibrationResult.record_results` gives each record's
 :class:`~beam.calibration.run.CalibrationResult` under its own names (its predictive bands, RMSE
 and coverage from the joint posterior's draws).
 
-The MAP search starts from each record's single MAP (:func:`beam.calibration.calibration_preview`,
-the engine's two-stage search; remembered by the :class:`~beam.calibration.engine.Engine` like
-every single calibration) combined into joint starting points, then climbs the joint log posterior
+A joint calibration runs the one pipeline (:mod:`beam.calibration.pipeline`) with its own
+calibration model, :class:`JointModel`: each record's single preview first (the pipeline itself,
+:func:`~beam.calibration.pipeline.preview_map`, the engine's two-stage search; remembered by the
+:class:`~beam.calibration.engine.Engine` like every single calibration), whose MAPs are its
+starts; its search combines them into joint starting points, then climbs the joint log posterior
 by the Newton iteration of every calibration (:func:`beam.calibration.fit.newton_polish`), whose
-final Hessian is the one the Laplace approximation uses. Sampling is emcee as in
-:func:`beam.calibration.calibrate` (:class:`beam.inference.EnsembleRun`).
+final Hessian is the one the Laplace approximation uses; its posterior is emcee, sampled as every
+calibration's (:func:`~beam.calibration.pipeline.sample_posterior`).
 """
 
 from __future__ import annotations
@@ -41,17 +43,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from beam.calibration.engine import Engine, default_engine
-from beam.calibration.run import (
-    BAND_DRAWS,
-    CalibrationResult,
-    default_walkers,
-    preview_map,
-    record_bands,
-)
+from beam.calibration.pipeline import BAND_DRAWS, CalibrationModel, preview_map, record_bands, sample_posterior
+from beam.calibration.run import CalibrationResult
 from beam.calibration.setup import BeamCalibrationSetup
 from beam.calibration.spec import CalibrationSpec
 from beam.errors import BeamInputError
-from beam.inference import LIKELIHOODS, EnsembleRun, LaplaceResult, MapResult, Parameter, PosteriorResult, Problem, laplace
+from beam.inference import LIKELIHOODS, LaplaceResult, MapResult, Parameter, PosteriorResult, Problem, laplace
 from beam.inference.likelihood import log_likelihood
 from beam.io.artifacts import record_warnings
 from beam.physics import modal
@@ -59,6 +56,7 @@ from beam.physics.effects import EFFECTS
 
 __all__ = [
     "JointCalibrationResult",
+    "JointModel",
     "JointProblem",
     "joint_calibrate",
     "joint_name",
@@ -122,8 +120,6 @@ def _match_names(names: Iterable[str] | str | None, physical: Sequence[str]) -> 
             continue
         if name in EFFECTS:
             found = [p.name for p in EFFECTS[name].parameters if p.name in physical]
-            if name == "modal_damping":
-                found = [n for n in physical if n.startswith("damping_ratio_mode_")]
         else:
             found = [n for n in physical if n.startswith(name)]
         if len(found) != 1 and not (found and name in EFFECTS):
@@ -238,7 +234,7 @@ class JointProblem(Problem):
             own = self.record_values(values, k)
             prediction = np.asarray(problem.model(own, problem.time_s), dtype=float)
             problem.n_model_rows += prediction.shape[0]
-            correction = getattr(problem.model, "log_likelihood_correction", None)
+            correction = problem.likelihood_correction
             ll = log_likelihood(problem.likelihood, problem.data - prediction, own)
             rows.append(ll + (0.0 if correction is None else np.asarray(correction(own), dtype=float)))
         return np.array(rows)
@@ -558,7 +554,7 @@ def joint_preview(
         physical += [n for n in single.setup.physical_names if n not in physical]
     chosen = resolve_per_record(per_record, physical, shared)
     problem = JointProblem([s.problem for s in singles], chosen, setups=[s.setup for s in singles])
-    found = joint_map(problem, [s.laplace for s in singles], tuple(starts))
+    found = JointModel(singles).search(problem, list(starts))
     approximation = laplace(problem, found)
     approximation.seconds = time.perf_counter() - t0
     return JointCalibrationResult(singles, problem, approximation, None, time.perf_counter() - t0, seed=spec.seed)
@@ -580,22 +576,34 @@ def joint_calibrate(
     """
     t0 = time.perf_counter()
     measurements, spec = _records_and_spec(measurements, spec, options)
-    walkers, steps = spec.walkers, spec.steps
-    if steps is not None and (isinstance(steps, bool) or steps < 10):
-        raise BeamInputError(f"steps must be an integer >= 10, got {steps}")
     preview = joint_preview(measurements, spec, per_record=per_record, shared=shared, engine=engine)
-    problem = preview.problem
-    if walkers is not None and (isinstance(walkers, bool) or walkers < 2 * problem.ndim):
-        raise BeamInputError(f"walkers must be at least 2 x {problem.ndim} parameters = {2 * problem.ndim}, got {walkers}")
-    run = EnsembleRun(problem, preview.laplace, n_walkers=walkers or default_walkers(problem.ndim), seed=spec.seed)
-    if steps is not None:
-        for _ in run.sample(steps, every=max(steps, 1)):
-            pass
-    else:
-        for _ in run.sample_to_ess(spec.target_ess, every=50, max_steps=spec.max_steps):
-            pass
-    posterior = run.result(target_ess=spec.target_ess)
+    sampling = sample_posterior(preview.problem, preview.laplace, spec)  # the sampler of every calibration
+    while True:
+        try:
+            next(sampling)
+        except StopIteration as stop:
+            posterior = stop.value
+            break
     return replace(preview, posterior=posterior, seconds=time.perf_counter() - t0, _views=None, _draws=None)
+
+
+class JointModel(CalibrationModel):
+    """The calibration model of several records of one beam (the pipeline's, :mod:`beam.calibration.pipeline`):
+    its starts are the records' own previews (``singles``, each from the single pipeline), its
+    search :func:`joint_map` (a caller's ``guesses``, joint names, joining at its least-squares
+    stage), its posterior emcee (:func:`~beam.calibration.pipeline.sample_posterior`), its bands
+    each record's (:meth:`JointCalibrationResult.record_results`)."""
+
+    name = "several records of one beam"
+
+    def __init__(self, singles: Sequence[RecordFit]) -> None:
+        self.singles = tuple(singles)
+
+    def starts(self, problem, setup, engine, warm, search):
+        return [dict(s.laplace.map.values) for s in self.singles]
+
+    def search(self, problem, guesses):
+        return joint_map(problem, [s.laplace for s in self.singles], tuple(guesses))
 
 
 def joint_starts(problem: JointProblem, singles: Sequence[LaplaceResult]) -> np.ndarray:

@@ -17,8 +17,8 @@ truncation. :func:`suggest_modes` reads the number from the record itself, in tw
    difference in the window stays below :data:`TRUNCATION_FRACTION` of the noise floor is taken
    (an error 0.3 × the noise adds 4 % to the fitted noise sd).
 
-The nonlinear tip spring and modal damping are left out of the nominal model (no nominal value
-sets their frequencies). The larger of the two counts is retained, at most ``max_modes``. A free
+The effects no nominal value sets the frequencies of (:data:`LEFT_OUT`: the nonlinear tip
+spring, modal damping) are left out of the nominal model. The larger of the two counts is retained, at most ``max_modes``. A free
 response (no input) keeps :data:`~beam.calibration.spec.DEFAULT_MODES` (the damping of many modes
 of a free decay is not identified). Cost: one Welch spectrum, one eigenproblem and, for a driven
 record, at most ``max_modes + 1`` modal responses. The measurements behind the thresholds: the
@@ -35,7 +35,7 @@ import numpy as np
 from beam.calibration.setup import prior_centre, resolve_window
 from beam.calibration.defaults import DEFAULT_EFFECTS, DEFAULT_MODES
 from beam.io.measurement import Measurement
-from beam.physics.effects import parse_effects
+from beam.physics.effects import EFFECTS, parse_effects
 from beam.physics.model import BeamModel
 from beam.residuals.noise import noise_floor
 
@@ -50,8 +50,9 @@ CLOSE_FRACTION = 0.15
 MARGIN_MODES = 1
 #: Largest truncation error (RMS in the window, fraction of the noise floor) accepted.
 TRUNCATION_FRACTION = 0.3
-#: Effects left out of the nominal model (no nominal value sets their frequencies).
-LEFT_OUT = ("modal_damping", "tip_cubic_spring")
+#: Effects left out of the nominal model (no nominal value sets their frequencies: each effect's
+#: :attr:`~beam.physics.effects.effect.Effect.left_out_of_nominal` says why).
+LEFT_OUT: tuple[str, ...] = tuple(e for e in EFFECTS if EFFECTS[e].left_out_of_nominal is not None)
 #: Most modes suggested (the dashboard's widget bound).
 MAX_MODES = 12
 
@@ -134,8 +135,8 @@ def suggest_modes(measurement: Measurement, window: tuple[float, float] | None =
     window : (float, float) or None
         Calibration window (s); default the library's (the first 30 % of the record).
     effects : iterable of str or str
-        Effects of the model; the linear ones enter the nominal model (``modal_damping`` and
-        ``tip_cubic_spring`` are left out: no nominal frequencies depend on them).
+        Effects of the model; those of :data:`LEFT_OUT` are left out of the nominal model (no
+        nominal frequencies depend on them).
     max_modes : int
         Most modes suggested.
 
@@ -172,8 +173,9 @@ def suggest_modes(measurement: Measurement, window: tuple[float, float] | None =
         band += 1
     band = max(1, band + MARGIN_MODES)
 
+    free = measurement.is_free
     truncation, errors = None, []
-    if not measurement.is_free and measurement.uniform and np.count_nonzero(inside) >= 2:
+    if not free and measurement.uniform and np.count_nonzero(inside) >= 2:
         dt = measurement.sample_interval_s
         stop = int(np.nonzero(t <= window[1] + 1e-12)[0][-1]) + 1
         drive = measurement.input[:stop]
@@ -185,9 +187,9 @@ def suggest_modes(measurement: Measurement, window: tuple[float, float] | None =
             errors.append(float(np.sqrt(np.mean(error**2))))
         below = [n for n, e in enumerate(errors, start=1) if e <= TRUNCATION_FRACTION * floor.sd]
         truncation = below[0] if below else count
-    if measurement.is_free:  # see the module notes: the band rule is not used for a free response (yet)
+    if free:  # see the module notes: the band rule is not used for a free response (yet)
         modes = int(min(DEFAULT_MODES, model.size))
     else:
         modes = int(min(max(band, truncation or 0), max_modes, model.size))
     return ModeChoice(modes, edge, band, truncation, tuple(float(f) for f in nominal), float(floor.sd),
-                      bool(measurement.is_free), tuple(errors))
+                      bool(free), tuple(errors))

@@ -1,4 +1,9 @@
-"""The beam as a calibration problem: window, priors, forward model.
+"""The beam as a calibration problem: window, priors, forward model, the setup's record of them.
+
+:class:`BeamCalibrationSetup` is what :func:`beam.calibration.pipeline.make_setup` makes: the
+record, the resolved :class:`~beam.calibration.spec.CalibrationSpec`, the model, its forward model
+and the calibration model that calibrates it (chosen once there); :func:`build_problem` turns it
+into the inference problem.
 
 Model = base (``bending_stiffness_Nm2``, ``patch_coupling_NmV``) + chosen effects, with a chosen
 number of retained modes; rho is fixed from the measurement's sidecar.
@@ -6,8 +11,9 @@ number of retained modes; rho is fixed from the measurement's sidecar.
 Priors
 ------
 A parameter with a ``[nominal]`` value gets a log-normal prior centred (median) on it, truncated
-at ±4 sigma; sigma (of log x) depends on how well such a quantity is usually known
-(:data:`NOMINAL_LOG_SD`): stiffness and density 0.5 (a factor 1.6 at one sigma), the patch's
+at ±4 sigma; sigma (of log x) depends on how well such a quantity is usually known (each
+parameter's :attr:`~beam.physics.effects.effect.ParameterSpec.nominal_log_sd`, collected in
+:data:`NOMINAL_LOG_SD`; a record's own spread overrides it): stiffness and density 0.5 (a factor 1.6 at one sigma), the patch's
 coupling 0.7, masses 1.0, damping, clamp stiffness and the cubic spring 1.5 (a factor 4.5).
 Without a nominal value the prior is log-uniform over the catalogue's default range
 (:class:`beam.physics.effects.ParameterSpec`). The noise sd is log-uniform from 1e-4 to 2 times the RMS
@@ -30,15 +36,13 @@ nonlinear effect (the drag, the tip spring) refined by Gauss–Newton from that 
 
 from __future__ import annotations
 
-import functools
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from beam.calibration.free import ProjectedFreeModel, free_start_indices
-from beam.calibration.records import check_calibration_record
 from beam.calibration import defaults
 from beam.calibration.defaults import (  # noqa: F401 - the defaults' one source, re-exported
     AUTO_MODES,
@@ -46,10 +50,11 @@ from beam.calibration.defaults import (  # noqa: F401 - the defaults' one source
     DEFAULT_MODES,
     DEFAULT_WINDOW_FRACTION,
 )
+from beam.calibration.forward import BeamForwardModel  # noqa: F401 - re-exported
+from beam.calibration.spec_field import SpecField
 from beam.errors import BeamInputError
 from beam.inference import (
     AR1_COEFFICIENT,
-    LIKELIHOODS,
     NOISE_SD,
     LogNormal,
     LogUniform,
@@ -58,39 +63,34 @@ from beam.inference import (
     Uniform,
 )
 from beam.io.measurement import Measurement
-from beam.physics.basis import DEFAULT_INTERVALS, DEFAULT_KNOTS
-from beam.physics.effects import EFFECTS, FREE_LENGTH_LOG_SD, PARAMETER_SPECS, parse_effects
+from beam.physics.effects import BASE_PARAMETERS, EFFECTS, PARAMETER_SPECS
+from beam.physics.effects.modal_damping import MODAL_DAMPING_LOG_SD  # noqa: F401 - re-exported
 from beam.physics.model import BeamModel
+
+if TYPE_CHECKING:  # the spec's module resolves modes by beam.calibration.modes, which reads this one
+    from beam.calibration.spec import CalibrationSpec
 
 #: Fewest samples a calibration window may hold.
 MIN_WINDOW_SAMPLES = 20
 
-#: sigma of log x for a prior centred on a nominal value.
+#: sigma of log x for a prior centred on a nominal value (each parameter's
+#: :attr:`~beam.physics.effects.effect.ParameterSpec.nominal_log_sd`; a per-mode family, the
+#: modal damping ratios, has :data:`MODAL_DAMPING_LOG_SD` each).
 NOMINAL_LOG_SD: dict[str, float] = {
-    "bending_stiffness_Nm2": 0.5,
-    "patch_coupling_NmV": 0.7,
-    "air_damping_Ns_m2": 1.5,
-    "kelvin_voigt_Nm2s": 1.5,
-    "tip_mass_kg": 1.0,
-    "clamp_stiffness_Nm_rad": 1.5,
-    "patch_added_density_kg_m": 0.5,
-    "patch_added_stiffness_Nm2": 0.5,
-    "patch_added_kelvin_voigt_Nm2s": 1.5,
-    "tip_cubic_stiffness_N_m3": 1.5,
-    "sensor_mass_kg": 1.0,
-    "drag_coefficient": 1.0,
-    "effective_length_m": FREE_LENGTH_LOG_SD,
+    spec.name: spec.nominal_log_sd
+    for spec in BASE_PARAMETERS + tuple(p for e in EFFECTS.values() if not e.per_mode for p in e.parameters)
+    if spec.nominal_log_sd is not None
 }
-#: sigma of log x for a damping ratio of the ``modal_damping`` family centred on a nominal value.
-MODAL_DAMPING_LOG_SD = 1.5
 _TRUNCATION_SIGMAS = 4.0
 
 
 def nominal_log_sd(name: str) -> float:
-    """sigma of log x of a parameter's prior around a nominal value (see the module notes)."""
-    if name.startswith("damping_ratio_mode_"):
-        return MODAL_DAMPING_LOG_SD
-    return NOMINAL_LOG_SD[name]
+    """sigma of log x of a parameter's prior around a nominal value (see the module notes);
+    KeyError for a parameter no nominal value is expected of."""
+    sd = PARAMETER_SPECS[name].nominal_log_sd
+    if sd is None:
+        raise KeyError(name)
+    return sd
 
 
 def parameter_prior(name: str, nominal: Mapping[str, float], spreads: Mapping[str, float] | None = None):
@@ -121,8 +121,7 @@ def resolve_window(measurement: Measurement, window: tuple[float, float] | None)
     """
     t = measurement.time_s
     if window is None:  # the default's value when asked (beam.calibration.defaults)
-        start = float(t[0])
-        end = float(t[0] + defaults.DEFAULT_WINDOW_FRACTION * (t[-1] - t[0]))
+        start, end = defaults.default_window(float(t[0]), float(t[-1]))
     else:
         start, end = (float(v) for v in window)
     if not (math.isfinite(start) and math.isfinite(end)) or not start < end:
@@ -138,114 +137,68 @@ def resolve_window(measurement: Measurement, window: tuple[float, float] | None)
 
 
 @dataclass
-class BeamForwardModel:
-    """Vectorised forward model of a driven record for :class:`beam.inference.Problem`.
+class BeamCalibrationSetup:
+    """What is calibrated and on which data (made by :func:`beam.calibration.pipeline.make_setup`).
 
-    The beam starts at rest at the first sample of the record and is driven by the record's
-    input (voltage or point force); ``model(values, time_s)`` returns the sensor's output
-    (displacement m, velocity m/s or acceleration m/s², as the record) at the requested
-    samples, which must be samples of the record. A uniform record is stepped by
-    :meth:`BeamModel.response`, an irregular one by :meth:`BeamModel.response_at` (exactly at
-    the recorded stamps). Free responses have :class:`beam.calibration.free.ProjectedFreeModel`.
+    Attributes
+    ----------
+    measurement : Measurement
+        The record (decimated when it was longer than the calibration limit).
+    spec : CalibrationSpec
+        The resolved spec: window, effects, modes, likelihood (and how ``"auto"`` modes were chosen).
+    model : BeamModel
+        The beam with the spec's effects.
+    forward : object
+        The forward model of :class:`~beam.inference.Problem` (the record's own: driven, or with
+        a free response's initial state profiled out).
+    calibration : CalibrationModel
+        How this kind of record and model is calibrated (:class:`beam.calibration.pipeline.CalibrationModel`:
+        its starts, search, posterior and bands), chosen once by ``make_setup``.
+    start_indices : (int, int)
+        (release, first sample of the response the model describes): a free response's release
+        and the end of its transient (:func:`beam.calibration.free.free_start_indices`), the
+        samples in between left out; (0, 0) for a driven record.
     """
 
-    model: BeamModel
     measurement: Measurement
-    modes: int
-
-    def __post_init__(self) -> None:
-        if self.measurement.is_free:
-            raise BeamInputError("a free response has no input to drive the model: use ProjectedFreeModel")
-        self._names = self.model.parameter_names_for(self.modes)
-        self._index_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-
-    def sample_indices(self, time_s: np.ndarray) -> np.ndarray | slice:
-        """Record indices of the times ``time_s`` (cached per array object): a slice when they
-        are consecutive samples (a window, the whole record), else an index array."""
-        cached = self._index_cache.get(id(time_s))
-        if cached is not None and cached[0] is time_s:
-            return cached[1]
-        record = self.measurement.time_s
-        times = np.asarray(time_s, dtype=float)
-        if self.measurement.uniform:
-            t0, dt = record[0], self.measurement.sample_interval_s
-            index = np.rint((times - t0) / dt).astype(int)
-        else:
-            index = np.clip(np.searchsorted(record, times), 0, record.size - 1)
-            below = np.clip(index - 1, 0, record.size - 1)
-            index = np.where(np.abs(record[below] - times) < np.abs(record[index] - times), below, index)
-            step = self.measurement.min_interval_s
-            if index.size and np.max(np.abs(record[index] - times)) > 1e-6 * step:
-                raise BeamInputError("prediction times must be time stamps of the record")
-        if index.size and (index.min() < 0 or index.max() >= record.size):
-            raise BeamInputError("prediction times must lie within the record")
-        if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
-            index = slice(int(index[0]), int(index[0]) + index.size)
-        self._index_cache[id(time_s)] = (time_s, index)
-        return index
-
-    def __call__(self, values: Mapping[str, np.ndarray], time_s: np.ndarray) -> np.ndarray:
-        index = self.sample_indices(time_s)
-        if isinstance(index, slice):
-            needed = index.stop
-        else:
-            needed = int(index.max()) + 1 if index.size else 1
-        needed = max(needed, 2)
-        parameters = {name: values[name] for name in self._names}
-        record = self.measurement
-        if record.uniform:
-            response = self.model.response(parameters, record.input[:needed], record.sample_interval_s, self.modes,
-                                           output=record.output_kind)
-        else:
-            response = self.model.response_at(parameters, record.input[:needed], record.time_s[:needed], self.modes,
-                                              output=record.output_kind)
-        response = np.atleast_2d(response)
-        if isinstance(index, slice) and index.start == 0 and index.stop == response.shape[1]:
-            return response  # the whole computed response: no copy
-        return response[:, index]
-
-
-@dataclass
-class BeamCalibrationSetup:
-    """What is calibrated and on which data: measurement, window, effects, modes, likelihood."""
-
-    measurement: Measurement
-    window: tuple[float, float]
-    effects: tuple[str, ...]
-    modes: int
-    likelihood: str
+    spec: CalibrationSpec
     model: BeamModel
-    forward: BeamForwardModel
-    #: How ``modes`` was chosen when asked for ``"auto"`` (:class:`beam.calibration.modes.ModeChoice`, set by
-    #: :func:`beam.calibration.run.prepare`), else None.
-    mode_choice: object | None = None
+    forward: object
+    calibration: object
+    start_indices: tuple[int, int] = (0, 0)
+
+    #: The resolved spec's window (s), effects, modes (a number), likelihood and how ``"auto"``
+    #: modes were chosen (:class:`beam.calibration.modes.ModeChoice`, else None).
+    window = SpecField()
+    effects = SpecField()
+    modes = SpecField()
+    likelihood = SpecField()
+    mode_choice = SpecField()
 
     @property
     def window_mask(self) -> np.ndarray:
         """Boolean mask of the record's samples inside the calibration window."""
-        t = self.measurement.time_s
-        return (t >= self.window[0] - 1e-12) & (t <= self.window[1] + 1e-12)
+        return window_samples(self.measurement, self.window)
 
     @property
     def usable_mask(self) -> np.ndarray:
-        """Samples the model is compared with: not clipped and, for a free response, from the
-        end of the release's transient on (:attr:`free_start_s`)."""
+        """Samples the model is compared with: not clipped and from :attr:`start_indices`' first
+        sample on (a free response: after the release's transient)."""
         usable = ~self.measurement.left_out
-        if self.is_free:
+        if self.start_indices[1]:
             usable = usable & (self.measurement.time_s >= self.free_start_s)
         return usable
 
     @property
     def free_start_s(self) -> float:
-        """First sample of a free response (s): the record's start, or after a quiet lead-in at
-        rest and the release's transient (:func:`beam.calibration.free.free_response_start`)."""
-        return float(self.measurement.time_s[self.free_start_indices[1]])
+        """First sample the model describes (s): the record's start, or for a free response after a
+        quiet lead-in at rest and the release's transient (:func:`beam.calibration.free.free_response_start`)."""
+        return float(self.measurement.time_s[self.start_indices[1]])
 
-    @functools.cached_property
+    @property
     def free_start_indices(self) -> tuple[int, int]:
-        """(release, first sample of the free response) of a free response: the samples in between
-        are the release's transient, left out (:func:`beam.calibration.free.free_start_indices`)."""
-        return free_start_indices(self.measurement, self.modes)
+        """:attr:`start_indices` (the name a free response's callers read)."""
+        return self.start_indices
 
     @property
     def fit_mask(self) -> np.ndarray:
@@ -265,78 +218,7 @@ class BeamCalibrationSetup:
     @property
     def is_free(self) -> bool:
         """A free response: the initial state (and offset) are profiled out, see :mod:`beam.calibration.free`."""
-        return self.measurement.is_free
-
-
-def make_setup(
-    measurement: Measurement,
-    *,
-    window: tuple[float, float] | None = None,
-    effects: Iterable[str] | str = DEFAULT_EFFECTS,
-    modes: int = DEFAULT_MODES,
-    likelihood: str = defaults.DEFAULT_LIKELIHOOD,
-    intervals: int = DEFAULT_INTERVALS,
-    knots: str = DEFAULT_KNOTS,
-) -> BeamCalibrationSetup:
-    """Validate the choices and build the model (BeamInputError on any bad choice).
-
-    ``modes`` is a number here; :func:`beam.calibration.run.prepare` also takes ``"auto"``.
-
-    ``intervals`` and ``knots`` set the Galerkin mesh (:mod:`beam.physics.basis`; default: the patch
-    knots, as ``beam simulate`` uses).
-    """
-    if likelihood not in LIKELIHOODS:
-        raise BeamInputError(f"unknown likelihood {likelihood!r}; expected one of {', '.join(LIKELIHOODS)}")
-    effects = parse_effects(effects)
-    window = resolve_window(measurement, window)
-    check_calibration_record(measurement, window)
-    model = BeamModel(measurement.geometry, effects, intervals, knots, input_kind=measurement.input_kind)
-    if isinstance(modes, bool) or int(modes) != modes or not 1 <= modes <= model.size:
-        raise BeamInputError(f"modes must be between 1 and {model.size} (the mesh holds {model.size} modes), got {modes}")
-    if "quadratic_drag" in effects and measurement.geometry.width_m is None:
-        raise BeamInputError("quadratic_drag needs the strip's width: [beam] width_m and thickness_m in the sidecar, "
-                             "or --width and --thickness")
-    if "clamp_friction" in effects and not measurement.is_free:
-        raise BeamInputError("clamp_friction is calibrated on free decays only (a record without input): its joint's "
-                             "history is taken from the swing at the window's start")
-    nonlinear = ", ".join(e for e in effects if EFFECTS[e].nonlinear)
-    if model.is_nonlinear and not measurement.is_free and (not measurement.uniform or measurement.output_kind != "displacement"):
-        raise BeamInputError(
-            f"{nonlinear} is calibrated on a free decay, or on a driven record with uniform time stamps and a "
-            "displacement output"
-        )
-    if measurement.is_free:
-        released = measurement.time_s >= measurement.time_s[free_start_indices(measurement, int(modes))[1]]
-        mask = window_samples(measurement, window) & ~measurement.left_out & released
-        if np.count_nonzero(mask) < MIN_WINDOW_SAMPLES:
-            raise BeamInputError(
-                f"calibration window {window[0]:g}:{window[1]:g} s holds fewer than {MIN_WINDOW_SAMPLES} samples after "
-                f"the start of the free response at {measurement.time_s[np.argmax(released)]:g} s (the release of the beam and its "
-                f"transient left out)"
-            )
-        if model.is_nonlinear and np.any(released & ~measurement.left_out & (measurement.time_s < measurement.time_s[mask][0])):
-            raise BeamInputError(
-                f"{nonlinear} on a free decay is integrated forward from the window's first sample: start the window "
-                f"at the start of the free response ({measurement.time_s[np.argmax(released)]:g} s) or earlier"
-            )
-        forward = free_model_class(model)(model, int(modes), measurement.output_kind, measurement.time_s[mask],
-                                          measurement.output[mask], likelihood)
-    else:
-        forward = BeamForwardModel(model, measurement, int(modes))
-    setup = BeamCalibrationSetup(measurement, window, effects, int(modes), likelihood, model, forward)
-    _check_window_holds_a_period(setup)
-    return setup
-
-
-def free_model_class(model: BeamModel) -> type:
-    """The free-response forward model of ``model``: :class:`ProjectedFreeModel` (the initial
-    state profiled exactly), or for a nonlinear effect
-    :class:`~beam.calibration.free_nonlinear.NonlinearFreeModel` (refined by Gauss–Newton)."""
-    if model.is_nonlinear:
-        from beam.calibration.free_nonlinear import NonlinearFreeModel
-
-        return NonlinearFreeModel
-    return ProjectedFreeModel
+        return self.calibration.free
 
 
 def window_samples(measurement: Measurement, window: tuple[float, float]) -> np.ndarray:
@@ -345,7 +227,7 @@ def window_samples(measurement: Measurement, window: tuple[float, float]) -> np.
     return (t >= window[0] - 1e-12) & (t <= window[1] + 1e-12)
 
 
-def _check_window_holds_a_period(setup: BeamCalibrationSetup) -> None:
+def check_window_holds_a_period(setup: BeamCalibrationSetup) -> None:
     """The window must last at least one period of the model's first mode at the prior centres."""
     nominal = setup.measurement.prior_nominal
     centres = {name: prior_centre(name, nominal) for name in setup.physical_names}
@@ -359,16 +241,14 @@ def _check_window_holds_a_period(setup: BeamCalibrationSetup) -> None:
 
 
 def build_problem(setup: BeamCalibrationSetup, initial_guesses=None) -> Problem:
-    """The :class:`beam.inference.Problem` of a setup (data = the window's output, clipped
-    samples left out; for a free response the forward model projects on exactly these data)."""
+    """The :class:`beam.inference.Problem` of a setup: data = the window's output (clipped samples
+    and, for a free response, those before its start left out), the forward model evaluated on
+    exactly these data (the calibration model's ``fit_forward``), one prior per parameter, the
+    noise sd's log-uniform from 1e-4 to 2 times the data's RMS (and the AR(1) coefficient's)."""
     measurement = setup.measurement
     mask = setup.fit_mask
     data = measurement.output[mask]
-    forward = setup.forward
-    if setup.is_free and not (forward.fit_time_s.size == data.size
-                              and np.array_equal(forward.fit_time_s, measurement.time_s[mask])):
-        forward = free_model_class(setup.model)(setup.model, setup.modes, measurement.output_kind,
-                                                measurement.time_s[mask], data, setup.likelihood)
+    forward, time_s = setup.calibration.fit_forward(setup, mask)
     nominal = measurement.prior_nominal
     parameters = [
         Parameter(name, parameter_prior(name, nominal, measurement.nominal_spread), PARAMETER_SPECS[name].unit,
@@ -383,21 +263,12 @@ def build_problem(setup: BeamCalibrationSetup, initial_guesses=None) -> Problem:
     return Problem(
         parameters=parameters,
         model=forward,
-        time_s=forward.fit_time_s if setup.is_free else measurement.time_s[mask].copy(),
+        time_s=time_s,
         data=data,
         likelihood=setup.likelihood,
         initial_guesses=initial_guesses,
         name=f"beam:{measurement.name}",
         data_unit=unit,
-        proportional_to=_proportional_parameter(setup),
+        proportional_to=setup.calibration.proportional_parameter(setup),
+        likelihood_correction=setup.calibration.likelihood_correction(forward),
     )
-
-
-def _proportional_parameter(setup: BeamCalibrationSetup) -> str | None:
-    """The patch coupling k_p for a linear model driven by the patch voltage: its only input
-    enters as k_p V, so the prediction is proportional to k_p (tested for every catalogue
-    effect in ``tests/test_calibration_fit.py``); None otherwise (the spring's response is not,
-    a free response has no input)."""
-    name = "patch_coupling_NmV"
-    linear = not setup.model.is_nonlinear and not setup.is_free
-    return name if linear and setup.measurement.input_kind == "voltage" and name in setup.physical_names else None

@@ -13,11 +13,14 @@ a file.
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 from beam.calibration import defaults
 from beam.calibration.defaults import AUTO_MODES, DEFAULT_EFFECTS, DEFAULT_MODES, DEFAULT_WINDOW_FRACTION
+from beam.errors import BeamInputError
 from beam.physics.effects import parse_effects
 
 __all__ = ["AUTO_MODES", "DEFAULT_EFFECTS", "DEFAULT_MODES", "DEFAULT_WINDOW_FRACTION", "CalibrationSpec"]
@@ -27,6 +30,20 @@ def _default(field_name: str):
     """A field whose default is read from :mod:`beam.calibration.defaults` when a spec is built."""
     name = defaults.SPEC_DEFAULTS[field_name]
     return field(default_factory=lambda: getattr(defaults, name))
+
+
+def _number(name: str, value) -> float:
+    """``value`` as a finite float (BeamInputError naming ``name`` otherwise)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(float(value)):
+        raise BeamInputError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _integer(name: str, value) -> int:
+    """``value`` as an int (an integral float accepted; BeamInputError naming ``name`` otherwise)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not float(value).is_integer():
+        raise BeamInputError(f"{name} must be an integer, got {value!r}")
+    return int(value)
 
 
 @dataclass(frozen=True)
@@ -73,20 +90,48 @@ class CalibrationSpec:
     mode_choice: Any = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
+        """Normalise and check every field (BeamInputError names the first one at fault; the
+        bounds that depend on the record, the window inside it and the modes its mesh holds, are
+        checked where the setup is made, :func:`beam.calibration.pipeline.make_setup`)."""
         object.__setattr__(self, "effects", parse_effects(self.effects))
         if self.window is not None:
-            object.__setattr__(self, "window", tuple(float(v) for v in self.window))
+            try:
+                start, end = (float(v) for v in self.window)
+            except (TypeError, ValueError):
+                raise BeamInputError(f"calibration window must be (start, end) in seconds, got {self.window!r}") from None
+            if not (math.isfinite(start) and math.isfinite(end)) or not start < end:
+                raise BeamInputError(f"calibration window must have start < end, got {start}:{end}")
+            object.__setattr__(self, "window", (start, end))
         modes = self.modes
         if modes is None or (isinstance(modes, str) and modes.strip().lower() == AUTO_MODES):
             modes = AUTO_MODES
         elif isinstance(modes, str) and modes.strip().isdigit():
             modes = int(modes)
         elif not isinstance(modes, bool) and isinstance(modes, (int, float)) and float(modes).is_integer():
-            modes = int(modes)  # anything else is reported by the setup (beam.calibration.setup.make_setup)
+            modes = int(modes)
+        if modes != AUTO_MODES and not (isinstance(modes, int) and modes >= 1):
+            raise BeamInputError(f"modes must be a positive integer or {AUTO_MODES!r}, got {self.modes!r}")
         object.__setattr__(self, "modes", modes)
+        if self.likelihood not in defaults.LIKELIHOOD_NAMES:
+            raise BeamInputError(f"unknown likelihood {self.likelihood!r}; expected one of {', '.join(defaults.LIKELIHOOD_NAMES)}")
         object.__setattr__(self, "likelihood", str(self.likelihood))
-        object.__setattr__(self, "seed", int(self.seed))
-        object.__setattr__(self, "target_ess", float(self.target_ess))
+        object.__setattr__(self, "seed", _integer("seed", self.seed))
+        target = _number("target_ess", self.target_ess)
+        if not target > 0:
+            raise BeamInputError(f"target_ess must be positive, got {self.target_ess!r}")
+        object.__setattr__(self, "target_ess", target)
+        max_steps = _integer("max_steps", self.max_steps)
+        if max_steps < 1:
+            raise BeamInputError(f"max_steps must be a positive integer, got {self.max_steps!r}")
+        object.__setattr__(self, "max_steps", max_steps)
+        for name, least in (("walkers", 2), ("steps", 10)):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < least):
+                raise BeamInputError(f"{name} must be an integer >= {least}, got {value}")
+        fraction = _number("window_fraction", self.window_fraction)
+        if not 0.0 < fraction <= 1.0:
+            raise BeamInputError(f"window_fraction must be in (0, 1], got {self.window_fraction!r}")
+        object.__setattr__(self, "window_fraction", fraction)
 
     @classmethod
     def of(cls, spec: CalibrationSpec | None = None, **options) -> CalibrationSpec:
@@ -114,9 +159,9 @@ class CalibrationSpec:
         return self.window is not None and self.modes != AUTO_MODES
 
     def default_window(self, measurement) -> tuple[float, float]:
-        """The first :attr:`window_fraction` of ``measurement`` (s)."""
+        """The first :attr:`window_fraction` of ``measurement`` (s) (:func:`beam.calibration.defaults.default_window`)."""
         t = measurement.time_s
-        return float(t[0]), float(t[0] + self.window_fraction * (t[-1] - t[0]))
+        return defaults.default_window(t[0], t[-1], self.window_fraction)
 
     def resolve(self, measurement) -> CalibrationSpec:
         """The spec with the default window and ``"auto"`` modes filled in from ``measurement``
@@ -130,7 +175,6 @@ class CalibrationSpec:
             return self
         from beam.calibration.modes import suggest_modes
         from beam.calibration.records import decimate_measurement
-        from beam.errors import BeamInputError
         from beam.io.limits import MAX_CALIBRATION_SAMPLES
 
         measurement, _ = decimate_measurement(measurement, MAX_CALIBRATION_SAMPLES)
@@ -153,14 +197,19 @@ class CalibrationSpec:
 
     @classmethod
     def of_setup(cls, setup) -> CalibrationSpec:
-        """The resolved spec of a :class:`~beam.calibration.setup.BeamCalibrationSetup` (window,
-        effects, modes, likelihood; the other fields at their defaults)."""
-        return cls(setup.window, setup.effects, setup.modes, setup.likelihood,
-                   mode_choice=getattr(setup, "mode_choice", None))
+        """The resolved spec of a :class:`~beam.calibration.setup.BeamCalibrationSetup`'s model
+        (window, effects, modes, likelihood and how the modes were chosen; the other fields at
+        their defaults)."""
+        return cls(setup.window, setup.effects, setup.modes, setup.likelihood, mode_choice=setup.mode_choice)
 
     def with_effects(self, effects) -> CalibrationSpec:
         """The same spec for another effect set."""
         return replace(self, effects=parse_effects(effects))
+
+    def for_model(self, effects) -> CalibrationSpec:
+        """The spec of the model with ``effects`` on this spec's window, modes and likelihood, every
+        other field at its default (a candidate's preview, a sub-model's: what its optimum depends on)."""
+        return CalibrationSpec(self.window, parse_effects(effects), self.modes, self.likelihood)
 
     def describe(self) -> str:
         """One line: ``window 0–1.05 s, 4 modes, effects air_damping, kelvin_voigt, likelihood iid``."""

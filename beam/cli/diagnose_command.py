@@ -130,11 +130,12 @@ def run(args: argparse.Namespace) -> int:
     progress = TerminalProgress(sys.stderr) if wants_progress(args) else None
     if progress is not None:
         progress(f"loading the calibration engine ({measurement.name})")
+    from beam.calibration.spec import CalibrationSpec
     from beam.discovery.report import diagnose
 
     try:
-        report = diagnose(measurement, window=args.window, modes=args.modes, base=args.base, ladder_mcmc=args.mcmc,
-                          seed=args.seed, progress=progress)
+        spec = CalibrationSpec(window=args.window, effects=args.base, modes=args.modes, seed=args.seed)
+        report = diagnose(measurement, spec, ladder_mcmc=args.mcmc, progress=progress)
         if args.report:
             if progress is not None:
                 progress(f"writing {args.report}")
@@ -187,11 +188,11 @@ def _single_fits(measurement, summary: dict, a: str, b: str) -> list:
     """The one-record joint fits (the single calibrations, :func:`beam.calibration.joint.joint_preview`)
     of the diagnosis's base model plus ``a`` and plus ``b``, on its window and modes."""
     from beam.calibration.joint import joint_preview
+    from beam.calibration.spec import CalibrationSpec
     from beam.discovery.ranking import with_effect
 
-    window = tuple(summary["window_s"])
-    return [joint_preview([measurement], window=window, modes=summary["modes"], effects=with_effect(summary["base"], e))
-            for e in (a, b)]
+    spec = CalibrationSpec(window=tuple(summary["window_s"]), modes=summary["modes"])
+    return [joint_preview([measurement], spec.with_effects(with_effect(summary["base"], e))) for e in (a, b)]
 
 
 def format_suggestion(suggestion: dict) -> list[str]:

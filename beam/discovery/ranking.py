@@ -39,8 +39,10 @@ from beam.calibration import (
     AUTO_MODES,
     DEFAULT_EFFECTS,
     CalibrationResult,
+    CalibrationSpec,
     calibration_preview,
 )
+from beam.calibration.defaults import DEFAULT_LIKELIHOOD
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, applicable, effect_needs, parse_effects
@@ -151,22 +153,9 @@ def record_features(measurement: Measurement, spectral: bool = True) -> frozense
     ``spectral=False`` leaves out ``rising_frequency``, the one read from the record's spectra
     (~0.1 s on a 20 s, 4 kHz record), for a caller whose effects do not need it.
     """
-    features = set()
-    features.add("patch" if measurement.geometry.has_patch else "no_patch")
-    if not measurement.is_free:
-        features.add("input")
-    if measurement.output_kind == "acceleration":
-        features.add("contact_sensor")
-    if measurement.uniform:
-        features.add("uniform")
-    if measurement.output_kind == "displacement":
-        features.add("displacement")
-    if measurement.geometry.width_m is not None:
-        features.add("width")
-    if measurement.is_free:
-        features.add("free")
-        if spectral and decay_frequency_drift(measurement.time_s, measurement.output) < -RISING_DRIFT:
-            features.add("rising_frequency")
+    features = set(measurement.features)  # what the record shows without its spectra
+    if spectral and "free" in features and decay_frequency_drift(measurement.time_s, measurement.output) < -RISING_DRIFT:
+        features.add("rising_frequency")
     return frozenset(features)
 
 
@@ -175,9 +164,10 @@ def candidate_effects(current: Iterable[str], measurement: Measurement | None = 
     current model, in catalogue order.
 
     With a ``measurement`` the offer fits the record: only effects whose needs
-    (:func:`beam.physics.effects.effect_needs`) the record has (:func:`record_features`); and
-    ``sensor_mass`` joins where it applies (an accelerometer is a contact sensor whose mass loads
-    the beam where it measures; a laser's displacement or velocity has none). So: no patch effect
+    (:func:`beam.physics.effects.effect_needs`) the record has (:func:`record_features`); and the
+    effects offered on records (:attr:`~beam.physics.effects.effect.Effect.offered_on_records`:
+    the sensor's mass, where an accelerometer, a contact sensor, loads the beam where it measures;
+    a laser's displacement or velocity has none) join where they apply. So: no patch effect
     without a patch, no input effect without an input, the tip's cubic spring (nonlinear) only on
     a driven displacement record on uniform stamps; and no effect whose force depends on the
     amplitude on a record in arbitrary units (:func:`beam.io.measurement.true_unit_problem`).
@@ -185,7 +175,7 @@ def candidate_effects(current: Iterable[str], measurement: Measurement | None = 
     present = set(parse_effects(current))
     offered = list(CANDIDATE_EFFECTS)
     if measurement is not None:
-        offered.append("sensor_mass")
+        offered += [e for e in EFFECTS if EFFECTS[e].offered_on_records]
         spectral = any("rising_frequency" in effect_needs(e) for e in offered)
         features = record_features(measurement, spectral=spectral)
         offered = [e for e in offered if applicable(e, features)]
@@ -204,16 +194,17 @@ Fitter = Callable[[list[tuple[str, ...]]], list["CalibrationResult | Exception"]
 FIT_ERRORS = (RuntimeError, FloatingPointError, ValueError, BeamInputError)
 
 
-def thread_fitter(measurement: Measurement, window: tuple[float, float], modes: int, workers: int = 2,
-                  search: bool = True, on_fit: Callable[[tuple[str, ...], int, int], None] | None = None) -> Fitter:
-    """The default :data:`Fitter`: previews in ``workers`` threads (the compiled kernels release
-    the GIL; the Python between them does not, so two threads gain ~1.2x on two cores);
-    ``search=False``: screening fits (:func:`beam.calibration.calibration_preview`).
-    ``on_fit(effects, done, total)``, if given, is called (from the fitting thread) as each fit
-    of a call ends: its effect set, how many of the call's ``total`` fits have ended."""
+def thread_fitter(measurement: Measurement, spec: CalibrationSpec, workers: int = 2, search: bool = True,
+                  on_fit: Callable[[tuple[str, ...], int, int], None] | None = None) -> Fitter:
+    """The default :data:`Fitter`: previews of ``spec`` (its window, modes and likelihood; each
+    set's effects) in ``workers`` threads (the compiled kernels release the GIL; the Python
+    between them does not, so two threads gain ~1.2x on two cores); ``search=False``: screening
+    fits (:func:`beam.calibration.calibration_preview`). ``on_fit(effects, done, total)``, if
+    given, is called (from the fitting thread) as each fit of a call ends: its effect set, how
+    many of the call's ``total`` fits have ended."""
     def fit(effects: tuple[str, ...]) -> CalibrationResult | Exception:
         try:
-            return calibration_preview(measurement, window=window, effects=effects, modes=modes, search=search)
+            return calibration_preview(measurement, spec.for_model(effects), search=search)
         except FIT_ERRORS as exc:  # a failed fit: ranked last
             return exc
 
@@ -250,17 +241,19 @@ def rank_candidates(
     base_result: CalibrationResult | None = None,
     workers: int = 2,
     fitter: Fitter | None = None,
+    likelihood: str = DEFAULT_LIKELIHOOD,
 ) -> Ranking:
     """Calibrate the current model and each candidate (preview; by ``fitter``, default
     :func:`thread_fitter` with ``workers`` threads), ranked best first."""
     base = parse_effects(base)
     if base_result is None:
-        base_result = calibration_preview(measurement, window=window, effects=base, modes=modes)
-    window, modes = base_result.setup.window, base_result.setup.modes  # "auto" resolved once, for every candidate
+        base_result = calibration_preview(measurement, CalibrationSpec(window=window, effects=base, modes=modes,
+                                                                       likelihood=likelihood))
+    spec = CalibrationSpec.of_setup(base_result.setup)  # "auto" resolved once, for every candidate
     names = candidate_effects(base, measurement) if candidates is None else parse_effects(candidates)
     if set(names) & set(base):
         raise BeamInputError(f"candidate {sorted(set(names) & set(base))[0]!r} is already in the model")
-    fitter = fitter or thread_fitter(measurement, window, modes, workers)
+    fitter = fitter or thread_fitter(measurement, spec, workers)
     fits = dict(zip(names, fitter([with_effect(base, effect) for effect in names])))
     return rank_fits(base_result, names, fits, explain)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 
 import beam.residuals as dx
-from beam.calibration import AUTO_MODES, DEFAULT_EFFECTS, CalibrationResult
+from beam.calibration import CalibrationResult
 from beam.discovery.findings import (
     AT_NOISE_RATIO,
     DiagnosisReport,
@@ -77,12 +77,14 @@ __all__ = [
 
 def diagnose(
     measurement: Measurement,
+    spec=None,
     *,
     window: tuple[float, float] | None = None,
-    modes: int | str = AUTO_MODES,
-    base: Iterable[str] | str = DEFAULT_EFFECTS,
+    modes: int | str | None = None,
+    base: Iterable[str] | str | None = None,
+    likelihood: str | None = None,
     ladder_mcmc: bool = False,
-    seed: int = 0,
+    seed: int | None = None,
     progress: Callable[[str], None] | None = None,
     workers: int = 2,
     engine=None,
@@ -94,10 +96,14 @@ def diagnose(
     (the compiled kernels release the GIL; two threads gain ~1.2x on two cores) and ``engine``
     (default: the process's).
 
-    ``modes`` defaults to ``"auto"``: chosen from the record's excited band
-    (:func:`beam.calibration.modes.suggest_modes`), as the command line and the dashboard do.
-    ``progress(text)``, if given, is told each step as it starts and each candidate's fit as it
-    ends, with how many are left. ``screen``: see :func:`~beam.discovery.stream.diagnosis_stream`.
+    ``spec`` (a :class:`~beam.calibration.spec.CalibrationSpec`; default its defaults) says the
+    base model (its ``effects``), window, modes, likelihood (of every fit of the diagnosis) and
+    seed; the keywords ``window``, ``modes``, ``base`` (its effects), ``likelihood`` and ``seed``
+    replace its values when given. ``modes`` defaults to ``"auto"``: chosen from the record's
+    excited band (:func:`beam.calibration.modes.suggest_modes`), as the command line and the
+    dashboard do. ``progress(text)``, if given, is told each step as it starts and each
+    candidate's fit as it ends, with how many are left. ``screen``: see
+    :func:`~beam.discovery.stream.diagnosis_stream`.
     """
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
@@ -106,7 +112,8 @@ def diagnose(
 
     say = progress or (lambda text: None)
     engine = default_engine() if engine is None else engine
-    spec = CalibrationSpec.of(None, window=window, effects=base, modes=modes, seed=seed)
+    given = {"window": window, "effects": base, "modes": modes, "likelihood": likelihood, "seed": seed}
+    spec = CalibrationSpec.of(spec, **{key: value for key, value in given.items() if value is not None})
     stream = diagnosis_stream(engine, measurement, spec, ladder_mcmc=ladder_mcmc, screen=screen)
     running: dict = {}
     asked: set = set()

@@ -229,8 +229,7 @@ class _Fits:
     def model(self, effects: Iterable[str], *, search: bool = True, mcmc: bool = False) -> FitRequest:
         """The request of ``effects`` on the diagnosis's resolved window, modes and likelihood
         (a preview with the spec's default seed; an MCMC fit with the diagnosis's seed)."""
-        spec = CalibrationSpec(window=self.spec.window, effects=tuple(effects), modes=self.spec.modes,
-                               likelihood=self.spec.likelihood)
+        spec = self.spec.for_model(effects)
         return FitRequest(replace(spec, seed=self.seed) if mcmc else spec, search=search, mcmc=mcmc)
 
     def receive(self, done: Done) -> None:
@@ -328,9 +327,9 @@ def climb_with(measurement: Measurement, result: CalibrationResult, remaining, f
     """The climb of :func:`diagnosis_stream` on top of ``result`` (see
     :func:`beam.discovery.report.climb_on`), its fits run by the :data:`~beam.discovery.ranking.Fitter`
     ``fitter`` (both stages) and ``screen`` (screening fits), default threads."""
-    window, modes = result.setup.window, result.setup.modes
-    fitter = fitter or thread_fitter(measurement, window, modes)
-    screen = screen or thread_fitter(measurement, window, modes, search=False)
+    spec = CalibrationSpec.of_setup(result.setup)
+    fitter = fitter or thread_fitter(measurement, spec)
+    screen = screen or thread_fitter(measurement, spec, search=False)
     engine = default_engine()
     fits = _Fits(engine, measurement, CalibrationSpec.of_setup(result.setup), mcmc=mcmc, seed=seed)
     fits.base_effects = tuple(result.setup.effects)
@@ -420,8 +419,7 @@ def diagnosis_stream(engine: Engine | None, measurement: Measurement, spec: Cali
     t0 = time.perf_counter()
     yield Step("calibrating the current model (preview) and its residual diagnostics: band, spectrum, whiteness, "
                "modes", 0.02)
-    first = BaseRequest(CalibrationSpec(window=spec.window, effects=spec.effects, modes=spec.modes,
-                                        likelihood=spec.likelihood))  # a preview: the default seed
+    first = BaseRequest(spec.for_model(spec.effects))  # a preview: the default seed
     yield first
     while True:
         done = yield WAIT

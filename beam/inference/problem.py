@@ -21,8 +21,8 @@ physical parameters, not marginalised analytically); listed in ``fixed`` they ar
 Linear parameters profiled by the model
 ---------------------------------------
 A model may fit some linear coefficients itself, by least squares on the calibration data, at
-every call (variable projection: the unknown initial state of a free response). It then
-declares ``log_likelihood_correction(values) -> ndarray (B,)``, the term that turns the
+every call (variable projection: the unknown initial state of a free response). Its problem
+is then given ``likelihood_correction(values) -> ndarray (B,)``, the term that turns the
 profile likelihood of the calibration grid into the likelihood with those coefficients
 integrated out (called right after the model on :attr:`Problem.time_s` with the same
 ``values``); :meth:`Problem.log_likelihood` and :meth:`Problem.log_posterior` add it.
@@ -106,6 +106,9 @@ class Problem:
         a linear model's only input). The MAP search then forms its finite difference in that
         parameter from the unperturbed prediction instead of a model call
         (:mod:`beam.calibration.fit`).
+    likelihood_correction : callable, optional
+        ``likelihood_correction(values) -> (B,)`` (nats): added to the log likelihood of the
+        model's prediction on :attr:`time_s` (see the module notes); None: nothing is added.
     """
 
     parameters: Sequence[Parameter]
@@ -118,6 +121,7 @@ class Problem:
     name: str = "problem"
     data_unit: str = ""
     proportional_to: str | None = None
+    likelihood_correction: Callable[[Mapping[str, np.ndarray]], np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         self.parameters = tuple(self.parameters)
@@ -277,8 +281,8 @@ class Problem:
         return log_likelihood(self.likelihood, resid, self.noise_values(values)) + self._correction(values)
 
     def _correction(self, values: Mapping[str, np.ndarray]) -> np.ndarray | float:
-        """The model's ``log_likelihood_correction`` for ``values`` (0 when it has none)."""
-        correction = getattr(self.model, "log_likelihood_correction", None)
+        """:attr:`likelihood_correction` at ``values`` (0 when there is none)."""
+        correction = self.likelihood_correction
         return 0.0 if correction is None else np.asarray(correction(values), dtype=float)
 
     def log_posterior(self, z: np.ndarray) -> np.ndarray:

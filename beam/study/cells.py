@@ -1,9 +1,9 @@
 """One cell of a window study: one full calibration of one record on one window, then its held-out prediction.
 
-:class:`StudyCell` holds everything that decides a cell's result; :meth:`StudyCell.calibration_options`
-is the one place where it becomes the options of :func:`beam.calibration.calibrate` (the engine of
-``beam calibrate`` and the dashboard), so a cell's numbers are those ``beam calibrate`` prints
-with the same options and seed. :func:`run_cell` runs a cell (in a Dask worker or in-process)
+:class:`StudyCell` holds everything that decides a cell's result: the record (by its content) and
+the :class:`~beam.calibration.spec.CalibrationSpec` it is calibrated with, which
+:func:`beam.calibration.calibrate` (the engine of ``beam calibrate`` and the dashboard) takes as
+it is, so a cell's numbers are those ``beam calibrate`` prints with the same options and seed. :func:`run_cell` runs a cell (in a Dask worker or in-process)
 and never raises: a failed cell comes back with its error.
 """
 
@@ -15,12 +15,14 @@ import math
 import socket
 import time
 import traceback
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, fields
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from beam.calibration.spec import CalibrationSpec
+from beam.calibration.spec_field import SpecField
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 
@@ -36,48 +38,44 @@ DRAWS_KEPT = 1000
 
 @dataclass(frozen=True)
 class StudyCell:
-    """What decides one cell's result (the record by its content, not its path).
+    """What decides one cell's result: the record by its content (not its path) and the spec.
 
     Parameters
     ----------
     record : str
-        The record's name as shown in the table.
+        The record's name as shown in the table (not part of the result's key).
     record_hash : str
         :func:`record_fingerprint` of the record.
-    window : (float, float)
-        Calibration window (s).
-    effects : tuple of str
-        Effect ids added to the base model (catalogue order).
-    likelihood : {"iid", "ar1"}
-        Noise model.
-    modes : int or "auto"
-        Retained modes.
-    seed : int
-        Seed of the sampler and of the band draws.
-    steps, walkers : int or None
-        Fixed ensemble steps / walkers (None: the engine's defaults, sampling to its target ESS).
+    spec : CalibrationSpec
+        What the record is calibrated with: window (s), effects, modes (a number or ``"auto"``),
+        likelihood, seed, fixed steps / walkers (None: the engine's defaults, sampling to its
+        target ESS); :meth:`key` depends on every field of it.
     """
 
     record: str
     record_hash: str
-    window: tuple[float, float]
-    effects: tuple[str, ...]
-    likelihood: str
-    modes: int | str
-    seed: int
-    steps: int | None = None
-    walkers: int | None = None
+    spec: CalibrationSpec
+
+    window = SpecField()
+    effects = SpecField()
+    likelihood = SpecField()
+    modes = SpecField()
+    seed = SpecField()
+    steps = SpecField()
+    walkers = SpecField()
 
     def calibration_options(self) -> dict:
-        """The keyword options of :func:`beam.calibration.calibrate` for this cell (the only place they are built)."""
+        """The spec's options as :func:`beam.calibration.calibrate`'s keywords (for a report; the
+        cell is calibrated with :attr:`spec` itself)."""
         return dict(window=self.window, effects=self.effects, modes=self.modes, likelihood=self.likelihood,
                     walkers=self.walkers, steps=self.steps, seed=self.seed)
 
     def key(self, version: str) -> str:
         """Hex digest of the cell's content (record content, options, seed) and the code ``version``:
         the name of its stored result (two cells with the same key have the same result)."""
-        fields = {k: v for k, v in asdict(self).items() if k != "record"}
-        text = json.dumps({"cell": fields, "code": version}, sort_keys=True, default=list)
+        spec = {f.name: getattr(self.spec, f.name) for f in fields(self.spec) if f.compare}
+        fields_ = {"record_hash": self.record_hash, "spec": spec}
+        text = json.dumps({"cell": fields_, "code": version}, sort_keys=True, default=list)
         return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
@@ -139,7 +137,7 @@ def run_cell(measurement: Measurement, cell: StudyCell) -> dict:
     start = time.time()
     out = {"row": None, "extra": {}, "draws": {}, "task": {}}
     try:
-        result = calibrate(measurement, **cell.calibration_options())
+        result = calibrate(measurement, cell.spec)
         summary = result.to_json()
         row = {"record": cell.record, "window": summary["window_s"], "effects": summary["effects"],
                "likelihood": summary["likelihood"], **{k: summary[k] for k in CELL_KEYS[4:11]}, "error": None}

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from beam.errors import BeamInputError
+from beam.calibration.spec import CalibrationSpec
 from beam.io.measurement import Measurement
 from beam.physics.effects import parse_effects
 from beam.study.cells import StudyCell, code_version, record_fingerprint
@@ -84,9 +85,9 @@ def study_cells(records: Sequence[tuple[str, Measurement]], windows: Sequence[tu
         for index, window in enumerate(chosen):
             for effects in effect_sets:
                 for likelihood in likelihoods:
-                    out.append((index, StudyCell(record=name, record_hash=fingerprint, window=tuple(window),
-                                                 effects=tuple(effects), likelihood=likelihood, modes=modes,
-                                                 seed=seed, steps=steps, walkers=walkers)))
+                    spec = CalibrationSpec(window=tuple(window), effects=tuple(effects), likelihood=likelihood,
+                                           modes=modes, seed=seed, steps=steps, walkers=walkers)
+                    out.append((index, StudyCell(name, fingerprint, spec)))
     return out
 
 

@@ -10,7 +10,7 @@ what a ranking or a user does in this order), each timed; the held-out RMSE afte
 of each, the gain, C_d, the MAP log posteriors (nested: the drag's never lower), and the ratio of
 the two calibrations' wall and CPU times in the same run (CPU: the machine may be shared; the
 1-minute load average is printed with each row). Between the two, the averaged (slow-flow)
-preview of the drag (:func:`beam.calibration.drag_preview.averaged_drag_preview`, after the
+preview of the drag (:func:`beam.calibration.pipeline.averaged_drag_preview`, after the
 base model's preview, which it starts from): its CPU time, its ratio to the base model's preview,
 and its C_d and zeta_1 against the full calibration's. The issue's targets: a gain of at least
 1.3 on three of the five runs, none below 1; the calibration with the drag within 15 s, its
@@ -32,7 +32,7 @@ sys.path.insert(0, str(ROOT))
 
 from beam.calibration import calibration_preview  # noqa: E402
 from beam.calibration.engine import Engine  # noqa: E402
-from beam.calibration.drag_preview import averaged_drag_preview  # noqa: E402
+from beam.calibration.pipeline import averaged_drag_preview  # noqa: E402
 from beam.io.measurement import Measurement, read_measurement  # noqa: E402
 
 BASE = "modal_damping,sensor_mass"

@@ -9,7 +9,7 @@ sidecar has none), after one untimed warm-up stream (the compiled kernels' first
   time to the first event of :func:`beam.calibration.calibration_stream` (its calibration
   preview), the baseline;
 - the same plus ``quadratic_drag`` with a fresh engine (cold): the time to its first event (the
-  averaged drag preview, :func:`beam.calibration.run.averaged_preview`, which includes the linear
+  averaged drag preview, the first look of :func:`beam.calibration.run.calibration_stream`, which includes the linear
   sub-model's preview it starts from) and its ratio to the baseline;
 - the same with the linear model's engine (warm: the user ticks the drag after calibrating the
   linear model, whose MAP the engine remembers once its preview's two stages are done): the time to its first event and its ratio to

@@ -8,8 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from beam.calibration.setup import BeamCalibrationSetup, BeamForwardModel, prior_centre
+from dataclasses import replace
+
+from beam.calibration.forward import BeamForwardModel
+from beam.calibration.setup import BeamCalibrationSetup, prior_centre
 from beam.inference import Problem
+from beam.physics.effects.base import BENDING_STIFFNESS, PATCH_COUPLING
 from beam.physics.model import BeamModel
 
 __all__ = ["BARELY_ON", "BASE_NAMES", "DAMPED_AWAY", "SCALE_GRID", "SEARCH_GAIN_NATS", "StartStrategy", "barely_on",
@@ -59,7 +63,7 @@ BARELY_ON = 0.02
 
 
 #: The parameters of the base model (EI from the spectrum, k_p by least squares in the design).
-BASE_NAMES = ("bending_stiffness_Nm2", "patch_coupling_NmV")
+BASE_NAMES = (BENDING_STIFFNESS.name, PATCH_COUPLING.name)
 
 
 #: Where a damped-away mode's damping ratio starts: this fraction of its log prior range from the
@@ -102,10 +106,10 @@ def barely_on(problem: Problem, name: str) -> float:
 
 
 def damping_only(effect: str) -> bool:
-    """Whether the effect only adds damping (it keeps the modes: no new basin)."""
+    """Whether the effect only adds linear damping (it keeps the modes: no new basin)."""
     from beam.physics.effects import EFFECTS
 
-    return all(term.target == "damping" for term in EFFECTS[effect].terms)
+    return EFFECTS[effect].channel is None and all(term.target == "damping" for term in EFFECTS[effect].terms)
 
 
 def pure_damping_parameter(name: str) -> bool:
@@ -116,8 +120,9 @@ def pure_damping_parameter(name: str) -> bool:
 
 
 def model_setup(setup: BeamCalibrationSetup, effects: tuple[str, ...], modes: int) -> BeamCalibrationSetup:
-    """The setup of the model with ``effects`` and ``modes`` retained modes on the same record,
-    window and likelihood."""
+    """The setup of the driven model with ``effects`` and ``modes`` retained modes on the same
+    record, window and likelihood (the same calibration model: the engine's sub-models of a model
+    driven by the patch voltage)."""
     model = BeamModel(setup.measurement.geometry, effects, setup.model.intervals)
-    return BeamCalibrationSetup(setup.measurement, setup.window, model.effects, modes, setup.likelihood, model,
-                                BeamForwardModel(model, setup.measurement, modes))
+    spec = replace(setup.spec, effects=model.effects, modes=int(modes))
+    return replace(setup, spec=spec, model=model, forward=BeamForwardModel(model, setup.measurement, modes))

@@ -20,10 +20,15 @@ from beam.calibration.starts.base import (
 )
 from beam.calibration.starts.spectral import batched_scales, coupled_response
 from beam.inference import Problem
+from beam.physics.effects.base import BENDING_STIFFNESS, PATCH_COUPLING
+
 
 __all__ = ["DESIGN_KEPT", "DESIGN_POINTS", "DESIGN_SPREAD", "NONLINEAR_STRATA", "RACE_FRACTION", "RACE_ITERATIONS",
            "RACE_MIN_KEPT", "RIDGE_BINS", "SCREEN_ITERATIONS", "SCREEN_KEPT", "STRATA", "ScreenedDesign", "design_points",
            "screened_design", "searched_design", "stratified_design"]
+
+#: The base parameters: EI (scaled to the spectrum) and k_p (solved for by least squares).
+EI, KP = BENDING_STIFFNESS.name, PATCH_COUPLING.name
 
 
 #: Points of the Sobol design over the effect parameters (a power of two), and how many of the
@@ -108,16 +113,16 @@ def screened_design(problem: Problem, setup: BeamCalibrationSetup, keep: int = D
     batch.update(design)
     # each point twice: EI from its own spectral match, and EI at its prior centre (under a gross
     # misfit the spectral match can prefer a wrong family of peaks)
-    spectral_ei = centres["bending_stiffness_Nm2"] * batched_scales(setup, batch)
+    spectral_ei = centres[EI] * batched_scales(setup, batch)
     batch = {name: np.concatenate([v, v]) for name, v in batch.items()}
     design = {name: np.concatenate([v, v]) for name, v in design.items()}
-    batch["bending_stiffness_Nm2"][:size] = spectral_ei
+    batch[EI][:size] = spectral_ei
     size *= 2
     batch = {name: np.clip(v, problem.parameter(name).prior.lower * (1 + 1e-9),
                            problem.parameter(name).prior.upper * (1 - 1e-9)) for name, v in batch.items()}
     nonlinear = setup.model.is_nonlinear
     if not nonlinear:
-        batch["patch_coupling_NmV"] = np.ones(size)
+        batch[KP] = np.ones(size)
     with np.errstate(all="ignore"):
         try:
             response = problem.predict(batch)
@@ -129,9 +134,9 @@ def screened_design(problem: Problem, setup: BeamCalibrationSetup, keep: int = D
     else:
         denominator = np.einsum("ij,ij->i", response, response)
         coupling = np.abs(response @ data) / np.where(denominator > 0, denominator, np.inf)
-        prior = problem.parameter("patch_coupling_NmV").prior
+        prior = problem.parameter(KP).prior
         coupling = np.clip(coupling, prior.lower * (1 + 1e-9), prior.upper * (1 - 1e-9))
-        batch["patch_coupling_NmV"] = coupling
+        batch[KP] = coupling
         fitted = response * coupling[:, None]
     rms = np.sqrt(np.mean((data - fitted) ** 2, axis=1))
     rms[~np.isfinite(rms)] = np.inf
@@ -145,7 +150,7 @@ def screened_design(problem: Problem, setup: BeamCalibrationSetup, keep: int = D
         if not np.isfinite(rms[i]) or len(kept) == keep:
             break
         if all(np.max(np.abs(cube[i] - cube[j])) >= DESIGN_SPREAD or
-               abs(np.log(batch["bending_stiffness_Nm2"][i] / batch["bending_stiffness_Nm2"][j])) > 0.05 for j in kept):
+               abs(np.log(batch[EI][i] / batch[EI][j])) > 0.05 for j in kept):
             kept.append(int(i))
     return [{name: float(v[i]) for name, v in batch.items()} for i in kept]
 
@@ -177,7 +182,7 @@ def stratified_design(problem: Problem, setup: BeamCalibrationSetup, seed: int =
     if not names:
         return []
     all_names = effect_names(setup)
-    dims = ["bending_stiffness_Nm2"] + all_names
+    dims = [EI] + all_names
     ranges = np.array([log_range(problem, n) for n in dims])
     strata = STRATA if not setup.model.is_nonlinear else NONLINEAR_STRATA
     ridge_bins = RIDGE_BINS if not setup.model.is_nonlinear else strata
@@ -187,11 +192,11 @@ def stratified_design(problem: Problem, setup: BeamCalibrationSetup, seed: int =
     batch = {n: np.exp(logs[:, i]) for i, n in enumerate(dims)}
     # each point twice: as drawn, and with EI from the spectral match of its own modes (on the
     # ridge of equal frequencies through the record's peaks, where a long window's narrow basins lie)
-    centre_kp = prior_centre("patch_coupling_NmV", setup.measurement.nominal)
-    scales = batched_scales(setup, dict(batch, patch_coupling_NmV=np.full(points, centre_kp)))
-    batch = {n: np.concatenate([v, v * scales if n == "bending_stiffness_Nm2" else v]) for n, v in batch.items()}
+    centre_kp = prior_centre(KP, setup.measurement.nominal)
+    scales = batched_scales(setup, dict(batch, **{KP: np.full(points, centre_kp)}))
+    batch = {n: np.concatenate([v, v * scales if n == EI else v]) for n, v in batch.items()}
     cube = np.vstack([cube, cube])
-    cube[points:, 0] = (np.log(batch["bending_stiffness_Nm2"][points:]) - ranges[0, 0]) / (ranges[0, 1] - ranges[0, 0])
+    cube[points:, 0] = (np.log(batch[EI][points:]) - ranges[0, 0]) / (ranges[0, 1] - ranges[0, 0])
     cube[:, 0] = np.clip(cube[:, 0], 0.0, 1.0 - 1e-12)
     batch = {name: np.clip(v, problem.parameter(name).prior.lower * (1 + 1e-9),
                            problem.parameter(name).prior.upper * (1 - 1e-9)) for name, v in batch.items()}

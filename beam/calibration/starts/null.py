@@ -78,9 +78,7 @@ def kept_nested(problem: Problem, setup: BeamCalibrationSetup, found: MapResult,
     points, scores = _embedded_optima(problem, setup, engine, 1)
     if not points or not scores[0] > found.log_posterior + KEPT_TOLERANCE * abs(found.log_posterior):
         return found
-    from beam.calibration.fit import fast_map
-
-    again = fast_map(problem, points)
+    again = setup.calibration.search(problem, points)  # the model's own search (a free decay's joint least squares)
     return again if again.log_posterior > found.log_posterior else found
 
 

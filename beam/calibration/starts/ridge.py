@@ -13,6 +13,9 @@ from beam.calibration.setup import BeamCalibrationSetup
 from beam.calibration.starts.base import SEARCH_GAIN_NATS, effect_names, log_range, pure_damping_parameter
 from beam.calibration.starts.spectral import batched_scales, coupled_response
 from beam.inference import MapResult, Problem
+from beam.physics.effects.base import BENDING_STIFFNESS
+
+EI = BENDING_STIFFNESS.name
 
 __all__ = ["WALK_GAIN_NATS", "WALK_ITERATIONS", "WALK_MAX_STEPS", "WALK_STEPS", "ridge_neighbours", "ridge_walk"]
 
@@ -54,7 +57,7 @@ def ridge_neighbours(problem: Problem, setup: BeamCalibrationSetup, best: Mappin
         return []
     batch = {n: np.array([best[n]] + [r[n] for r in rows]) for n in setup.physical_names}
     scales = batched_scales(setup, batch)
-    batch["bending_stiffness_Nm2"] = batch["bending_stiffness_Nm2"] * scales / scales[0]
+    batch[EI] = batch[EI] * scales / scales[0]
     batch = {name: np.clip(v, problem.parameter(name).prior.lower * (1 + 1e-9),
                            problem.parameter(name).prior.upper * (1 - 1e-9)) for name, v in batch.items()}
     if coupled_response(problem, setup, batch) is None:

@@ -26,6 +26,8 @@ from beam.calibration.starts.design import searched_design, stratified_design
 from beam.calibration.starts.ridge import ridge_walk
 from beam.calibration.starts.spectral import spectral_guesses
 from beam.inference import MapResult, Problem
+from beam.physics.effects import modal_damping
+from beam.physics.effects.base import PATCH_COUPLING
 
 __all__ = ["SEARCH_GAIN_NATS", "SearchedDesign", "adds_damping_to_a_searched_submodel", "damped_away_starts",
            "has_second_stage", "searched_map", "searched_starts"]
@@ -59,10 +61,11 @@ def damped_away_starts(problem: Problem, setup: BeamCalibrationSetup) -> list[di
     every ``k`` is tried. Damped-away copies of the design points of the full model reach it
     only when searched to convergence (7 of 284 points), not through the race. Cost: one
     searched design of a smaller model per ``k`` (0.7-0.9 s each on that record, 4 modes)."""
-    if "modal_damping" not in setup.effects or "patch_coupling_NmV" not in setup.physical_names or setup.modes < 2:
+    modal = modal_damping.EFFECT.id
+    if modal not in setup.effects or PATCH_COUPLING.name not in setup.physical_names or setup.modes < 2:
         return []
-    others = tuple(e for e in setup.effects if e != "modal_damping")
-    ratios = [n for n in setup.physical_names if n.startswith("damping_ratio_mode_")]
+    others = tuple(e for e in setup.effects if e != modal)
+    ratios = [n for n in setup.physical_names if modal_damping.ratio_mode(n) is not None]
     out = []
     for kept in range(1, setup.modes):
         sub = model_setup(setup, others, kept)
@@ -71,7 +74,7 @@ def damped_away_starts(problem: Problem, setup: BeamCalibrationSetup) -> list[di
         guess = {name: float(found.values[name]) for name in sub.physical_names}
         for name in ratios:
             low, high = log_range(problem, name)
-            away = int(name.rsplit("_", 1)[1]) > kept
+            away = modal_damping.ratio_mode(name) > kept
             guess[name] = float(np.exp(high - DAMPED_AWAY * (high - low))) if away else barely_on(problem, name)
         out.append(clip_inside_prior(problem, guess))
     return out
@@ -110,7 +113,7 @@ def has_second_stage(setup: BeamCalibrationSetup) -> bool:
     """Whether :func:`searched_map` can move the quick stage's MAP of this model: a driven model
     (a free response's starts are projected, see :mod:`beam.calibration.free_starts`) with an effect
     that changes the modes, not one that only adds damping to such a sub-model."""
-    if "patch_coupling_NmV" not in setup.physical_names or adds_damping_to_a_searched_submodel(setup):
+    if PATCH_COUPLING.name not in setup.physical_names or adds_damping_to_a_searched_submodel(setup):
         return False
     return any(not pure_damping_parameter(name) for name in effect_names(setup))
 

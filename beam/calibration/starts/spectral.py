@@ -5,6 +5,7 @@ squares (:class:`SpectralStarts`), and the short-window refinement of the other 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 
@@ -12,10 +13,15 @@ from beam.calibration.fit import internal_starts, levenberg_marquardt
 from beam.calibration.setup import BeamCalibrationSetup, build_problem, prior_centre
 from beam.calibration.starts.base import SCALE_GRID, StartStrategy, clip_inside_prior, prior_centres
 from beam.inference import Problem
+from beam.physics.effects import EFFECTS
+from beam.physics.effects.base import BENDING_STIFFNESS, PATCH_COUPLING
 
 __all__ = ["SHORT_WINDOW_FRACTION", "ShortWindowStart", "SpectralStarts", "batched_scales", "coupled_response",
            "equivalent_linear_omega2", "least_squares_coupling", "short_window_problem", "spectral_guesses",
            "stiffness_scales", "window_spectrum"]
+
+#: The base parameters: EI (scaled to the spectrum) and k_p (solved for by least squares).
+EI, KP = BENDING_STIFFNESS.name, PATCH_COUPLING.name
 
 
 #: Fraction of the window used for the first, short MAP.
@@ -58,11 +64,11 @@ def stiffness_scales(setup: BeamCalibrationSetup, centres: Mapping[str, float], 
 
 def least_squares_coupling(setup: BeamCalibrationSetup, values: Mapping[str, float], problem: Problem) -> float:
     """k_p minimising the window's squared error with the other parameters fixed."""
-    unit = dict(values, patch_coupling_NmV=1.0)
+    unit = dict(values, **{KP: 1.0})
     response = problem.predict({k: np.atleast_1d(v) for k, v in unit.items()})[0]
     denominator = float(response @ response)
     if denominator <= 0:
-        return float(values["patch_coupling_NmV"])
+        return float(values[KP])
     return abs(float(response @ problem.data) / denominator)
 
 
@@ -72,8 +78,8 @@ def spectral_guesses(problem: Problem, setup: BeamCalibrationSetup) -> list[dict
     centres = prior_centres(setup)
     spectral = []
     for scale in stiffness_scales(setup, centres):
-        guess = dict(centres, bending_stiffness_Nm2=centres["bending_stiffness_Nm2"] * scale)
-        guess["patch_coupling_NmV"] = least_squares_coupling(setup, guess, problem)
+        guess = dict(centres, **{EI: centres[EI] * scale})
+        guess[KP] = least_squares_coupling(setup, guess, problem)
         spectral.append(clip_inside_prior(problem, guess))
     return spectral
 
@@ -86,35 +92,25 @@ def short_window_problem(setup: BeamCalibrationSetup) -> Problem | None:
     mask = (setup.measurement.time_s >= start) & (setup.measurement.time_s <= short_end)
     if frequencies[0] <= 0 or short_end - start < 2.0 / frequencies[0] or mask.sum() < 50:
         return None
-    short_setup = BeamCalibrationSetup(
-        setup.measurement, (start, short_end), setup.effects, setup.modes, setup.likelihood, setup.model, setup.forward
-    )
-    return build_problem(short_setup)
+    return build_problem(replace(setup, spec=replace(setup.spec, window=(start, short_end))))
 
 
 def equivalent_linear_omega2(setup: BeamCalibrationSetup, reduced: Mapping[str, np.ndarray],
-                             cubic_N_m3: np.ndarray) -> np.ndarray:
-    """Squared natural frequencies (B, m) (rad²/s²) of a model with the hardening tip spring,
-    linearised at the window's amplitude (harmonic balance, the first mode dominant): the tip's
-    amplitude A is sqrt(2) x the window's RMS displacement carried from the sensor to the tip by
-    the first mode's shape; the cubic force k3 w³ then adds (3/4) k3 A² phi_1(L)² to the first
-    mode and (3/2) k3 A² phi_j(L)² to each other mode (linearised about the first mode's
-    oscillation; mass-normalised shapes, ``reduced`` of :meth:`BeamModel.reduced_system`).
-
-    The record's peaks are where the spring puts the modes at that amplitude, not the linear
-    frequencies: lab_run_4 (simulated with a 15,000 N/m³ spring), 45 % window, tip mass + spring,
-    a 256-start search's optimum has linear frequencies 5.9, 38.7, 111, 222 Hz and these 7.17,
-    38.9, 111, 222 Hz, against the record's peaks at 7.2, 38.9, 108 Hz."""
-    data = setup.measurement.displacement_m[setup.window_mask]
-    amplitude = np.sqrt(2.0) * float(np.std(data))
-    tip, sensor = reduced["tip"], reduced["sensor"]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tip_amplitude = amplitude * np.abs(tip[:, 0] / sensor[:, 0])
-    tip_amplitude = np.where(np.isfinite(tip_amplitude), tip_amplitude, 0.0)
-    factor = np.full(tip.shape[1], 1.5)
-    factor[0] = 0.75
-    k3 = np.broadcast_to(np.asarray(cubic_N_m3, dtype=float), tip_amplitude.shape)
-    return reduced["omega2"] + factor[None, :] * (k3 * tip_amplitude ** 2)[:, None] * tip ** 2
+                             values: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Squared natural frequencies (B, m) (rad²/s²) the record's spectral peaks show: the
+    retained modes' (``reduced`` of :meth:`BeamModel.reduced_system`) as each effect with a
+    spectral hint (:attr:`~beam.physics.effects.effect.StartHints.spectral`, the hardening tip
+    spring's linearised at the amplitude) moves them at the window's displacement amplitude
+    (sqrt(2) x its RMS), for the design ``values`` ((B,) arrays by name)."""
+    omega2 = reduced["omega2"]
+    hints = [EFFECTS[e].hints.spectral for e in setup.effects if EFFECTS[e].hints.spectral is not None
+             and all(name in values for name in EFFECTS[e].required_parameter_names)]
+    if hints:
+        data = setup.measurement.displacement_m[setup.window_mask]
+        amplitude = np.sqrt(2.0) * float(np.std(data))
+        for hint in hints:
+            omega2 = hint(dict(reduced, omega2=omega2), amplitude, values)
+    return omega2
 
 
 def batched_scales(setup: BeamCalibrationSetup, batch: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -126,9 +122,7 @@ def batched_scales(setup: BeamCalibrationSetup, batch: Mapping[str, np.ndarray])
     step, and each point's score over the scale grid is a sum of shifted slices of it (a gather,
     not an interpolation per point, scale and mode: 0.15 s per design of 512 points before)."""
     reduced, _, _ = setup.model.reduced_system({k: np.asarray(v) for k, v in batch.items()}, setup.modes)
-    omega2 = reduced["omega2"]
-    if "tip_cubic_stiffness_N_m3" in batch:
-        omega2 = equivalent_linear_omega2(setup, reduced, np.asarray(batch["tip_cubic_stiffness_N_m3"]))
+    omega2 = equivalent_linear_omega2(setup, reduced, {k: np.asarray(v) for k, v in batch.items()})
     model_frequencies = np.sqrt(np.maximum(omega2, 0.0)) / (2 * np.pi)  # (B, m)
     frequencies, power = window_spectrum(setup)
     nyquist = frequencies[-1]
@@ -157,7 +151,7 @@ def batched_scales(setup: BeamCalibrationSetup, batch: Mapping[str, np.ndarray])
 
 def coupled_response(problem: Problem, setup: BeamCalibrationSetup, batch: dict[str, np.ndarray]) -> np.ndarray | None:
     """The response (B, n) of the design ``batch`` at its least-squares k_p (a nonlinear model:
-    the k_p that gives the record's RMS), which is written into ``batch["patch_coupling_NmV"]``
+    the k_p that gives the record's RMS), which is written into ``batch`` (``patch_coupling_NmV``)
     (clipped to its prior); None when the batch cannot be simulated.
 
     Exact for a linear model (the response is linear in k_p: one batched call at k_p = 1). For
@@ -170,9 +164,9 @@ def coupled_response(problem: Problem, setup: BeamCalibrationSetup, batch: dict[
     (module notes, step 6)."""
     nonlinear = setup.model.is_nonlinear
     size = next(iter(batch.values())).size
-    batch["patch_coupling_NmV"] = np.full(size, prior_centre("patch_coupling_NmV", setup.measurement.nominal)
+    batch[KP] = np.full(size, prior_centre(KP, setup.measurement.nominal)
                                           if nonlinear else 1.0)
-    prior = problem.parameter("patch_coupling_NmV").prior
+    prior = problem.parameter(KP).prior
     fitted = None
     for _ in range(2 if nonlinear else 1):
         with np.errstate(all="ignore"):
@@ -185,7 +179,7 @@ def coupled_response(problem: Problem, setup: BeamCalibrationSetup, batch: dict[
                 ratio = np.sqrt(float(problem.data @ problem.data) / np.where(denominator > 0, denominator, np.inf))
             else:
                 ratio = np.abs(response @ problem.data) / np.where(denominator > 0, denominator, np.inf)
-        batch["patch_coupling_NmV"] = np.clip(batch["patch_coupling_NmV"] * ratio,
+        batch[KP] = np.clip(batch[KP] * ratio,
                                               prior.lower * (1 + 1e-9), prior.upper * (1 - 1e-9))
         fitted = response * ratio[:, None]
     return fitted
