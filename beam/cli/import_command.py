@@ -86,14 +86,16 @@ def summarise(args: argparse.Namespace):
 def ideal_modes_Hz(measurement, count: int = LISTED_PEAKS) -> list[float]:
     """The ideal (bare) beam's first natural frequencies (Hz) at the nominal bending stiffness,
     with the sensor's mass when the description gives it; empty without a nominal stiffness."""
+    from beam.physics.effects import sensor_mass
+    from beam.physics.effects.base import BENDING_STIFFNESS
     from beam.physics.model import BeamModel
 
-    stiffness = measurement.nominal.get("bending_stiffness_Nm2")
+    stiffness = measurement.nominal.get(BENDING_STIFFNESS.name)
     if stiffness is None:
         return []
-    mass = measurement.nominal.get("sensor_mass_kg")
-    model = BeamModel(measurement.geometry, ("sensor_mass",) if mass else (), input_kind=measurement.input_kind)
-    parameters = {"bending_stiffness_Nm2": stiffness, **({"sensor_mass_kg": mass} if mass else {})}
+    mass = measurement.nominal.get(sensor_mass.MASS.name)
+    model = BeamModel(measurement.geometry, (sensor_mass.EFFECT.id,) if mass else (), input_kind=measurement.input_kind)
+    parameters = {BENDING_STIFFNESS.name: stiffness, **({sensor_mass.MASS.name: mass} if mass else {})}
     frequencies, _ = model.natural_modes(parameters, min(count, model.size))
     return [float(f) for f in frequencies]
 

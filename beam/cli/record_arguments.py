@@ -96,14 +96,14 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
         beam.add_argument(flag, dest=dest, type=positive_float, default=None, metavar=metavar, help=text)
     beam.add_argument("--material", default=None, metavar="NAME",
                       help="material preset: " + ", ".join(MATERIALS) + " (gives E, density and their spread)")
-    beam.add_argument("--sensor-mass", type=sensor_mass, default=None, metavar="KG",
+    beam.add_argument("--sensor-mass", dest="sensor_mass_given", type=sensor_mass, default=None, metavar="KG",
                       help="sensor's mass in kg (a known point mass; ~KG when approximate, e.g. ~0.2 for a phone)")
 
 
 def beam_flags_given(args: argparse.Namespace) -> bool:
     """Whether any beam flag (not --beam) was given."""
     return any(getattr(args, dest, None) is not None for _f, dest, *_ in BEAM_FLAGS) or any(
-        getattr(args, name, None) is not None for name in ("material", "sensor_mass"))
+        getattr(args, name, None) is not None for name in ("material", "sensor_mass_given"))
 
 
 def beam_document(args: argparse.Namespace, default_sensor_at_tip: bool = False) -> dict[str, Any] | None:
@@ -126,8 +126,8 @@ def beam_document(args: argparse.Namespace, default_sensor_at_tip: bool = False)
             document.setdefault(table, {})[key] = value
     if getattr(args, "material", None) is not None:
         document.setdefault("beam", {})["material"] = args.material
-    if getattr(args, "sensor_mass", None) is not None:
-        mass, approximate = args.sensor_mass
+    if getattr(args, "sensor_mass_given", None) is not None:
+        mass, approximate = args.sensor_mass_given
         document.setdefault("sensor", {})["mass_kg"] = mass
         if approximate:
             document["sensor"]["mass_approximate"] = True

@@ -32,6 +32,7 @@ from beam.discovery.ranking import (
 from beam.discovery.window_hint import window_hint_notes
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
+from beam.physics.effects import clamp_friction, effective_length
 
 
 @dataclass
@@ -702,11 +703,12 @@ def _phase_lag_notes(result: CalibrationResult, time_s: np.ndarray, data: np.nda
     own = (f" The record's own f1 {'rises' if spectral < 0 else 'falls'} {abs(100 * spectral):.2g} % from the "
            "first to the last third of its decay (short-time spectrum)." if np.isfinite(spectral) else "")
     if np.isfinite(spectral) and (spectral < 0) == ahead:  # the record's own frequency drifts that way
-        physics = (("A frequency that rises as the swing dies is a stiffness that falls with amplitude — a clamp "
-                    "that slips at large swings: add clamp_friction (a frictional joint at the root, fitted on "
+        friction = clamp_friction.EFFECT.id
+        physics = ((f"A frequency that rises as the swing dies is a stiffness that falls with amplitude — a clamp "
+                    f"that slips at large swings: add {friction} (a frictional joint at the root, fitted on "
                     "free decays; its calibration takes minutes)."
-                    if "clamp_friction" not in setup.effects else
-                    "A frequency that rises as the swing dies is what clamp_friction models; the window may be "
+                    if friction not in setup.effects else
+                    f"A frequency that rises as the swing dies is what {friction} models; the window may be "
                     "too short to pin its slip moment.")
                    if ahead else
                    "A frequency that falls as the swing dies is a stiffness that grows with amplitude, as a "
@@ -728,9 +730,10 @@ def _name_unseen(result: CalibrationResult, values: dict, comparison: list[dx.Mo
     setup = result.setup
     model, geometry = setup.model, setup.measurement.geometry
     try:
-        if "effective_length_m" in values:  # the shapes live on the strip of that free length
-            model = model.free_length_model(values["effective_length_m"])
-            geometry, values = model.geometry, {k: v for k, v in values.items() if k != "effective_length_m"}
+        length = effective_length.LENGTH.name
+        if length in values:  # the shapes live on the strip of that free length
+            model = model.free_length_model(values[length])
+            geometry, values = model.geometry, {k: v for k, v in values.items() if k != length}
         _, coefficients = model.mode_shapes(values, setup.modes)
         x = np.linspace(0.0, geometry.length_m, 401)
         shapes = model.parts.basis.evaluate(x) @ coefficients

@@ -28,7 +28,9 @@ import numpy as np
 from beam.calibration.joint import JointCalibrationResult, joint_preview
 from beam.calibration.spec import CalibrationSpec
 from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, candidate_effects, with_effect
+from beam.calibration.defaults import DEFAULT_EFFECTS
 from beam.errors import BeamInputError
+from beam.physics.effects import BASE_PARAMETERS, EFFECTS, sensor_mass, tip_mass
 
 __all__ = ["JointCandidate", "JointDiagnosis", "SEPARATING_NATS", "alone_separation", "joint_diagnose", "separation_words"]
 
@@ -215,8 +217,8 @@ class JointDiagnosis:
 
 
 #: How a verdict names the winner of a pair (better, worse); other pairs: "better, not worse".
-PAIR_WORDS = {("sensor_mass", "tip_mass"): "the mass sits at the sensor, not the tip",
-              ("tip_mass", "sensor_mass"): "the mass sits at the tip, not at the sensor"}
+PAIR_WORDS = {(sensor_mass.EFFECT.id, tip_mass.EFFECT.id): "the mass sits at the sensor, not the tip",
+              (tip_mass.EFFECT.id, sensor_mass.EFFECT.id): "the mass sits at the tip, not at the sensor"}
 
 
 def alone_separation(a: JointCandidate, b: JointCandidate) -> np.ndarray:
@@ -261,7 +263,7 @@ def joint_diagnose(
     *,
     window: tuple[float, float] | None = None,
     modes: int | str = "auto",
-    base: Iterable[str] | str = ("air_damping", "kelvin_voigt"),
+    base: Iterable[str] | str = DEFAULT_EFFECTS,
     candidates: Iterable[str] | None = None,
     per_record: Iterable[str] | str | None = None,
     shared: Iterable[str] | str | None = None,
@@ -318,7 +320,6 @@ def nested_start(base: JointCalibrationResult, effect: str) -> dict[str, float]:
     """The base model's joint MAP with ``effect``'s parameters at their null values (the end of the
     catalogue's range where the effect vanishes): the model with the effect starts no lower than
     the base's optimum embedded in it."""
-    from beam.physics.effects import EFFECTS
 
     start = {name: float(v) for name, v in base.laplace.map.values.items()}
     for p in EFFECTS[effect].parameters:
@@ -342,12 +343,8 @@ def _names_in(per_record, effects):
     candidate not in it): matched against the catalogue's parameter names."""
     if per_record is None:
         return None
-    from beam.physics.effects import EFFECTS
-
     names = [n for n in (per_record.split(",") if isinstance(per_record, str) else per_record) if n.strip()]
-    own = {"bending_stiffness_Nm2", "patch_coupling_NmV"} | {p.name for e in effects for p in EFFECTS[e].parameters}
-    if "modal_damping" in effects:
-        own.add("damping_ratio_mode_")
+    own = {p.name for p in BASE_PARAMETERS} | {p.name for e in effects for p in EFFECTS[e].parameters}
     kept = [n.strip() for n in names if n.strip() in effects or any(p.startswith(n.strip()) for p in own)]
     return kept
 

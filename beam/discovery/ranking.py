@@ -151,22 +151,9 @@ def record_features(measurement: Measurement, spectral: bool = True) -> frozense
     ``spectral=False`` leaves out ``rising_frequency``, the one read from the record's spectra
     (~0.1 s on a 20 s, 4 kHz record), for a caller whose effects do not need it.
     """
-    features = set()
-    features.add("patch" if measurement.geometry.has_patch else "no_patch")
-    if not measurement.is_free:
-        features.add("input")
-    if measurement.output_kind == "acceleration":
-        features.add("contact_sensor")
-    if measurement.uniform:
-        features.add("uniform")
-    if measurement.output_kind == "displacement":
-        features.add("displacement")
-    if measurement.geometry.width_m is not None:
-        features.add("width")
-    if measurement.is_free:
-        features.add("free")
-        if spectral and decay_frequency_drift(measurement.time_s, measurement.output) < -RISING_DRIFT:
-            features.add("rising_frequency")
+    features = set(measurement.features)  # what the record shows without its spectra
+    if spectral and "free" in features and decay_frequency_drift(measurement.time_s, measurement.output) < -RISING_DRIFT:
+        features.add("rising_frequency")
     return frozenset(features)
 
 
@@ -175,9 +162,10 @@ def candidate_effects(current: Iterable[str], measurement: Measurement | None = 
     current model, in catalogue order.
 
     With a ``measurement`` the offer fits the record: only effects whose needs
-    (:func:`beam.physics.effects.effect_needs`) the record has (:func:`record_features`); and
-    ``sensor_mass`` joins where it applies (an accelerometer is a contact sensor whose mass loads
-    the beam where it measures; a laser's displacement or velocity has none). So: no patch effect
+    (:func:`beam.physics.effects.effect_needs`) the record has (:func:`record_features`); and the
+    effects offered on records (:attr:`~beam.physics.effects.effect.Effect.offered_on_records`:
+    the sensor's mass, where an accelerometer, a contact sensor, loads the beam where it measures;
+    a laser's displacement or velocity has none) join where they apply. So: no patch effect
     without a patch, no input effect without an input, the tip's cubic spring (nonlinear) only on
     a driven displacement record on uniform stamps; and no effect whose force depends on the
     amplitude on a record in arbitrary units (:func:`beam.io.measurement.true_unit_problem`).
@@ -185,7 +173,7 @@ def candidate_effects(current: Iterable[str], measurement: Measurement | None = 
     present = set(parse_effects(current))
     offered = list(CANDIDATE_EFFECTS)
     if measurement is not None:
-        offered.append("sensor_mass")
+        offered += [e for e in EFFECTS if EFFECTS[e].offered_on_records]
         spectral = any("rising_frequency" in effect_needs(e) for e in offered)
         features = record_features(measurement, spectral=spectral)
         offered = [e for e in offered if applicable(e, features)]

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from beam.errors import BeamInputError
+from beam.physics.effects import effective_length, modal_damping
 
 __all__ = ["Setting", "Suggestion", "default_length_range", "next_record", "suggest_record"]
 
@@ -320,12 +321,13 @@ def _frequencies(setup, geometry, values: dict[str, np.ndarray], stated_length_m
     from beam.physics.model import BeamModel
 
     values = dict(values)
-    first = values.get("damping_ratio_mode_1")
+    first = values.get(modal_damping.ratio_name(1))
     for j in (1, 2):  # a fit of one mode has no ratio for mode 2: |pole| = the natural frequency whatever it is
-        if first is not None and f"damping_ratio_mode_{j}" not in values:
-            values[f"damping_ratio_mode_{j}"] = first
-    if "effective_length_m" in values:
-        values["effective_length_m"] = values["effective_length_m"] * geometry.length_m / stated_length_m
+        if first is not None and modal_damping.ratio_name(j) not in values:
+            values[modal_damping.ratio_name(j)] = first
+    length = effective_length.LENGTH.name
+    if length in values:
+        values[length] = values[length] * geometry.length_m / stated_length_m
     model = BeamModel(geometry, setup.model.effects, input_kind=None)
     f, _ = model_modes(model, values, 2)
     return f.T

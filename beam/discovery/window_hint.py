@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from beam.residuals.fingerprints import THRESHOLDS
+from beam.physics.effects import quadratic_drag
 
 __all__ = ["MIN_FALL", "RATE_CHANGE", "longer_window_hint", "window_hint_notes"]
 
@@ -31,7 +31,7 @@ __all__ = ["MIN_FALL", "RATE_CHANGE", "longer_window_hint", "window_hint_notes"]
 MIN_FALL = 0.5
 #: |relative change of the decay rate| over the record beyond which the damping changes with the
 #: amplitude: the drag's fingerprint threshold (:data:`beam.residuals.fingerprints.THRESHOLDS`).
-RATE_CHANGE = THRESHOLDS["quadratic_drag"]
+RATE_CHANGE = quadratic_drag.EFFECT.fingerprint.threshold
 
 
 def longer_window_hint(time_s: np.ndarray, envelope: np.ndarray, window: tuple[float, float],

@@ -30,7 +30,11 @@ import numpy as np
 import scipy.signal
 
 from beam.errors import BeamInputError
+from beam.physics.effects import sensor_mass
+from beam.physics.effects.base import BENDING_STIFFNESS
 from beam.physics.geometry import BeamGeometry
+
+EI = BENDING_STIFFNESS.name
 
 #: beta_1 L of the clamped-free beam (first root of 1 + cos x cosh x = 0).
 MODE1_BETA_L = 1.8751040687119611
@@ -165,11 +169,11 @@ def mode1_frequency(geometry: BeamGeometry, bending_stiffness_Nm2: float, sensor
     """Mode 1 (Hz) of the bare beam of ``geometry`` (plus the sensor's mass) at a bending stiffness."""
     from beam.physics.model import BeamModel
 
-    effects = ("sensor_mass",) if sensor_mass_kg else ()
+    effects = (sensor_mass.EFFECT.id,) if sensor_mass_kg else ()
     model = BeamModel(geometry, effects, input_kind=None)  # natural modes do not depend on the input
-    parameters = {"bending_stiffness_Nm2": float(bending_stiffness_Nm2)}
+    parameters = {EI: float(bending_stiffness_Nm2)}
     if sensor_mass_kg:
-        parameters["sensor_mass_kg"] = float(sensor_mass_kg)
+        parameters[sensor_mass.MASS.name] = float(sensor_mass_kg)
     frequencies, _ = model.natural_modes(parameters, 1)
     return float(frequencies[0])
 
@@ -199,19 +203,18 @@ def anchor_nominal(geometry: BeamGeometry, nominal: dict[str, float], time_s: np
     origin : dict
         ``{"bending_stiffness_Nm2": "..."}`` when anchored, else empty.
     """
-    if "bending_stiffness_Nm2" in nominal:
+    if EI in nominal:
         return dict(nominal), {}
     peak = lowest_strong_peak(time_s, output, output_kind, input)
     if peak is None:
         return dict(nominal), {}
-    mass = nominal.get("sensor_mass_kg")
+    mass = nominal.get(sensor_mass.MASS.name)
     stiffness = anchored_bending_stiffness(geometry, peak.frequency_Hz, mass, input_kind)
     if not (math.isfinite(stiffness) and stiffness > 0):  # pragma: no cover - a positive peak gives a positive EI
         return dict(nominal), {}
     with_mass = f" with the sensor's {mass:g} kg" if mass else ""
-    origin = {"bending_stiffness_Nm2": f"the record's lowest strong spectral peak ({peak.frequency_Hz:.4g} Hz) on mode 1"
-                                       f"{with_mass}"}
-    return {**nominal, "bending_stiffness_Nm2": stiffness}, origin
+    origin = {EI: f"the record's lowest strong spectral peak ({peak.frequency_Hz:.4g} Hz) on mode 1{with_mass}"}
+    return {**nominal, EI: stiffness}, origin
 
 
 def mode_order_warnings(measurement, model, parameters) -> list[str]:

@@ -1,4 +1,4 @@
-"""Limits on what users may load and calibrate (constants only; a leaf module).
+"""Limits on what users may load and calibrate (constants only).
 
 The record checks and the decimation that use them are in :mod:`beam.calibration.records`.
 
@@ -31,10 +31,7 @@ from __future__ import annotations
 MAX_MEASUREMENT_BYTES = 64 * 2**20
 #: Largest sidecar, config or truth TOML read (bytes).
 MAX_TOML_BYTES = 2**20
-#: Beam lengths accepted in a sidecar or config (m), inclusive.
-LENGTH_RANGE_M: tuple[float, float] = (1e-2, 1e2)
-#: Linear densities accepted in a sidecar or config (kg/m), inclusive.
-LINEAR_DENSITY_RANGE_KG_M: tuple[float, float] = (1e-3, 1e4)
+from beam.physics.geometry import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M  # noqa: E402,F401 - the model's range, re-exported
 #: Most samples a calibration uses; longer records are decimated.
 MAX_CALIBRATION_SAMPLES = 20_000
 #: Largest |voltage| (V) of a record to calibrate.

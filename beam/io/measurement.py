@@ -103,7 +103,7 @@ from beam.io.text import (
     read_text_file,
     short_repr,
 )
-from beam.physics.effects import PARAMETER_SPECS, parameter_listing
+from beam.physics.effects import PARAMETER_SPECS, effective_length, parameter_listing
 from beam.physics.geometry import BeamGeometry
 
 #: The classic CSV header (patch voltage in, displacement out), column by column.
@@ -347,7 +347,7 @@ class Measurement:
     def prior_nominal(self) -> dict[str, float]:
         """Prior centres by parameter name: :attr:`nominal`, plus the stated length as the centre
         of ``effective_length_m`` (the free length) unless ``[nominal]`` gives one."""
-        return {"effective_length_m": float(self.geometry.length_m), **self.nominal}
+        return {effective_length.LENGTH.name: float(self.geometry.length_m), **self.nominal}
 
     @property
     def output_column(self) -> str:
@@ -379,6 +379,23 @@ class Measurement:
     def is_free(self) -> bool:
         """True for a free response (no input column)."""
         return self.input_column is None
+
+    @property
+    def features(self) -> frozenset[str]:
+        """The features of the record that effects can need (:data:`beam.physics.effects.RECORD_FEATURES`)
+        read from the record itself, without its spectra (a diagnosis adds ``rising_frequency``,
+        :func:`beam.discovery.ranking.record_features`)."""
+        free = self.is_free
+        features = {"patch" if self.geometry.has_patch else "no_patch", "free" if free else "input"}
+        if self.output_kind == "acceleration":
+            features.add("contact_sensor")
+        if self.uniform:
+            features.add("uniform")
+        if self.output_kind == "displacement":
+            features.add("displacement")
+        if self.geometry.width_m is not None:
+            features.add("width")
+        return frozenset(features)
 
     @property
     def clipped_count(self) -> int:

@@ -20,7 +20,7 @@ from typing import Any
 
 import tomli_w
 
-from beam.errors import BeamInputError
+from beam.errors import BeamInputError, as_finite_float, short_repr  # noqa: F401 - re-exported
 from beam.io.limits import MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
 
 # ---------------------------------------------------------------------------------------------
@@ -280,27 +280,6 @@ class TomlReader:
         if not isinstance(value, str):
             raise self.fail(where, f"must be a string, got {_type_name(value)} {short_repr(value)}")
         return value
-
-
-def as_finite_float(value: Any) -> float | None:
-    """``float(value)`` for a finite real number (not a boolean), else None.
-
-    Unlike ``math.isfinite``, never raises: an integer too large for a float (TOML integers
-    have no size limit in :mod:`tomllib`) and anything that is not a number give None.
-    """
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return None
-    try:
-        number = float(value)
-    except (OverflowError, ValueError, TypeError):
-        return None
-    return number if math.isfinite(number) else None
-
-
-def short_repr(value: Any, limit: int = 40) -> str:
-    """``repr(value)`` cut to ``limit`` characters (a 400-digit integer would flood a message)."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def did_you_mean(name: str, candidates: Iterable[str]) -> str:

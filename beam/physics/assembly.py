@@ -68,7 +68,7 @@ class GalerkinParts:
 
 
 def assemble_parts(geometry: BeamGeometry, intervals: int = DEFAULT_INTERVALS, free_root_rotation: bool = False,
-                   knots: KnotLayout = DEFAULT_KNOTS) -> GalerkinParts:
+                   knots: KnotLayout = DEFAULT_KNOTS, double_knots=()) -> GalerkinParts:
     """Assemble the Galerkin parts of ``geometry`` with ``intervals`` elements in a knot layout.
 
     Parameters
@@ -81,8 +81,10 @@ def assemble_parts(geometry: BeamGeometry, intervals: int = DEFAULT_INTERVALS, f
         Keep the root rotation free (compliant clamp) instead of clamping it.
     knots : {"patch", "uniform"}
         Knot layout (:func:`beam.physics.basis.knot_vector`).
+    double_knots : sequence of float
+        Points (m) where an effect's own part makes the curvature jump (double knots there).
     """
-    basis = SplineBasis.for_geometry(geometry, intervals, knots, free_root_rotation)
+    basis = SplineBasis.for_geometry(geometry, intervals, knots, free_root_rotation, double_knots)
     patch_ends = [geometry.patch_start_m, geometry.patch_end_m] if geometry.has_patch else []
     breaks = np.unique(np.concatenate([basis.breakpoints_m, patch_ends]))
     x, w = gauss_points(breaks)

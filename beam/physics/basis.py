@@ -20,7 +20,10 @@ The free end needs nothing (its conditions are natural). Two knot layouts
     that the largest element is as small as possible, uniform within each segment. The
     frequencies of a patched beam then converge at fourth order (h⁴), as for a uniform beam.
     A patch end very close to the root or the tip, or the ends of a patch shorter than
-    L / (4 N), are not made knots (:func:`patch_breaks`).
+    L / (4 N), are not made knots (:func:`patch_breaks`). An effect whose own Galerkin part
+    makes the curvature jump at a point (the rotary inertia of a sensor: a moment there) asks
+    for a double knot there too (``double_knots``, :attr:`beam.physics.effects.effect.Effect.knots`),
+    a segment end like the patch's.
 ``"uniform"``
     N uniform elements, single (C²) knots: the same space of functions as the modified cubic
     B-splines of Smith (*Smart Material Systems*, ch. 7–8), so the paper's discretisation is
@@ -83,8 +86,10 @@ def segment_elements(segment_lengths_m: np.ndarray, intervals: int) -> np.ndarra
     return counts
 
 
-def patch_breaks(geometry: BeamGeometry, intervals: int) -> np.ndarray:
-    """Segment ends of the ``"patch"`` layout (m): 0, the patch ends that become knots, L.
+def patch_breaks(geometry: BeamGeometry, intervals: int, double_knots=()) -> np.ndarray:
+    """Segment ends of the ``"patch"`` layout (m): 0, the patch ends that become knots, the
+    ``double_knots`` asked for (m; kept under the rules for a patch end next to the root or the
+    tip, and dropped within a patch's minimum length of another end), L.
 
     A patch end is not made a knot when the segment it would cut off is shorter than a fraction
     of h = L / ``intervals`` (:data:`MIN_SEGMENT_FRACTIONS`): such a segment is one short
@@ -114,10 +119,14 @@ def patch_breaks(geometry: BeamGeometry, intervals: int) -> np.ndarray:
     ends = []
     if geometry.has_patch and end - start >= patch:  # a beam without a patch has no property jump
         ends = [p for p in (start, end) if root <= p <= length - tip]
-    return np.array([0.0, *ends, length])
+    for p in sorted(float(x) for x in double_knots):
+        if root <= p <= length - tip and all(abs(p - q) >= patch for q in ends):
+            ends.append(p)
+    return np.array([0.0, *sorted(ends), length])
 
 
-def knot_vector(geometry: BeamGeometry, intervals: int, knots: KnotLayout = DEFAULT_KNOTS) -> np.ndarray:
+def knot_vector(geometry: BeamGeometry, intervals: int, knots: KnotLayout = DEFAULT_KNOTS,
+                double_knots=()) -> np.ndarray:
     """Open cubic knot vector of [0, L] for a knot layout (see the module docstring).
 
     Parameters
@@ -128,12 +137,16 @@ def knot_vector(geometry: BeamGeometry, intervals: int, knots: KnotLayout = DEFA
         Number of elements (distinct knot intervals).
     knots : {"patch", "uniform"}
         Knot layout.
+    double_knots : sequence of float
+        Points (m) where an effect's part makes the curvature jump: segment ends of the
+        ``"patch"`` layout (:func:`patch_breaks`); in the ``"uniform"`` layout the knot nearest
+        each is moved there and doubled.
 
     Returns
     -------
     numpy.ndarray
-        Knots (m), non-decreasing, 0 and L four times each, with ``"patch"`` the patch ends
-        twice (those of :func:`patch_breaks`).
+        Knots (m), non-decreasing, 0 and L four times each, with ``"patch"`` the patch ends and
+        the ``double_knots`` twice (those of :func:`patch_breaks`).
     """
     if knots not in KNOT_LAYOUTS:
         raise BeamInputError(f"knots must be one of {', '.join(repr(k) for k in KNOT_LAYOUTS)}, got {knots!r}")
@@ -142,8 +155,12 @@ def knot_vector(geometry: BeamGeometry, intervals: int, knots: KnotLayout = DEFA
     length = geometry.length_m
     if knots == "uniform":
         interior = np.linspace(0.0, length, int(intervals) + 1)[1:-1]
+        for p in double_knots:
+            if 0.0 < p < length and interior.size:
+                nearest = int(np.argmin(np.abs(interior - p)))
+                interior = np.sort(np.concatenate([np.delete(interior, nearest), [float(p), float(p)]]))
     else:
-        breaks = patch_breaks(geometry, int(intervals))
+        breaks = patch_breaks(geometry, int(intervals), double_knots)
         if intervals < breaks.size - 1:
             raise BeamInputError(
                 f"intervals must be at least {breaks.size - 1} with knots = 'patch' (one element per segment "
@@ -190,9 +207,9 @@ class SplineBasis:
 
     @classmethod
     def for_geometry(cls, geometry: BeamGeometry, intervals: int, knots: KnotLayout = DEFAULT_KNOTS,
-                     free_root_rotation: bool = False) -> SplineBasis:
+                     free_root_rotation: bool = False, double_knots=()) -> SplineBasis:
         """The basis of ``geometry`` with ``intervals`` elements in a knot layout (:func:`knot_vector`)."""
-        return cls(knot_vector(geometry, intervals, knots), free_root_rotation)
+        return cls(knot_vector(geometry, intervals, knots, double_knots), free_root_rotation)
 
     @property
     def length_m(self) -> float:

@@ -25,8 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from beam.errors import BeamInputError
-from beam.io.text import as_finite_float, short_repr
+from beam.errors import BeamInputError, as_finite_float, short_repr
 
 #: Keys each kind needs (all positive finite numbers except ``file``, a path string).
 EXCITATION_KEYS: dict[str, tuple[str, ...]] = {

@@ -6,7 +6,12 @@ import math
 from dataclasses import dataclass, replace
 
 from beam.errors import BeamInputError
-from beam.io.limits import LENGTH_RANGE_M, LINEAR_DENSITY_RANGE_KG_M
+
+#: Beam lengths accepted in a sidecar or config (m), inclusive: where the model is finite for
+#: every parameter at the corners of the default prior ranges (``tests/test_reliability_numerics.py``).
+LENGTH_RANGE_M: tuple[float, float] = (1e-2, 1e2)
+#: Linear densities accepted in a sidecar or config (kg/m), inclusive (the same).
+LINEAR_DENSITY_RANGE_KG_M: tuple[float, float] = (1e-3, 1e4)
 
 
 @dataclass(frozen=True)

@@ -88,11 +88,13 @@ from beam.physics.effects import (
     EFFECTS,
     INPUT_TERMS,
     PARAMETER_SPECS,
+    ChannelArrays,
     Term,
     base_parameters,
     check_input_kind,
     parse_effects,
 )
+from beam.physics.effects.base import BENDING_STIFFNESS, DENSITY, UNIT
 from beam.physics.geometry import BeamGeometry
 
 _SHAPE_CACHE_SIZE = 256
@@ -100,9 +102,12 @@ _SHAPE_CACHE_SIZE = 256
 _FACTOR_CACHE_SIZE = 16
 #: Rank-one mass parts (a point mass) and the row s of their s sᵀ in :class:`GalerkinParts`.
 _POINT_MASS_PARTS = {"mass_sensor": "sensor_values", "mass_tip": "tip_values"}
-#: Galerkin parts that damping terms may multiply (their modal projections are cached).
+#: Shared Galerkin parts that damping terms may multiply (their modal projections are cached; an
+#: effect's own damping parts join them in its model).
 _DAMPING_PARTS = ("mass_beam", "stiffness_beam", "stiffness_patch")
-_DENSITY = "linear_density_kg_m"
+_DENSITY = DENSITY
+#: The bending stiffness: every model's parameter, always positive.
+_EI = BENDING_STIFFNESS.name
 #: Rayleigh–Ritz modes (:meth:`BeamModel._ritz_rows`): smallest batch, largest subspace (fraction
 #: of the dofs), trust radius and snapshot step (relative to each coefficient), and the accepted
 #: bound on the angle (rad) between a Ritz mode and the exact one.
@@ -116,24 +121,23 @@ _RITZ_ANGLE = 1e-7
 _STENCIL_RADIUS = 1e-6
 _STENCIL_MAX_ROWS = 2048
 #: Pseudo-parameter whose value is 1 (the coefficient of a measured point force).
-_UNIT = "unit"
+_UNIT = UNIT
 
 #: Outputs of the sensor and the order of the time derivative of the displacement each is.
 OUTPUT_ORDERS: dict[str, int] = {"displacement": 0, "velocity": 1, "acceleration": 2, "strain": 0}
-#: The parameter of the ``effective_length`` effect: the free length (m) the model is assembled for.
-FREE_LENGTH = "effective_length_m"
-#: Models of other free lengths kept by a model with ``effective_length`` (one per length seen).
+#: Models of other geometries kept by a model with an effect that changes the geometry (one per value seen).
 _LENGTH_CACHE_SIZE = 64
 
 
 def _dispatched(method):
-    """Route a public method taking ``parameters`` first: to the model of the given free length
-    (``effective_length``), and a ``"strain"`` output to the strain twin (:meth:`BeamModel._strain_twin`)."""
+    """Route a public method taking ``parameters`` first: to the model of the given geometry (an
+    effect with a :class:`~beam.physics.effects.effect.GeometryChange`, the effective free length),
+    and a ``"strain"`` output to the strain twin (:meth:`BeamModel._strain_twin`)."""
     name = method.__name__
 
     @functools.wraps(method)
     def wrapper(self, parameters, *args, **kwargs):
-        if self._free_length:
+        if self._geometry_change is not None:
             return self._per_free_length(name, parameters, args, kwargs)
         if kwargs.get("output") == "strain":
             return getattr(self._strain_twin(), name)(parameters, *args, **{**kwargs, "output": "displacement"})
@@ -162,7 +166,17 @@ def _merge(pieces: list, groups: list[np.ndarray], batch: int):
 
 
 #: Parameters whose positive value makes the equations nonlinear (the state-space references refuse them).
-_NONLINEAR_SWITCHES = ("tip_cubic_stiffness_N_m3", "drag_coefficient", "clamp_slip_moment_Nm")
+_NONLINEAR_SWITCHES = tuple(e.channel.switch for e in EFFECTS.values() if e.channel is not None)
+
+
+def _and_list(names: Iterable[str]) -> str:
+    """``"a, b and c"``."""
+    names = list(names)
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+
+
+#: The nonlinear effects, for messages ("tip_cubic_spring, quadratic_drag and clamp_friction").
+_NONLINEAR_WORDS = _and_list(e for e in EFFECTS if EFFECTS[e].nonlinear)
 
 
 @dataclass(frozen=True)
@@ -175,13 +189,12 @@ class _Layout:
     stiffness: np.ndarray  # base (EI) first
     damping: np.ndarray
     force: np.ndarray
-    damping_map: np.ndarray  # (n_damping_terms, len(_DAMPING_PARTS)) 0/1
-    scale_matrix: np.ndarray  # (3 + len(_DAMPING_PARTS), rows): rho, EI, force coefficient, damping parts
+    damping_map: np.ndarray  # (n_damping_terms, damping parts) 0/1
+    scale_matrix: np.ndarray  # (3 + damping parts, rows): rho, EI, force coefficient, damping parts
     key_matrix: np.ndarray  # (mass + stiffness terms, rows): the coefficients that set the mode shapes
     key_denominators: np.ndarray  # row of key_matrix @ table dividing each (rho or EI): the ratios
-    cubic_row: int  # row of the tip cubic stiffness in the table, -1 if not given
-    drag_row: int  # row of the drag coefficient in the table, -1 if not given
-    friction_rows: tuple[int, int]  # rows of the clamp friction's (k_f, M_s), -1 if not given
+    channels: tuple  # the nonlinear channels whose parameters are given (catalogue order)
+    switch_rows: tuple[int, ...]  # row of each channel's switch in the table
     modal_rows: np.ndarray  # rows of the table holding the given modal damping ratios
     modal_modes: np.ndarray  # their 0-based mode indices
 
@@ -229,7 +242,16 @@ class BeamModel:
             if EFFECTS[effect_id].needs_patch and not geometry.has_patch:
                 raise BeamInputError(f"effect {effect_id} acts on the piezo patch, but the sidecar has no [patch]")
         frees_root = any(EFFECTS[e].frees_root_rotation for e in self.effects)
-        self.parts: GalerkinParts = assemble_parts(geometry, self.intervals, frees_root, knots)
+        double_knots = sorted({float(x) for e in self.effects if EFFECTS[e].knots is not None
+                               for x in EFFECTS[e].knots(geometry)})
+        self.parts: GalerkinParts = assemble_parts(geometry, self.intervals, frees_root, knots, double_knots)
+        #: The effects' own Galerkin parts (:class:`~beam.physics.effects.effect.Part`), by name.
+        self.own_parts: dict[str, np.ndarray] = {
+            part.name: np.asarray(part.assemble(self.parts.basis, geometry), dtype=float)
+            for e in self.effects for part in EFFECTS[e].parts}
+        #: Parts that damping terms multiply (their modal projections are cached): the shared ones, then the effects' own.
+        self._damping_parts: tuple[str, ...] = _DAMPING_PARTS + tuple(dict.fromkeys(
+            t.part for e in self.effects for t in EFFECTS[e].terms if t.target == "damping" and t.part in self.own_parts))
         input_term = INPUT_TERMS[input_kind]
         self._base_terms: tuple[Term, ...] = BASE_TERMS[:2] + ((input_term,) if input_term is not None else ())
         self._input_vector = getattr(self.parts, input_term.part) if input_term is not None else np.zeros(self.size)
@@ -243,7 +265,7 @@ class BeamModel:
         #: Output row of the sensor: its displacement, or for the strain twin -(h/2) w''(x_obs).
         self._sensor_row: np.ndarray = self.parts.sensor_values
         self._twin: BeamModel | None = None
-        self._free_length = "effective_length" in self.effects
+        self._geometry_change = next((EFFECTS[e].geometry for e in self.effects if EFFECTS[e].geometry is not None), None)
         self._length_models: OrderedDict[float, BeamModel] = OrderedDict()
 
     # ------------------------------------------------------------------ strain, free length
@@ -269,16 +291,22 @@ class BeamModel:
             self._twin = twin
         return self._twin
 
+    def _part(self, name: str) -> np.ndarray:
+        """The unit-coefficient part ``name``: a shared one (:class:`GalerkinParts`) or an effect's own."""
+        own = self.own_parts.get(name)
+        return getattr(self.parts, name) if own is None else own
+
     def free_length_model(self, length_m: float) -> "BeamModel":
-        """The model (without ``effective_length``) of this strip with a free length ``length_m`` (m):
+        """The model (without the effect that changes the geometry, ``effective_length``) of this
+        strip with the free length ``length_m`` (m):
         :meth:`beam.physics.geometry.BeamGeometry.with_free_length` (the sensor and force point keep
         their distance from the end they are nearer, the patch from the tip), the same mesh,
         knots, input and other effects. Cached per length."""
         key = float(length_m)
         model = self._length_models.get(key)
         if model is None:
-            effects = tuple(e for e in self.effects if e != "effective_length")
-            model = BeamModel(self.geometry.with_free_length(key), effects, self.intervals, self.knots,
+            effects = tuple(e for e in self.effects if EFFECTS[e].geometry is None)
+            model = BeamModel(self._geometry_change.apply(self.geometry, key), effects, self.intervals, self.knots,
                               input_kind=self.input_kind)
             self._length_models[key] = model
             if len(self._length_models) > _LENGTH_CACHE_SIZE:
@@ -291,16 +319,17 @@ class BeamModel:
         """Call ``name`` on the model of each free length given (batched: one call per distinct
         length, the results put back in order; arrays of ndim >= 2 among the other arguments
         whose first axis is the batch, e.g. initial states, are split with the parameters)."""
-        if FREE_LENGTH not in parameters:
-            raise BeamInputError(f"missing value for parameter {FREE_LENGTH!r}")
-        rest = {key: value for key, value in parameters.items() if key != FREE_LENGTH}
-        lengths = np.asarray(parameters[FREE_LENGTH], dtype=float)
+        free_length = self._geometry_change.parameter
+        if free_length not in parameters:
+            raise BeamInputError(f"missing value for parameter {free_length!r}")
+        rest = {key: value for key, value in parameters.items() if key != free_length}
+        lengths = np.asarray(parameters[free_length], dtype=float)
         if lengths.ndim > 1 or not np.isfinite(lengths).all() or (lengths <= 0).any():
-            raise BeamInputError(f"parameter {FREE_LENGTH!r} must be positive and finite (scalar or 1-d), got {lengths}")
+            raise BeamInputError(f"parameter {free_length!r} must be positive and finite (scalar or 1-d), got {lengths}")
         if lengths.ndim == 0:
             out = getattr(self.free_length_model(float(lengths)), name)(rest, *args, **kwargs)
             if name == "reduced_system":
-                out[1][FREE_LENGTH] = lengths.reshape(1)
+                out[1][free_length] = lengths.reshape(1)
             return out
         batch = lengths.size
         try:
@@ -323,7 +352,7 @@ class BeamModel:
         ]
         out = pieces[0] if len(pieces) == 1 else _merge(pieces, groups, batch)
         if name == "reduced_system":  # (reduced, values by name, batched): the length is a value too
-            out[1][FREE_LENGTH] = lengths
+            out[1][free_length] = lengths
         return out
 
     # ------------------------------------------------------------------ parameters
@@ -387,7 +416,7 @@ class BeamModel:
         names = tuple(parameters)
         values = list(parameters.values())
         if all(isinstance(v, float) for v in values):  # one parameter set of plain floats: fast path
-            if all(0.0 <= v < math.inf for v in values) and parameters["bending_stiffness_Nm2"] > 0:
+            if all(0.0 <= v < math.inf for v in values) and parameters[_EI] > 0:
                 values.append(self.geometry.linear_density_kg_m)
                 values.append(1.0)
                 return names, np.array(values)[:, None], False
@@ -401,11 +430,11 @@ class BeamModel:
         if table.ndim > 2:
             raise BeamInputError("parameter values must be scalars or 1-d arrays")
         table = table.reshape(len(names), -1)
-        if not np.isfinite(table).all() or (table < 0).any() or (table[names.index("bending_stiffness_Nm2")] <= 0).any():
+        if not np.isfinite(table).all() or (table < 0).any() or (table[names.index(_EI)] <= 0).any():
             for name, row in zip(names, table):
                 if not np.isfinite(row).all():
                     raise BeamInputError(f"parameter {name!r} must be finite, got {row}")
-                if (row < 0).any() or (name == "bending_stiffness_Nm2" and (row <= 0).any()):
+                if (row < 0).any() or (name == _EI and (row <= 0).any()):
                     raise BeamInputError(f"parameter {name!r} must be positive, got {row}")
         density = np.full((1, table.shape[1]), self.geometry.linear_density_kg_m)
         return names, np.concatenate([table, density, np.ones((1, table.shape[1]))]), batched
@@ -424,9 +453,9 @@ class BeamModel:
                 return np.array([i for i, t in enumerate(terms) if t.target == target], dtype=int)
 
             damping = where("damping")
-            damping_map = np.zeros((damping.size, len(_DAMPING_PARTS)))
+            damping_map = np.zeros((damping.size, len(self._damping_parts)))
             for row, index in enumerate(damping):
-                damping_map[row, _DAMPING_PARTS.index(terms[index].part)] = 1.0
+                damping_map[row, self._damping_parts.index(terms[index].part)] = 1.0
             columns = np.array([rows[t.parameter] for t in terms])
             mass, stiffness, force = where("mass"), where("stiffness"), where("force")
             select = np.zeros((len(terms), len(rows)))  # coefficient of each term from the table
@@ -435,14 +464,14 @@ class BeamModel:
                                            damping_map.T @ select[damping]])
             key_matrix = select[np.concatenate([mass, stiffness])]
             key_denominators = np.repeat([0, mass.size], [mass.size, stiffness.size])
-            cubic_row = rows.get("tip_cubic_stiffness_N_m3", -1)
-            drag_row = rows.get("drag_coefficient", -1)
-            friction_rows = (rows.get("clamp_friction_stiffness_Nm_rad", -1), rows.get("clamp_slip_moment_Nm", -1))
-            modal = where("modal_damping")
+            channels = tuple(EFFECTS[e].channel for e in self.effects
+                             if EFFECTS[e].channel is not None and EFFECTS[e].channel.switch in rows)
+            switch_rows = tuple(rows[c.switch] for c in channels)
+            modal = where("modal_ratio")
             modal_rows = np.array([rows[terms[i].parameter] for i in modal], dtype=int)
             modal_modes = np.array([terms[i].mode - 1 for i in modal], dtype=int)
             layout = _Layout(terms, columns, mass, stiffness, damping, force, damping_map, scale_matrix, key_matrix,
-                             key_denominators, cubic_row, drag_row, friction_rows, modal_rows, modal_modes)
+                             key_denominators, channels, switch_rows, modal_rows, modal_modes)
             self._layouts[names] = layout
         return layout
 
@@ -468,7 +497,7 @@ class BeamModel:
         total = np.zeros((coef.shape[1],) + first.shape)
         for term, c in zip(layout.terms, coef):
             if term.target == target:
-                part = getattr(self.parts, term.part)
+                part = self._part(term.part)
                 total += c.reshape((-1,) + (1,) * part.ndim) * part
         return total
 
@@ -547,9 +576,9 @@ class BeamModel:
     def _matrices_of_rows(self, rows: np.ndarray, layout: _Layout) -> tuple[np.ndarray, np.ndarray]:
         """Mass and stiffness matrices (U, n, n) of normalised coefficient rows (U, mass + stiffness terms)."""
         n_mass = layout.mass.size
-        mass = sum(rows[:, j, None, None] * getattr(self.parts, layout.terms[i].part) for j, i in enumerate(layout.mass))
+        mass = sum(rows[:, j, None, None] * self._part(layout.terms[i].part) for j, i in enumerate(layout.mass))
         stiff = sum(
-            rows[:, n_mass + j, None, None] * getattr(self.parts, layout.terms[i].part)
+            rows[:, n_mass + j, None, None] * self._part(layout.terms[i].part)
             for j, i in enumerate(layout.stiffness)
         )
         return mass, stiff
@@ -579,7 +608,7 @@ class BeamModel:
             rank_one = [j for j, i in enumerate(layout.mass) if layout.terms[i].part in _POINT_MASS_PARTS]
             rest = [layout.terms[i] for i in np.concatenate([layout.mass, layout.stiffness])
                     if layout.terms[i].part not in _POINT_MASS_PARTS]
-            if len(rank_one) == 1 and all(t.parameter in (_DENSITY, "bending_stiffness_Nm2") for t in rest):
+            if len(rank_one) == 1 and all(t.parameter in (_DENSITY, _EI) for t in rest):
                 j = rank_one[0]
                 plan = (j, getattr(self.parts, _POINT_MASS_PARTS[layout.terms[layout.mass[j]].part]))
             self._point_mass_plans[layout.terms] = plan
@@ -641,7 +670,7 @@ class BeamModel:
         with a positive tip displacement."""
         kept = kept * _shape_signs(self.parts.tip_values @ kept)[:, None, :]
         kept_t = np.swapaxes(kept, 1, 2)
-        projections = np.stack([kept_t @ getattr(self.parts, name) @ kept for name in _DAMPING_PARTS], axis=1)
+        projections = np.stack([kept_t @ self._part(name) @ kept for name in self._damping_parts], axis=1)
         force = kept.transpose(0, 2, 1) @ self._input_vector
         sensor = self._sensor_row @ kept
         tip = self.parts.tip_values @ kept
@@ -773,7 +802,7 @@ class BeamModel:
                 return None
             steps = np.zeros((varying.size, rows.shape[1]))
             steps[np.arange(varying.size), varying] = _RITZ_STEP * center[varying]
-            parts = [getattr(self.parts, layout.terms[i].part) for i in np.concatenate([layout.mass, layout.stiffness])]
+            parts = [self._part(layout.terms[i].part) for i in np.concatenate([layout.mass, layout.stiffness])]
             n_mass = layout.mass.size
             basis = modal.ritz_basis(np.stack(parts[:n_mass]), np.stack(parts[n_mass:]), center, steps, n_modes)
             self._ritz_bases[cache_key] = basis
@@ -834,31 +863,36 @@ class BeamModel:
             )
         return int(n_modes)
 
+    @staticmethod
+    def _channels_on(layout: _Layout, table: np.ndarray) -> list:
+        """The nonlinear channels of ``layout`` that some set of ``table`` switches on (their switch
+        positive, or given for a channel on whenever given: the clamp friction, whatever its slip moment)."""
+        return [c for c, row in zip(layout.channels, layout.switch_rows) if c.on_when_given or bool(np.any(table[row] > 0))]
+
     def _is_nonlinear_at(self, layout: _Layout, table: np.ndarray) -> bool:
-        """Whether any set of ``table`` switches a nonlinear term on (k3 > 0, C_d > 0 or a clamp
-        friction, whatever its slip moment)."""
-        return self._is_general_at(layout, table) or (layout.cubic_row >= 0 and bool(np.any(table[layout.cubic_row] > 0)))
+        """Whether any set of ``table`` switches a nonlinear channel on."""
+        return bool(self._channels_on(layout, table))
 
     @staticmethod
-    def _is_general_at(layout: _Layout, table: np.ndarray) -> bool:
-        """Whether the response needs :func:`beam.physics.nonlinear.integrate_general` (the drag on in a
-        set, or the clamp friction)."""
-        return (layout.drag_row >= 0 and bool(np.any(table[layout.drag_row] > 0))) or layout.friction_rows[1] >= 0
+    def _own_integration(on: list):
+        """The channel that is alone on and has its own driven integration (the tip spring's), or None."""
+        return on[0] if len(on) == 1 and on[0].driven is not None else None
 
     def _general_response(
         self, parameters: Mapping[str, float | np.ndarray], layout: _Layout, table: np.ndarray, n_modes: int,
         inputs: np.ndarray, steps_s: np.ndarray, order: int, initial: np.ndarray | None, static_correction: bool,
     ) -> np.ndarray:
-        """The retained modes with the spring, the drag and the clamp friction
+        """The retained modes with the nonlinear channels switched on
         (:func:`beam.physics.nonlinear.integrate_general`).
 
-        The undamped modes are solved densely for each set (the drag needs the shapes along the
-        span, which the cached unit modes do not keep); C_r = Phi^T C Phi carries every damping
-        term (modal damping included). The static correction (displacement only) is the
-        discarded modes' quasi-static share of the input and of the spring's force, as in
-        :meth:`response`.
+        The undamped modes are solved densely for each set (a distributed channel needs the shapes
+        along the span, which the cached unit modes do not keep); C_r = Phi^T C Phi carries every
+        damping term (modal damping included). The static correction (displacement only) is the
+        discarded modes' quasi-static share of the input and of each point force that asks for it
+        (:attr:`~beam.physics.effects.channel.Channel.static_correction`: the spring's), as in
+        :meth:`response`; the shares between two such forces are neglected.
         """
-        from beam.physics.nonlinear import AIR_DENSITY_KG_M3, drag_quadrature, integrate_general
+        from beam.physics.nonlinear import integrate_general
 
         matrices = self.system_matrices(parameters)
         mass, damping, stiffness, force = (matrices[k] for k in ("mass", "damping", "stiffness", "force"))
@@ -869,32 +903,30 @@ class BeamModel:
         reduced_damping = kept_t @ damping @ kept
         reduced_force = np.einsum("bnm,bn->bm", kept, force)
         sensor = self._sensor_row @ kept
-        tip = self.parts.tip_values @ kept
-        nodes, weights = drag_quadrature(self.geometry.length_m)
-        gauss = self.parts.basis.evaluate(nodes, 0) @ kept  # (B, G, m)
-        batch = table.shape[1]
-        drag = np.zeros((batch, nodes.size))
-        if layout.drag_row >= 0:
-            width = self.geometry.width_m
-            if width is None:
-                raise BeamInputError("quadratic_drag needs the strip's width: [beam] width_m in the sidecar")
-            drag = 0.5 * AIR_DENSITY_KG_M3 * width * table[layout.drag_row][:, None] * weights[None, :]
-        cubic = table[layout.cubic_row] if layout.cubic_row >= 0 else np.zeros(batch)
-        static = None
+        values = dict(zip(tuple(parameters), table))
+        on = [(c, np.asarray(c.rows(self), dtype=float)) for c in self._channels_on(layout, table)]
+        coefficients = [np.asarray(c.coefficients(self, values), dtype=float) for c, _ in on]
+        statics: list = [None] * len(on)
+        static_input = None
         if static_correction and order == 0:
-            loads = np.stack([force, np.broadcast_to(self.parts.tip_values, force.shape)], axis=2)  # (B, n, 2)
-            full = np.linalg.solve(stiffness, loads)  # K⁻¹ [f, tip]
+            points = [rows for c, rows in on if c.static_correction]
+            loads = np.concatenate([force[:, :, None]] + [np.broadcast_to(p.T, force.shape + (p.shape[0],))
+                                                          for p in points], axis=2)  # (B, n, 1 + points)
+            full = np.linalg.solve(stiffness, loads)  # K⁻¹ [f, points]
             retained = kept @ ((kept_t @ loads) / omega2[:, :n_modes, None])
             rest = full - retained
-            rows = np.stack([self._sensor_row, self.parts.tip_values])  # (2, n)
-            share = rows @ rest  # (B, 2 outputs, 2 loads)
-            static = np.concatenate([share[:, :, 0], share[:, :, 1]], axis=1)
-        root = friction = None
-        if layout.friction_rows[1] >= 0:  # the clamp friction's moment acts on the root rotation
-            root = self.parts.basis.evaluate(np.zeros(1), 1)[0] @ kept  # (B, m)
-            friction = np.stack([table[layout.friction_rows[0]], table[layout.friction_rows[1]]], axis=1)
-        return integrate_general(omega2[:, :n_modes], reduced_damping, reduced_force, sensor, tip, gauss, cubic, drag,
-                                 inputs, steps_s, order, initial, static, root, friction)
+            observed = np.concatenate([self._sensor_row[None, :]] + points)  # (1 + points, n)
+            share = observed @ rest  # (B, outputs, loads)
+            static_input = share[:, 0, 0]
+            first = 1
+            for i, (c, rows) in enumerate(on):
+                if c.static_correction:
+                    at = np.arange(first, first + rows.shape[0])
+                    statics[i] = np.stack([share[:, at, 0], share[:, at, at], share[:, 0, at]], axis=2)  # (B, P, 3)
+                    first += rows.shape[0]
+        channels = [ChannelArrays(c.law, rows @ kept, k, st) for (c, rows), k, st in zip(on, coefficients, statics)]
+        return integrate_general(omega2[:, :n_modes], reduced_damping, reduced_force, sensor, channels, inputs,
+                                 steps_s, order, initial, static_input)
 
     def _check_driven(self) -> None:
         if self.input_kind is None:
@@ -1012,7 +1044,9 @@ class BeamModel:
         n_modes = self._check_modes(modes)
         names, table, batched = self._table(parameters)
         layout = self._layout(names)
-        if self._is_general_at(layout, table):
+        on = self._channels_on(layout, table)
+        own = self._own_integration(on)
+        if on and own is None:
             voltage = self._check_record(voltage, sample_interval_s)
             out = self._general_response(parameters, layout, table, n_modes, voltage,
                                          np.full(voltage.size - 1, float(sample_interval_s)), order, None,
@@ -1021,16 +1055,13 @@ class BeamModel:
                 matrices_static = self._reduced_modes(layout, table, n_modes)["static"][:, 0]
                 out += matrices_static[:, None] * held_input_derivative(voltage, sample_interval_s, order)[None, :]
             finite = np.isfinite(out).all()
-        elif layout.cubic_row >= 0 and np.any(table[layout.cubic_row] > 0):
+        elif own is not None:  # the channel's own integration in the retained complex modes (the tip spring's)
             if order != 0:
-                raise BeamInputError("with tip_cubic_spring the response is computed for the displacement only")
-            from beam.physics.nonlinear import integrate_tip_cubic
-
+                raise BeamInputError(f"with {own.effect} the response is computed for the displacement only")
             reduced = self._reduced_modes(layout, table, n_modes)
             static = reduced["static"] if static_correction else np.zeros_like(reduced["static"])
-            out = integrate_tip_cubic(_complex_modes_of(reduced), table[layout.cubic_row],
-                                      self._check_record(voltage, sample_interval_s), sample_interval_s,
-                                      static_gains=static)
+            out = own.driven(_complex_modes_of(reduced), own.coefficients(self, dict(zip(names, table))),
+                             self._check_record(voltage, sample_interval_s), sample_interval_s, static)
             finite = np.isfinite(out).all()
         else:  # linear: rescaled cached shapes, poles, residues and ZOH stepping in one compiled call
             which, unit_modes = self._unit_modes(layout, table, n_modes)
@@ -1078,9 +1109,11 @@ class BeamModel:
         n_modes = self._check_modes(modes)
         names, table, batched = self._table(parameters)
         layout = self._layout(names)
-        if layout.cubic_row >= 0 and np.any(table[layout.cubic_row] > 0):
-            raise BeamInputError("response_at is linear; tip_cubic_spring needs response() on a uniform grid")
-        if self._is_general_at(layout, table):  # integrated at the stamps
+        on = self._channels_on(layout, table)
+        own = [c.effect for c in on if c.driven is not None]
+        if own:
+            raise BeamInputError(f"response_at is linear; {_and_list(own)} needs response() on a uniform grid")
+        if on:  # integrated at the stamps
             out = self._general_response(parameters, layout, table, n_modes, signal, np.diff(time), order, None,
                                          static_correction)
             if static_correction and order > 0:
@@ -1133,8 +1166,8 @@ class BeamModel:
         names, table, batched = self._table(parameters)
         layout = self._layout(names)
         if self._is_nonlinear_at(layout, table):
-            raise BeamInputError("the free-response basis is linear; tip_cubic_spring, quadratic_drag and clamp_friction "
-                                 "are not supported here (free_response integrates them)")
+            raise BeamInputError(f"the free-response basis is linear; {_NONLINEAR_WORDS} are not supported here "
+                                 "(free_response integrates them)")
         reduced = self._reduced_modes(layout, table, n_modes)
         poles, _ = modal.modal_decomposition(reduced["omega2"], reduced["damping"])
         basis = modal.free_basis(poles, time)
@@ -1252,8 +1285,7 @@ class BeamModel:
         order = self._order(output)
         voltage = self._check_record(input_signal, sample_interval_s)
         if any(np.any(np.asarray(parameters.get(name, 0.0)) > 0) for name in _NONLINEAR_SWITCHES):
-            raise BeamInputError("the full state-space reference is linear; use response() for tip_cubic_spring, "
-                                 "quadratic_drag and clamp_friction")
+            raise BeamInputError(f"the full state-space reference is linear; use response() for {_NONLINEAR_WORDS}")
         _, _, batched = self._table(parameters)
         matrices = self.system_matrices(parameters)
         batch = matrices["mass"].shape[0]
@@ -1282,8 +1314,7 @@ class BeamModel:
         order = self._order(output)
         time = self._check_times(time_s)
         if any(np.any(np.asarray(parameters.get(name, 0.0)) > 0) for name in _NONLINEAR_SWITCHES):
-            raise BeamInputError("the full state-space reference is linear; use free_response() for tip_cubic_spring, "
-                                 "quadratic_drag and clamp_friction")
+            raise BeamInputError(f"the full state-space reference is linear; use free_response() for {_NONLINEAR_WORDS}")
         matrices = self.system_matrices(parameters)
         if matrices["mass"].shape[0] != 1:
             raise BeamInputError("free_response_full takes one parameter set")

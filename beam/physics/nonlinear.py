@@ -26,11 +26,19 @@ CPU in every spring fit for no visible gain (see the design decisions).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numba
 import numpy as np
 
 from beam.physics import modal
+from beam.physics.effects.channel import LAW_IWAN_JOINT, LAW_POINT_CUBIC, ChannelArrays
+from beam.physics.effects.quadratic_drag import (  # noqa: F401 - the drag's constants, where its integrator was
+    AIR_DENSITY_KG_M3,
+    DRAG_PANELS,
+    DRAG_POINTS,
+    drag_quadrature,
+)
 from beam.physics.modal import ComplexModes, collapse_pairs as _collapse, zoh_factor
 
 #: Largest (modal frequency x substep) the integrator allows.
@@ -486,13 +494,13 @@ def _etdrk4_grouped(poles, beta_u, beta_tip, gamma_sensor, gamma_tip, cubic, vol
 
 
 # ---------------------------------------------------------------------------------------------
-# The general path: the tip spring and the distributed quadratic air drag, from rest or from a
-# given state, at uniform or irregular sample times, for any output.
+# The general path: the channels of any set of nonlinear effects (a list, :mod:`beam.physics.effects.channel`),
+# from rest or from a given state, at uniform or irregular sample times, for any output.
 
 
 @numba.njit(cache=True, nogil=True)
 def _joint_backbone(x, stiffness, slip_rotation, slip_moment):  # pragma: no cover - jitted
-    """Loading curve of the clamp's Iwan joint: k x (1 - |x| / (2 x_s)) up to the slip rotation
+    """Loading curve of an Iwan joint: k x (1 - |x| / (2 x_s)) up to the slip rotation
     x_s = 2 M_s / k, M_s sign(x) beyond (N m)."""
     ax = abs(x)
     if ax >= slip_rotation:
@@ -501,62 +509,60 @@ def _joint_backbone(x, stiffness, slip_rotation, slip_moment):  # pragma: no cov
 
 
 @numba.njit(cache=True, nogil=True)
-def _joint_moment(theta, row, friction, memory):  # pragma: no cover - jitted
-    """The clamp friction's moment on the beam beyond its linear part, k_f theta - R(theta) (N m):
+def _joint_moment(theta, k, moment_s, memory):  # pragma: no cover - jitted
+    """An Iwan joint's moment on the beam beyond its linear part, k theta - R(theta) (N m):
     R on the Masing branch from the last reversal (theta_r, R_r) = ``memory[0:2]``,
     R = R_r + 2 B((theta - theta_r) / 2) with B the loading curve (:func:`_joint_backbone`)."""
-    k = friction[row, 0]
-    moment_s = friction[row, 1]
     theta_s = 2.0 * moment_s / k
     restoring = memory[1] + 2.0 * _joint_backbone(0.5 * (theta - memory[0]), k, theta_s, moment_s)
     return k * theta - restoring
 
 
 @numba.njit(cache=True, nogil=True)
-def _forcing(xi, u, row, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static,
-             out, gauss_force, beta_root, gamma_root, friction, memory):  # pragma: no cover - jitted
-    """The modal forcing beta_u u + beta_tip s(w_tip) + sum_g beta_g F_g + beta_root g(theta) of
-    the state ``xi`` into ``out``, the drag forces F_g = -c_g |v_g| v_g into ``gauss_force``, the
-    clamp friction's moment g (N m, :func:`_joint_moment`, 0 without it) into ``memory[3]``;
-    returns the spring's force s (N). v_g = Re(gamma_g . xi) is the velocity at Gauss point g
-    (gains already doubled for a conjugate pair), w_tip the tip displacement with the discarded
-    modes' quasi-static share, theta = Re(gamma_root . xi) the root rotation."""
+def _forcing(xi, u, row, beta_u, laws, beta, gamma, coef, static_in, flex, out, forces, memory):  # pragma: no cover
+    """The modal forcing beta_u u + sum_c beta_c F_c of the state ``xi`` into ``out``, each
+    channel point's force F_c into ``forces`` (see :mod:`beam.physics.effects.channel` for the
+    laws): the point cubic -k w³ (w its displacement with the discarded modes' quasi-static share
+    of the input and of F itself), the velocity-squared -c |v| v, the Iwan joint's k theta - R(theta)
+    on its Masing branch (``memory[c]``). ``gamma[row, c, 0]`` reads the displacement (rotation),
+    ``gamma[row, c, 1]`` the velocity (gains already doubled for a conjugate pair)."""
     n_poles = xi.shape[0]
-    k3 = cubic[row]
-    spring = 0.0
-    if k3 != 0.0:
-        w = static[row, 1] * u
-        for j in range(n_poles):
-            w += (gamma_tip[row, j] * xi[j]).real
-        w = _corrected_tip(w, k3, static[row, 3])
-        spring = -k3 * w * w * w
     for j in range(n_poles):
-        out[j] = beta_u[row, j] * u + beta_tip[row, j] * spring
-    memory[3] = 0.0
-    if friction[row, 1] > 0.0:
-        theta = 0.0
-        for j in range(n_poles):
-            theta += (gamma_root[row, 0, j] * xi[j]).real
-        moment = _joint_moment(theta, row, friction, memory)
-        memory[3] = moment
-        for j in range(n_poles):
-            out[j] += beta_root[row, j] * moment
-    for g in range(gauss_force.shape[0]):
-        c = drag[row, g]
-        if c == 0.0:
-            gauss_force[g] = 0.0
-            continue
-        v = 0.0
-        for j in range(n_poles):
-            gain = gamma_gauss[row, g, j]
-            state = xi[j]
-            v += gain.real * state.real - gain.imag * state.imag
-        force = -c * abs(v) * v
-        gauss_force[g] = force
-        for j in range(n_poles):
-            gain = beta_gauss[row, g, j]
-            out[j] += complex(gain.real * force, gain.imag * force)
-    return spring
+        out[j] = beta_u[row, j] * u
+    for c in range(laws.shape[0]):
+        law = laws[c]
+        force = 0.0
+        if law == LAW_POINT_CUBIC:
+            k3 = coef[row, c, 0]
+            if k3 != 0.0:
+                w = static_in[row, c] * u
+                for j in range(n_poles):
+                    w += (gamma[row, c, 0, j] * xi[j]).real
+                w = _corrected_tip(w, k3, flex[row, c])
+                force = -k3 * w * w * w
+            for j in range(n_poles):
+                out[j] += beta[row, c, j] * force
+        elif law == LAW_IWAN_JOINT:
+            if coef[row, c, 1] > 0.0:
+                theta = 0.0
+                for j in range(n_poles):
+                    theta += (gamma[row, c, 0, j] * xi[j]).real
+                force = _joint_moment(theta, coef[row, c, 0], coef[row, c, 1], memory[c])
+                for j in range(n_poles):
+                    out[j] += beta[row, c, j] * force
+        else:  # LAW_VELOCITY_SQUARED
+            weight = coef[row, c, 0]
+            if weight != 0.0:
+                v = 0.0
+                for j in range(n_poles):
+                    gain = gamma[row, c, 1, j]
+                    state = xi[j]
+                    v += gain.real * state.real - gain.imag * state.imag
+                force = -weight * abs(v) * v
+                for j in range(n_poles):
+                    gain = beta[row, c, j]
+                    out[j] += complex(gain.real * force, gain.imag * force)
+        forces[c] = force
 
 
 @numba.njit(cache=True, nogil=True)
@@ -580,55 +586,54 @@ def _step_coefficients(poles, widths):  # pragma: no cover - jitted
     return table
 
 
+
+
 @numba.njit(cache=True, nogil=True)
-def _root_state(xi, row, gamma_root):  # pragma: no cover - jitted
-    """(theta, theta', amplitude) of the root rotation: Re(gamma . xi) for the rotation and its rate,
-    and the sum of the kept poles' moduli |gamma_j xi_j| (rad)."""
+def _root_state(xi, gains):  # pragma: no cover - jitted
+    """(theta, theta', amplitude) of a rotation: Re(gamma . xi) for the rotation and its rate
+    (``gains[0]``, ``gains[1]``), and the sum of the kept poles' moduli |gamma_j xi_j| (rad)."""
     theta = 0.0
     rate = 0.0
     amplitude = 0.0
     for j in range(xi.shape[0]):
-        theta += (gamma_root[row, 0, j] * xi[j]).real
-        rate += (gamma_root[row, 1, j] * xi[j]).real
-        amplitude += abs(gamma_root[row, 0, j] * xi[j])
+        theta += (gains[0, j] * xi[j]).real
+        rate += (gains[1, j] * xi[j]).real
+        amplitude += abs(gains[0, j] * xi[j])
     return theta, rate, amplitude
 
 
 @numba.njit(cache=True, nogil=True)
-def _start_branch(xi, row, gamma_root, friction, memory):  # pragma: no cover - jitted
-    """The Masing branch the joint is on at the start (``memory``: theta_r, R_r, direction): the
-    motion taken as the settled cycle of the root's current amplitude A, whose last reversal was
-    at -direction A with R = -direction B(A) (a release from rest: the release point itself)."""
-    theta, rate, amplitude = _root_state(xi, row, gamma_root)
+def _start_branch(xi, gains, k, moment_s, memory):  # pragma: no cover - jitted
+    """The Masing branch a joint is on at the start (``memory``: theta_r, R_r, direction): the
+    motion taken as the settled cycle of the rotation's current amplitude A, whose last reversal
+    was at -direction A with R = -direction B(A) (a release from rest: the release point itself)."""
+    theta, rate, amplitude = _root_state(xi, gains)
     amplitude = max(amplitude, abs(theta))
     direction = 1.0 if rate > 0.0 else (-1.0 if rate < 0.0 else (-1.0 if theta > 0.0 else 1.0))
-    k = friction[row, 0]
-    moment_s = friction[row, 1]
     memory[0] = -direction * amplitude
     memory[1] = -direction * _joint_backbone(amplitude, k, 2.0 * moment_s / k, moment_s)
     memory[2] = direction
 
 
 @numba.njit(cache=True, nogil=True)
-def _follow_reversal(xi, row, gamma_root, friction, memory, theta_before, rate_before, h):  # pragma: no cover - jitted
-    """After a substep of ``h`` s: if the root's rotation rate changed sign, start the new Masing
+def _follow_reversal(xi, gains, k, moment_s, memory, theta_before, rate_before, h):  # pragma: no cover - jitted
+    """After a substep of ``h`` s: if a joint's rotation rate changed sign, start the new Masing
     branch at the turning point (theta' taken linear over the substep, theta at the root of it)
     with R on the old branch there. Returns the rotation and its rate now."""
-    theta, rate, _ = _root_state(xi, row, gamma_root)
+    theta, rate, _ = _root_state(xi, gains)
     direction = memory[2]
     if rate * direction < 0.0:
         share = rate_before / (rate_before - rate) if rate_before != rate else 0.0
         turn = theta_before + 0.5 * rate_before * share * h
-        memory[1] = turn * friction[row, 0] - _joint_moment(turn, row, friction, memory)  # R on the old branch
+        memory[1] = turn * k - _joint_moment(turn, k, moment_s, memory)  # R on the old branch
         memory[0] = turn
         memory[2] = -direction
     return theta, rate
 
 
 @numba.njit(cache=True, nogil=True)
-def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_tip, gamma_gauss, direct, cubic, drag,
-                    static, beta_root, gamma_root, friction, initial, voltage, step_id, counts, table,
-                    widths):  # pragma: no cover - jitted
+def _etdrk4_general(row, poles, beta_u, laws, beta, gamma_out, gamma, coef, static_u, static_in, flex, static_out,
+                    direct, initial, voltage, step_id, counts, table, widths):  # pragma: no cover - jitted
     """ETDRK4 (Cox & Matthews 2002) on xi' = Lambda xi + N(xi, u) for parameter set ``row``.
 
     Stages a = E_h xi + Q N(xi), b = E_h xi + Q N(a), c = E_h a + Q (2 N(b) - N(xi)),
@@ -636,15 +641,14 @@ def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_t
     Q = (E_h - 1) / Lambda, f1..f3 the phi-function weights of :func:`_etdrk4`). Sample k is held
     over its interval, split into ``counts[k]`` substeps whose coefficients are
     ``table[:, step_id[k]]`` (:func:`_step_coefficients`; a record's stamps take few distinct
-    steps). Output at t_k: Re(gamma_out . xi) + direct[0] u + direct[1] s + sum_g direct[2 + g] F_g
-    + direct[2 + G] g + the quasi-static terms of the displacement (static[0] u - static[2] k3 w³), as in
-    :func:`_etdrk4`. The clamp friction's Masing memory is held fixed over a substep and moved to
-    the turning point after the substep in which the root's rotation reverses
+    steps). Output at t_k: Re(gamma_out . xi) + (static_u + direct[0]) u + sum_c (direct[1 + c] +
+    static_out[c]) F_c (:func:`_forcing`). An Iwan joint's Masing memory is held fixed over a
+    substep and moved to the turning point after the substep in which its rotation reverses
     (:func:`_follow_reversal`); ``widths`` are the substeps (s) of ``step_id``.
     """
     n_poles = poles.shape[1]
     n = voltage.shape[0]
-    n_gauss = drag.shape[1]
+    n_channels = laws.shape[0]
     out = np.zeros(n)
     xi = initial[row].copy()
     sa = np.empty(n_poles, np.complex128)
@@ -654,23 +658,23 @@ def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_t
     na = np.empty(n_poles, np.complex128)
     nb = np.empty(n_poles, np.complex128)
     nc = np.empty(n_poles, np.complex128)
-    forces = np.empty(n_gauss)
+    forces = np.empty(n_channels)
     b = row
-    memory = np.zeros(4)  # the friction's last reversal (theta_r, R_r), its direction, its moment now
-    rubbing = friction[b, 1] > 0.0
-    theta = 0.0
-    rate = 0.0
-    if rubbing:
-        _start_branch(xi, b, gamma_root, friction, memory)
-        theta, rate, _ = _root_state(xi, b, gamma_root)
+    memory = np.zeros((n_channels, 4))  # each joint's last reversal (theta_r, R_r) and its direction
+    thetas = np.zeros(n_channels)
+    rates = np.zeros(n_channels)
+    rubbing = np.zeros(n_channels, np.bool_)
+    for c in range(n_channels):
+        if laws[c] == LAW_IWAN_JOINT and coef[b, c, 1] > 0.0:
+            rubbing[c] = True
+            _start_branch(xi, gamma[b, c], coef[b, c, 0], coef[b, c, 1], memory[c])
+            thetas[c], rates[c], _ = _root_state(xi, gamma[b, c])
     for k in range(n):
         u = voltage[k]
-        spring = _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces,
-                          beta_root, gamma_root, friction, memory)
-        value = (static[b, 0] + direct[b, 0]) * u + (direct[b, 1] + static[b, 2]) * spring
-        for g in range(n_gauss):
-            value += direct[b, 2 + g] * forces[g]
-        value += direct[b, 2 + n_gauss] * memory[3]
+        _forcing(xi, u, b, beta_u, laws, beta, gamma, coef, static_in, flex, n0, forces, memory)
+        value = (static_u[b] + direct[b, 0]) * u
+        for c in range(n_channels):
+            value += (direct[b, 1 + c] + static_out[b, c]) * forces[c]
         for j in range(n_poles):
             value += (gamma_out[b, j] * xi[j]).real
         out[k] = value
@@ -681,32 +685,25 @@ def _etdrk4_general(row, poles, beta_u, beta_tip, beta_gauss, gamma_out, gamma_t
         h = widths[step_id[k]]
         for sub in range(counts[k]):
             if sub > 0:
-                _forcing(xi, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, n0, forces,
-                         beta_root, gamma_root, friction, memory)
+                _forcing(xi, u, b, beta_u, laws, beta, gamma, coef, static_in, flex, n0, forces, memory)
             for j in range(n_poles):
                 sa[j] = e_half[j] * xi[j] + q_half[j] * n0[j]
-            _forcing(sa, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, na, forces,
-                     beta_root, gamma_root, friction, memory)
+            _forcing(sa, u, b, beta_u, laws, beta, gamma, coef, static_in, flex, na, forces, memory)
             for j in range(n_poles):
                 sb[j] = e_half[j] * xi[j] + q_half[j] * na[j]
-            _forcing(sb, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nb, forces,
-                     beta_root, gamma_root, friction, memory)
+            _forcing(sb, u, b, beta_u, laws, beta, gamma, coef, static_in, flex, nb, forces, memory)
             for j in range(n_poles):
                 sc[j] = e_half[j] * sa[j] + q_half[j] * (2.0 * nb[j] - n0[j])
-            _forcing(sc, u, b, beta_u, beta_tip, beta_gauss, gamma_tip, gamma_gauss, cubic, drag, static, nc, forces,
-                     beta_root, gamma_root, friction, memory)
+            _forcing(sc, u, b, beta_u, laws, beta, gamma, coef, static_in, flex, nc, forces, memory)
             for j in range(n_poles):
                 xi[j] = e_full[j] * xi[j] + f1[j] * n0[j] + f2[j] * (na[j] + nb[j]) + f3[j] * nc[j]
-            if rubbing:
-                theta, rate = _follow_reversal(xi, b, gamma_root, friction, memory, theta, rate, h)
+            for c in range(n_channels):
+                if rubbing[c]:
+                    thetas[c], rates[c] = _follow_reversal(xi, gamma[b, c], coef[b, c, 0], coef[b, c, 1], memory[c],
+                                                           thetas[c], rates[c], h)
     return out
 
 
-#: Density of air (kg/m³) at 20 °C and 101.325 kPa, for the quadratic drag.
-AIR_DENSITY_KG_M3 = 1.204
-#: Gauss–Legendre quadrature of the drag along the span: panels of equal length, points per panel.
-DRAG_PANELS = 4
-DRAG_POINTS = 4
 #: Largest |lambda_max| h of the general path (rad per substep, lambda_max the highest retained pole).
 #: The drag's force |v| v is only once differentiable where v changes sign: against a 0.05 rad
 #: step, a tip-force pulse of the 50 cm strip at 1 kHz (the drag 24 % of the response) was off
@@ -714,54 +711,36 @@ DRAG_POINTS = 4
 GENERAL_RESOLUTION = STEP_RESOLUTION
 
 
-def drag_quadrature(length_m: float, panels: int = DRAG_PANELS, points: int = DRAG_POINTS) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss–Legendre nodes (m) and weights (m) on [0, L] split into equal panels."""
-    nodes, weights = np.polynomial.legendre.leggauss(points)
-    edges = np.linspace(0.0, float(length_m), panels + 1)
-    half = 0.5 * np.diff(edges)[:, None]
-    centre = 0.5 * (edges[1:] + edges[:-1])[:, None]
-    return (centre + half * nodes[None, :]).ravel(), (half * weights[None, :]).ravel()
-
-
 def integrate_general(
-    omega_squared: np.ndarray, reduced_damping: np.ndarray, force: np.ndarray, sensor: np.ndarray, tip: np.ndarray,
-    gauss: np.ndarray, cubic_N_m3: np.ndarray, drag_kg_m: np.ndarray, voltage: np.ndarray, steps_s: np.ndarray,
-    order: int = 0, initial: np.ndarray | None = None, static_gains: np.ndarray | None = None,
-    root: np.ndarray | None = None, friction: np.ndarray | None = None,
+    omega_squared: np.ndarray, reduced_damping: np.ndarray, force: np.ndarray, sensor: np.ndarray,
+    channels: Sequence[ChannelArrays], voltage: np.ndarray, steps_s: np.ndarray, order: int = 0,
+    initial: np.ndarray | None = None, static_input: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Sensor output (B, n) of the retained modes with the tip spring, the quadratic air drag and
-    the clamp friction.
+    """Sensor output (B, n) of the retained modes with a list of nonlinear channels.
 
     The retained modes (mass-normalised undamped shapes) obey
 
-        eta'' + C_r eta' + diag(omega²) eta = f_r u(t) + tip_r s + sum_g psi_g F_g + root_r g,
-        s = -k3 w_tip³,  F_g = -c_g |v_g| v_g,  v_g = psi_g . eta',
-        g = k_f theta - R(theta),  theta = root_r . eta
+        eta'' + C_r eta' + diag(omega²) eta = f_r u(t) + sum_c sum_p psi_cp F_cp,
 
-    with psi_g the shapes at the Gauss points x_g of :func:`drag_quadrature` and c_g =
-    ½ rho_air C_d b w_g (kg/m): the distributed drag ½ rho_air C_d b |w_t| w_t projected on the
-    modes by quadrature; R the moment of the clamp's Iwan joint on its Masing branch (stick
-    stiffness k_f, whole slip at M_s; :func:`_joint_moment`), whose linear part k_f theta is in
-    omega² already. They are diagonalised (first-order form, one coordinate per conjugate
-    pair) and stepped by ETDRK4 (:func:`_etdrk4_general`), whose linear part is exact.
+    F_cp the force of channel c at its point p by the channel's law, psi_cp = row_p . Phi its modal
+    row (:mod:`beam.physics.effects.channel`: a point cubic spring, the Gauss points of a
+    distributed drag, an Iwan joint on the root's rotation). They are diagonalised (first-order
+    form, one coordinate per conjugate pair) and stepped by ETDRK4 (:func:`_etdrk4_general`),
+    whose linear part is exact; the channels' points are stacked, one law code each.
 
     Parameters
     ----------
     omega_squared : (B, m)  omega² (rad²/s²).
     reduced_damping : (B, m, m)  C_r (1/s).
-    force, sensor, tip : (B, m)  the input's modal force per unit input, the sensor's and the tip's
-        displacement rows.
-    gauss : (B, G, m)  the shapes at the Gauss points.
-    cubic_N_m3 : (B,)  k3 (N/m³).
-    drag_kg_m : (B, G)  c_g (kg/m).
+    force, sensor : (B, m)  the input's modal force per unit input and the sensor's displacement row.
+    channels : sequence of ChannelArrays  the nonlinear channels (law, modal rows (B, P, m),
+        coefficients (B, P, 2), static shares (B, P, 3) or None); empty: the linear modes.
     voltage : (n,)  input held over each interval (V or N; zeros for a free response).
     steps_s : (n - 1,)  t_k+1 - t_k (s), uniform or not.
     order : {0, 1, 2}  displacement (m), velocity (m/s) or acceleration (m/s²) at the sensor.
     initial : (B, 2m), optional  (eta, eta') at t_0; rest when omitted.
-    static_gains : (B, 4), optional  the discarded modes' quasi-static share (see
-        :func:`integrate_tip_cubic`), displacement only.
-    root : (B, m), optional  the root rotation's row (rad per unit modal coordinate).
-    friction : (B, 2), optional  the clamp friction's k_f (N m/rad) and M_s (N m); none when omitted.
+    static_input : (B,), optional  the discarded modes' quasi-static displacement at the sensor
+        per unit input (displacement only); the channels' own shares are in their ``static``.
     """
     omega2 = np.asarray(omega_squared, dtype=float)
     batch, m = omega2.shape
@@ -787,35 +766,44 @@ def integrate_general(
         return take(gains) * kept.reshape((batch,) + (1,) * (rows.ndim - 2) + (width,))
 
     kept_poles = np.where(kept, take(poles), -1.0 + 0j)
-    gauss = np.asarray(gauss, dtype=float)
-    root = np.zeros((batch, m)) if root is None else np.broadcast_to(np.asarray(root, dtype=float), (batch, m))
-    friction = np.zeros((batch, 2)) if friction is None else np.broadcast_to(np.asarray(friction, dtype=float), (batch, 2))
-    direct = np.zeros((batch, 3 + gauss.shape[1]))
+    laws = np.array([c.law for c in channels for _ in range(np.shape(c.rows)[1])], dtype=np.int64)
+    count = laws.size
+    rows = np.zeros((batch, count, m))
+    coef = np.zeros((batch, count, 2))
+    static = np.zeros((batch, count, 3))
+    start = 0
+    for channel in channels:
+        points = np.shape(channel.rows)[1]
+        rows[:, start:start + points] = channel.rows
+        coef[:, start:start + points] = channel.coefficients
+        if channel.static is not None and order == 0:
+            static[:, start:start + points] = channel.static
+        start += points
+    sensor = np.asarray(sensor, dtype=float)
+    force = np.asarray(force, dtype=float)
+    direct = np.zeros((batch, 1 + count))
     if order == 2:  # the retained modes' acceleration feels the modal force at once
         direct[:, 0] = np.einsum("bm,bm->b", sensor, force)
-        direct[:, 1] = np.einsum("bm,bm->b", sensor, tip)
-        direct[:, 2:-1] = np.einsum("bm,bgm->bg", sensor, gauss)
-        direct[:, -1] = np.einsum("bm,bm->b", sensor, root)
-    static = np.zeros((batch, 4))
-    if static_gains is not None and order == 0:
-        given = np.asarray(static_gains, dtype=float)
-        static[:, : given.shape[-1]] = given
-    start = np.zeros((batch, width), complex)
+        direct[:, 1:] = np.einsum("bm,bcm->bc", sensor, rows)
+    static_u = np.zeros(batch)
+    if static_input is not None and order == 0:
+        static_u = np.broadcast_to(np.asarray(static_input, dtype=float), (batch,)).copy()
+    begin = np.zeros((batch, width), complex)
     if initial is not None:
         state = np.broadcast_to(np.asarray(initial, dtype=float), (batch, 2 * m))
-        start = take(np.einsum("bjk,bk->bj", inverse, state)) * kept
+        begin = take(np.einsum("bjk,bk->bj", inverse, state)) * kept
     critical = np.abs(kept_poles).max(axis=1)
+    gamma = np.zeros((batch, count, 2, width), complex)
+    if count:
+        gamma[:, :, 0] = outputs(rows, 0)
+        gamma[:, :, 1] = outputs(rows, 1)
     args = (
-        np.ascontiguousarray(kept_poles), inputs(np.asarray(force, dtype=float)[:, None, :])[:, 0],
-        inputs(np.asarray(tip, dtype=float)[:, None, :])[:, 0], np.ascontiguousarray(inputs(gauss)),
-        np.ascontiguousarray(outputs(np.asarray(sensor, dtype=float)[:, None, :], order)[:, 0]),
-        np.ascontiguousarray(outputs(np.asarray(tip, dtype=float)[:, None, :], 0)[:, 0]),
-        np.ascontiguousarray(outputs(gauss, 1)), direct,
-        np.ascontiguousarray(np.broadcast_to(np.asarray(cubic_N_m3, dtype=float), (batch,))),
-        np.ascontiguousarray(np.broadcast_to(np.asarray(drag_kg_m, dtype=float), (batch, gauss.shape[1]))),
-        static, np.ascontiguousarray(inputs(root[:, None, :])[:, 0]),
-        np.ascontiguousarray(np.stack([outputs(root[:, None, :], 0)[:, 0], outputs(root[:, None, :], 1)[:, 0]], axis=1)),
-        np.ascontiguousarray(friction), np.ascontiguousarray(start), np.ascontiguousarray(voltage, dtype=float),
+        np.ascontiguousarray(kept_poles), inputs(force[:, None, :])[:, 0], laws,
+        np.ascontiguousarray(inputs(rows)) if count else np.zeros((batch, 0, width), complex),
+        np.ascontiguousarray(outputs(sensor[:, None, :], order)[:, 0]), gamma, coef, static_u,
+        np.ascontiguousarray(static[:, :, 0]), np.ascontiguousarray(static[:, :, 1]),
+        np.ascontiguousarray(static[:, :, 2]), direct, np.ascontiguousarray(begin),
+        np.ascontiguousarray(voltage, dtype=float),
     )
     steps = np.asarray(steps_s, dtype=float)
     out = np.empty((batch, steps.size + 1))

@@ -32,6 +32,7 @@ import scipy.optimize
 import scipy.signal
 
 from beam.errors import BeamInputError
+from beam.physics.effects.fingerprint import difference_words  # noqa: F401 - the words of a modes-table difference, re-exported
 from beam.residuals.common import (
     as_signal,
     check_signals,
@@ -376,17 +377,6 @@ def identify_modes(
 #: The sign convention of the modes table, stated once for the command line, the JSON and the dashboard.
 DIFFERENCE_CONVENTION = ("measured relative to the model, 100 (measured / model - 1) %: positive when the "
                          "measured value is higher than the model's")
-
-
-def difference_words(percent: float, digits: int = 1) -> str:
-    """A modes-table difference (:data:`DIFFERENCE_CONVENTION`) in words, read as "the measured
-    value is …": ``17.5`` -> ``"17.5 % higher"``, ``-3`` -> ``"3.0 % lower"``, ``"matches"`` when
-    it rounds to zero at ``digits`` decimals, ``"–"`` when not finite (nothing measured)."""
-    if percent is None or not np.isfinite(percent):
-        return "–"
-    if round(abs(float(percent)), digits) == 0:
-        return "matches"
-    return f"{abs(float(percent)):.{digits}f} % {'higher' if percent > 0 else 'lower'}"
 
 
 @dataclass(frozen=True)

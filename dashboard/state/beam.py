@@ -34,7 +34,7 @@ from beam.calibration import (
 from beam.calibration.modes import MAX_MODES
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
-from beam.physics.effects import EFFECTS
+from beam.physics.effects import EFFECTS, modal_damping
 from dashboard.jobs.beam import (
     CalibrationKey,
     bundled_datasets,
@@ -65,7 +65,7 @@ _INPUTS = ("window_s", "modes", "effects", "likelihood", "seed", "target_ess")
 #: The number of modes of every dataset is chosen from the record on its default window (and effects), as the
 #: library's ``modes="auto"`` (:func:`beam.calibration.suggest_modes`; a free decay keeps 4).
 DATASET_DEFAULTS: dict[str, dict] = {
-    "adxl_50cm_114655": {"window_s": (0.0, 2.0), "effects": ["modal_damping"]},
+    "adxl_50cm_114655": {"window_s": (0.0, 2.0), "effects": [modal_damping.EFFECT.id]},
 }
 #: What Reveal says for a record without a known answer (a real one or an upload).
 NO_ANSWER = ("No known answer: this is a real record (or an upload), not a simulation — nobody knows its "

@@ -18,7 +18,7 @@ import param
 
 from beam.calibration.modes import MAX_MODES
 from beam.discovery.joint import JointDiagnosis
-from beam.physics.effects import EFFECTS
+from beam.physics.effects import EFFECTS, modal_damping, sensor_mass
 from dashboard.jobs.beam import effect_label
 from dashboard.jobs.joint import JointKey, JointOutcome, available_records, joint_diagnosis_run, joint_run, load_record
 from dashboard.outputs.toy import user_message
@@ -33,7 +33,7 @@ __all__ = ["DEFAULT_EFFECTS", "DEFAULT_RECORDS", "SAMPLING", "JointState"]
 DEFAULT_RECORDS = ("adxl_50cm_114655", "adxl_50cm_114759")
 #: The model at first: a damping ratio per mode and the sensor's mass (what the real strip needs,
 #: docs/joint-calibration.md).
-DEFAULT_EFFECTS = ("modal_damping", "sensor_mass")
+DEFAULT_EFFECTS = (modal_damping.EFFECT.id, sensor_mass.EFFECT.id)
 #: Sampling choices as shown: the Laplace preview only, or emcee for that many ensemble steps.
 SAMPLING = {"Laplace only (seconds)": 0, "MCMC, 300 steps (~1 min)": 300, "MCMC, 1000 steps (minutes)": 1000}
 STAGES = ("idle", "queued", "preview", "sampling", "final", "error")

@@ -32,6 +32,7 @@ import param
 from beam.io.materials import MATERIALS
 from beam.io.readers.units import SIGNAL_UNITS
 from beam.io.text import dump_toml
+from beam.physics.effects import sensor_mass
 from dashboard.jobs.record import Described, FileContents, RecordRead, beam_document, describe_job, read_job
 from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
@@ -41,7 +42,7 @@ from dashboard.state.editing import editing
 __all__ = ["FORM_INPUTS", "READ_OPTIONS", "RecordState"]
 
 #: The inputs that describe the beam (all but the sensor's mass are required).
-FORM_INPUTS = ("length_m", "width_m", "thickness_m", "material", "sensor_position_m", "sensor_mass_kg",
+FORM_INPUTS = ("length_m", "width_m", "thickness_m", "material", "sensor_position_m", sensor_mass.MASS.name,
                "sensor_mass_approximate")
 _REQUIRED = ("length_m", "width_m", "thickness_m", "material", "sensor_position_m")
 #: The reading options (parameters) and the keywords of :func:`beam.io.readers.read_record` they give.

@@ -22,6 +22,7 @@ import panel as pn
 import param
 
 from beam.io.readers.units import display_unit
+from beam.physics.effects import sensor_mass
 from dashboard.jobs.beam import MAX_UPLOAD_BYTES, upload_size_text
 from dashboard.plots.record import BeamSketch, SpectrumPlot
 from dashboard.runtime.staging import run_steps
@@ -255,9 +256,9 @@ class RecordView(pn.viewable.Viewer):
         numbers = {name: pn.widgets.FloatInput.from_param(r.param[name], sizing_mode="stretch_width",
                                                           css_classes=[f"record-{name.replace('_', '-')}"],
                                                           placeholder="empty")
-                   for name in ("length_m", "width_m", "thickness_m", "sensor_position_m", "sensor_mass_kg")}
+                   for name in ("length_m", "width_m", "thickness_m", "sensor_position_m", sensor_mass.MASS.name)}
         for name, step in (("length_m", 0.01), ("width_m", 0.001), ("thickness_m", 0.0001), ("sensor_position_m", 0.01),
-                           ("sensor_mass_kg", 0.01)):
+                           (sensor_mass.MASS.name, 0.01)):
             numbers[name].step = step
         material = _select(r, "material", {"(choose)": NOT_GIVEN, **{m: m for m in r.param.material.objects}},
                            "record-material")
@@ -275,7 +276,7 @@ class RecordView(pn.viewable.Viewer):
                     sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-beam-kept"])
         self._left.append(pn.Card(
             kept, numbers["length_m"], numbers["width_m"], numbers["thickness_m"], material, numbers["sensor_position_m"],
-            numbers["sensor_mass_kg"], guess, missing, form_error,
+            numbers[sensor_mass.MASS.name], guess, missing, form_error,
             title="2. Your beam", collapsible=False, sizing_mode="stretch_width"))
 
     def _build_plots(self) -> None:
@@ -287,7 +288,7 @@ class RecordView(pn.viewable.Viewer):
             self._sketch.update(r.length_m, r.sensor_position_m, r.sensor_mass_kg)
 
         sketch()
-        r.param.watch(sketch, ["length_m", "sensor_position_m", "sensor_mass_kg"])
+        r.param.watch(sketch, ["length_m", "sensor_position_m", sensor_mass.MASS.name])
 
         def spectrum(*_):
             read = r.read
@@ -319,7 +320,7 @@ class RecordView(pn.viewable.Viewer):
         r = self._record
         ready = pn.bind(lambda *_: not r.can_load(), r.param.described, r.param.loaded,
                         *(r.param[n] for n in ("length_m", "width_m", "thickness_m", "material", "sensor_position_m",
-                                               "sensor_mass_kg", "sensor_mass_approximate")))
+                                               sensor_mass.MASS.name, "sensor_mass_approximate")))
         load = pn.widgets.Button(label="Load and calibrate", color="primary", sizing_mode="stretch_width",
                                  disabled=ready, css_classes=["record-load"])
         load.on_click(lambda e: r.load())

@@ -10,6 +10,7 @@ import numpy as np
 
 from beam.calibration.setup import BeamCalibrationSetup, BeamForwardModel, prior_centre
 from beam.inference import Problem
+from beam.physics.effects.base import BENDING_STIFFNESS, PATCH_COUPLING
 from beam.physics.model import BeamModel
 
 __all__ = ["BARELY_ON", "BASE_NAMES", "DAMPED_AWAY", "SCALE_GRID", "SEARCH_GAIN_NATS", "StartStrategy", "barely_on",
@@ -59,7 +60,7 @@ BARELY_ON = 0.02
 
 
 #: The parameters of the base model (EI from the spectrum, k_p by least squares in the design).
-BASE_NAMES = ("bending_stiffness_Nm2", "patch_coupling_NmV")
+BASE_NAMES = (BENDING_STIFFNESS.name, PATCH_COUPLING.name)
 
 
 #: Where a damped-away mode's damping ratio starts: this fraction of its log prior range from the
@@ -102,10 +103,10 @@ def barely_on(problem: Problem, name: str) -> float:
 
 
 def damping_only(effect: str) -> bool:
-    """Whether the effect only adds damping (it keeps the modes: no new basin)."""
+    """Whether the effect only adds linear damping (it keeps the modes: no new basin)."""
     from beam.physics.effects import EFFECTS
 
-    return all(term.target == "damping" for term in EFFECTS[effect].terms)
+    return EFFECTS[effect].channel is None and all(term.target == "damping" for term in EFFECTS[effect].terms)
 
 
 def pure_damping_parameter(name: str) -> bool:
