@@ -211,7 +211,7 @@ def format_joint_report(summary: dict) -> str:
              "  per record: a rung's error in the window / after it (the error a candidate is judged on; the MAP's"
              f"{', ' + unit if unit else ''}); a candidate's own Δ log evidence alone, then its errors under the joint fit",
              "  " + f"{'row':26s} {'joint Δ log Z':>14s}  {'judged':31s}"
-             + "".join(f" {k + 1}: {n:>26s}" for k, n in enumerate(names))]
+             + "".join(f" {f'{k + 1}: {n}':>29s}" for k, n in enumerate(names))]
     rows = summary.get("table") or []
     for row in rows:
         cells = []

@@ -19,7 +19,8 @@ import numpy as np
 
 import beam.residuals as dx
 from beam.calibration import CalibrationResult
-from beam.discovery.judgement import STATUS_WORDS, judge
+from beam.discovery.judgement import AT_NOISE_RATIO as JUDGED_AT_NOISE
+from beam.discovery.judgement import judge
 from beam.discovery.plausibility import bound_notes
 from beam.discovery.ranking import (
     MATERIAL_LOG_EVIDENCE,
@@ -55,8 +56,9 @@ class ResidualReport:
 
 #: Held-out error of the last rung, in units of the noise floor, above which it is "well above the noise".
 OUTSIDE_CATALOGUE_RATIO = 2.0
-#: ... at or below which the model "predicts to the noise" (whatever the whiteness of what remains).
-AT_NOISE_RATIO = 1.5
+#: ... at or below which the model "predicts to the noise" (whatever the whiteness of what remains;
+#: the one rule's point 2 reads the same number, :data:`beam.discovery.judgement.AT_NOISE_RATIO`).
+AT_NOISE_RATIO = JUDGED_AT_NOISE
 
 
 @dataclass(frozen=True)

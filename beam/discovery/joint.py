@@ -27,8 +27,10 @@ models'. :meth:`JointDiagnosis.intervals` gives the last rung's shared parameter
 joint interval and what widens it (the correlations, a record the joint model fits worse than its
 own fit does).
 
-A parameter that changes the geometry (the effective free length) is calibrated per record in a
-joint fit: it is each record's own clamp, relative to that record's stated length.
+An effect that changes the geometry (the effective free length) is not offered on records of
+different stated lengths: one free length shared by a 30 cm and a 60 cm record is no strip's (its
+joint fit put f1 75 % off), and one per record (``--per-record effective_length``, when asked)
+frees every record's f1 by its own parameter.
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
+from beam.calibration import CalibrationResult
 from beam.calibration.joint import JointCalibrationResult, joint_preview
 from beam.calibration.spec import CalibrationSpec
 from beam.discovery.held_out import held_out_error
@@ -49,19 +52,26 @@ from beam.discovery.judgement import (
     Judgement,
     effect_kind,
     judge_numbers,
+    noise_floor_sd,
     order_key,
 )
 from beam.discovery.plausibility import implausible_parameters
 from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, candidate_effects, with_effect
 from beam.calibration.defaults import DEFAULT_EFFECTS
 from beam.errors import BeamInputError
+from beam.inference import LaplaceResult, MapResult
 from beam.physics.effects import BASE_PARAMETERS, EFFECTS, sensor_mass, tip_mass
 
-__all__ = ["JointCandidate", "JointDiagnosis", "JointRung", "MAX_JOINT_RUNGS", "SEPARATING_NATS", "alone_separation",
-           "joint_diagnose", "joint_order_key", "judge_joint", "separation_words"]
+__all__ = ["JointCandidate", "JointDiagnosis", "JointRung", "MAX_JOINT_RUNGS", "SEPARATING_NATS", "TIED_NATS",
+           "alone_separation", "joint_candidates", "joint_diagnose", "joint_order_key", "judge_joint", "map_views",
+           "separation_words"]
 
 #: Most effects the joint ladder adds to the base.
 MAX_JOINT_RUNGS = 3
+#: Two missing candidates of a rung whose joint evidence differs by less than this (nats) are tied:
+#: the ladder climbs on both (two paths at most) and keeps the path that ends with the higher joint
+#: evidence (:data:`beam.discovery.findings.INDISTINGUISHABLE_LOG_EVIDENCE`'s 3 nats: odds under 20 : 1).
+TIED_NATS = 3.0
 
 #: Evidence difference (nats) above which two effects are told apart, below which (|Δ| < 3: odds
 #: under 20:1) a record is said not to separate them.
@@ -159,6 +169,8 @@ class JointRung:
     added: str | None
     fit: JointCalibrationResult
     candidates: list[JointCandidate] = field(default_factory=list)
+    #: The candidates' joint fits on top of it.
+    fits: dict[str, JointCalibrationResult] = field(default_factory=dict, repr=False)
 
 
 @dataclass
@@ -174,6 +186,9 @@ class JointDiagnosis:
     seconds: float
     suggestion: dict | None = None  # which record to take next (beam.discovery.suggest.next_record)
     rungs: list[JointRung] = field(default_factory=list)
+    #: The other path of a tie (:data:`TIED_NATS`): its added effects and how far below the kept
+    #: path's last rung its own ends (nats); None when no rung was tied.
+    other_path: tuple[tuple[str, ...], float] | None = None
 
     @property
     def names(self) -> list[str]:
@@ -203,23 +218,35 @@ class JointDiagnosis:
 
     @property
     def separated(self) -> list[tuple[str, str]]:
-        """Pairs (better, worse) of effects that change the same thing (:func:`effect_kind`): a
-        missing candidate and one ranked below it that every record alone leaves within
-        :data:`SEPARATING_NATS` of it (:func:`alone_separation`) but the records together separate
-        by more."""
+        """Pairs (better, worse) of effects that change the same thing (:func:`effect_kind`): an
+        effect the ladder added and one judged beside it on the same rung, which the ladder does not
+        add later, that every record alone leaves within :data:`SEPARATING_NATS` of it
+        (:func:`alone_separation`) but the records together separate by more."""
+        return [(a, b) for _, a, b in self._separated()]
+
+    def _separated(self) -> list[tuple[int, str, str]]:
+        """:attr:`separated` with the rung (index in :attr:`ladder`) the two were judged on."""
+        ladder = self.ladder
+        added = [r.added for r in ladder[1:]]
         out = []
-        ranked = sorted((c for c in self.candidates if c.delta_log_evidence is not None),
-                        key=lambda c: -c.delta_log_evidence)
-        for i, a in enumerate(ranked):
-            if not a.material:
+        for k in range(len(ladder) - 1):
+            judged = {c.effect: c for c in ladder[k].candidates if c.delta_log_evidence is not None}
+            a = judged.get(ladder[k + 1].added)
+            if a is None or not a.material:
                 continue
-            for b in ranked[i + 1:]:
-                if effect_kind(a.effect) != effect_kind(b.effect) or b.effect not in self.fits:
+            for b in sorted(judged.values(), key=lambda c: -c.delta_log_evidence):
+                if b.effect == a.effect or b.effect in added or effect_kind(a.effect) != effect_kind(b.effect):
+                    continue
+                if b.effect not in self._fits_of(k):
                     continue
                 alone = np.abs(alone_separation(a, b))
                 if np.all(alone < SEPARATING_NATS) and a.delta_log_evidence - b.delta_log_evidence >= SEPARATING_NATS:
-                    out.append((a.effect, b.effect))
+                    out.append((k, a.effect, b.effect))
         return out
+
+    def _fits_of(self, k: int) -> dict[str, JointCalibrationResult]:
+        """The joint fits of the candidates judged on rung ``k`` (the base's: :attr:`fits`)."""
+        return self.fits if k == 0 or not self.rungs else self.rungs[k].fits
 
     def measured_f1_Hz(self) -> list[float]:
         """Each record's own first frequency (Hz): the record's identified mode matched to the base
@@ -241,29 +268,29 @@ class JointDiagnosis:
         the first natural frequency of the two joint MAP models (``f1_better_Hz``, ``f1_worse_Hz``)
         and their difference ``f1_difference_pct`` (100 |f_better - f_worse| / f_worse)."""
         out = []
-        by_effect = {c.effect: c for c in self.candidates}
         measured = self.measured_f1_Hz()
-        for better, worse in self.separated:
-            a, b = self.f1_Hz(better), self.f1_Hz(worse)
+        for k, better, worse in self._separated():
+            by_effect = {c.effect: c for c in self.ladder[k].candidates}
+            a, b = self.f1_Hz(better, k), self.f1_Hz(worse, k)
             records = []
-            for view, fa, fb, fm in zip(self.base.record_results(), a, b, measured):
+            for view, fa, fb, fm in zip(map_views(self.base), a, b, measured):
                 geometry = view.setup.measurement.geometry
                 records.append({"record": view.setup.measurement.name, "length_m": float(geometry.length_m),
                                 "sensor_position_m": float(geometry.sensor_position_m),
                                 "f1_measured_Hz": fm if math.isfinite(fm) else None,
                                 "f1_better_Hz": fa, "f1_worse_Hz": fb, "f1_difference_pct": 100.0 * abs(fa - fb) / fb})
-            out.append({"better": better, "worse": worse,
-                        "delta_log_evidence": self._delta(better) - self._delta(worse),
+            out.append({"better": better, "worse": worse, "rung": k,
+                        "delta_log_evidence": by_effect[better].delta_log_evidence - by_effect[worse].delta_log_evidence,
                         "alone": [float(v) for v in alone_separation(by_effect[better], by_effect[worse])],
                         "records": records})
         return out
 
-    def f1_Hz(self, effect: str | None) -> list[float]:
-        """Each record's first natural frequency (Hz) under the joint MAP of base + ``effect``
-        (None: the base)."""
-        fit = self.base if effect is None else self.fits[effect]
+    def f1_Hz(self, effect: str | None, rung: int = 0) -> list[float]:
+        """Each record's first natural frequency (Hz) under the joint MAP of rung ``rung``'s model +
+        ``effect`` (None: the base)."""
+        fit = self.base if effect is None else self._fits_of(rung)[effect]
         out = []
-        for view in fit.record_results():
+        for view in map_views(fit):
             values = {n: float(v) for n, v in view.laplace.map.values.items() if n in view.setup.physical_names}
             out.append(float(view.setup.model.natural_modes(values, 1)[0][0]))
         return out
@@ -279,8 +306,18 @@ class JointDiagnosis:
                     f"Δ log evidence ≥ {MATERIAL_LOG_EVIDENCE:g} nats, with a material fall of the error and no "
                     f"record predicted worse after the window).{why}")
         rungs = self.ladder[1:]
-        added = ", then ".join(f"{r.added} ({self._rung_gain(k + 1):+.1f} nats)" for k, r in enumerate(rungs))
+        values = self.ladder[-1].fit.laplace.map.values
+
+        def own(effect):  # the added effect's own parameters at the last rung's joint MAP
+            spec = EFFECTS[effect]
+            shown = [f"{p.symbol} = {float(values[p.name]):.3g} {p.unit}" for p in spec.parameters if p.name in values]
+            return f"; {', '.join(shown)}" if shown else ""
+
+        added = ", then ".join(f"{r.added} ({self._rung_gain(k + 1):+.1f} nats{own(r.added)})" for k, r in enumerate(rungs))
         words = [f"Jointly on {len(self.names)} records the model misses {added}."]
+        if self.other_path is not None and self.other_path[0]:
+            words.append(f"(A tied rung was climbed both ways: the path {', then '.join(self.other_path[0])} ends "
+                         f"{self.other_path[1]:.1f} nats lower.)")
         for pair in self.separation():
             words.append(separation_words(pair))
         words += self.interval_words()
@@ -290,9 +327,6 @@ class JointDiagnosis:
         """The joint Δ log evidence of rung ``k`` over rung ``k - 1`` (nats)."""
         ladder = self.ladder
         return float(ladder[k].fit.laplace.log_evidence - ladder[k - 1].fit.laplace.log_evidence)
-
-    def _delta(self, effect: str) -> float:
-        return next(c.delta_log_evidence for c in self.candidates if c.effect == effect)
 
     def records_json(self) -> list[dict]:
         """Per record: ``record``, ``modes_table`` (the base model's joint fit against the record's
@@ -434,13 +468,35 @@ class JointDiagnosis:
         }
 
 
+def map_views(fit: JointCalibrationResult) -> tuple[CalibrationResult, ...]:
+    """Each record under the joint MAP, for its MAP figures only (its errors in the window and after
+    it, :mod:`beam.discovery.held_out`): the record's own setup and problem at the joint MAP's values
+    of its parameters, without the predictive bands :meth:`JointCalibrationResult.record_results`
+    computes (no coverage, no draws). Kept on the fit."""
+    memo = vars(fit)
+    if "_map_views" not in memo:
+        views = []
+        for k, single in enumerate(fit.records):
+            names = fit.problem.record_names(k)
+            own = single.problem
+            values = {n: float(fit.laplace.map.values[names[n]]) for n in own.names}
+            z = own.to_internal(values)
+            found = MapResult(z=z, values=values, log_posterior=math.nan, gradient=None, hessian=None, hessian_point=z,
+                              converged=fit.laplace.map.converged, message="the joint MAP", n_starts=1,
+                              at_bound=tuple(n for n in own.names if names[n] in fit.laplace.map.at_bound))
+            laplace = LaplaceResult(own, found, z, None, math.nan, False)
+            views.append(CalibrationResult(single.setup, own, laplace, None, None, fit.seconds))
+        memo["_map_views"] = tuple(views)
+    return memo["_map_views"]
+
+
 def _record_errors(fit: JointCalibrationResult, against: JointCalibrationResult | None = None) -> list[dict]:
     """Each record's MAP errors under ``fit`` (output's unit): ``rmse_calibration``,
     ``rmse_prediction`` (forward from the window) and ``held_out_judged`` (the error after the
     window a candidate is judged on, :func:`beam.discovery.held_out.held_out_error`, compared with
     ``against``'s model when given)."""
-    views = fit.record_results()
-    others = [None] * len(views) if against is None else against.record_results()
+    views = map_views(fit)
+    others = [None] * len(views) if against is None else map_views(against)
     out = []
     for view, other in zip(views, others):
         judged = held_out_error(view, *(() if other is None else (other,)))
@@ -479,11 +535,12 @@ def judge_joint(effect: str, current: JointCalibrationResult, fit: JointCalibrat
     if isinstance(fit, Exception):
         return Judgement(effect, "failed", -math.inf)
     gain = float(fit.laplace.log_evidence - current.laplace.log_evidence)
-    before, after = current.record_results(), fit.record_results()
+    before, after = map_views(current), map_views(fit)
     free = before[0].setup.is_free
-    judged, held, counts, held_counts, worse = ([0.0, 0.0], [0.0, 0.0], 0, 0, False)
+    judged, held, counts, held_counts, worse, noise = ([0.0, 0.0], [0.0, 0.0], 0, 0, False, 0.0)
     for b, a in zip(before, after):
         n = int(np.count_nonzero(b.setup.fit_mask))
+        noise += n * noise_floor_sd(b) ** 2
         pair = (b.rmse_calibration_map, a.rmse_calibration_map) if free else (b.rmse_prediction_map, a.rmse_prediction_map)
         judged = [judged[0] + n * pair[0] ** 2, judged[1] + n * pair[1] ** 2]
         counts += n
@@ -501,7 +558,7 @@ def judge_joint(effect: str, current: JointCalibrationResult, fit: JointCalibrat
     j = judge_numbers(effect, gain, pooled(judged, counts), pooled(held, held_counts),
                       judged_label="calibration-window error" if free else "held-out error",
                       held_out_label=free_label if free and not fit.records[0].setup.model.is_nonlinear
-                      else "held-out error", findings=findings)
+                      else "held-out error", findings=findings, noise=math.sqrt(noise / counts) if counts else math.nan)
     if j.status in ("missing", "not_material") and worse and gain >= MATERIAL_LOG_EVIDENCE:
         j = replace(j, status="fails_after_window")
     return j
@@ -548,11 +605,11 @@ def separation_words(pair: dict) -> str:
 def _ladder_rung(fit: JointCalibrationResult) -> dict:
     """A rung's figures in the JSON: the joint log evidence and, per record, the MAP's errors (the
     numbers of the table) and the band's coverage."""
-    views = fit.record_results()
+    views, banded = map_views(fit), fit.record_results()
     return {"log_evidence": float(fit.laplace.log_evidence),
             "rmse_calibration": [v.rmse_calibration_map for v in views],
             "rmse_prediction": [v.rmse_prediction_map for v in views],
-            "coverage95_prediction": [v.coverage95_prediction for v in views]}
+            "coverage95_prediction": [v.coverage95_prediction for v in banded]}
 
 
 def joint_diagnose(
@@ -591,34 +648,53 @@ def joint_diagnose(
     measurements = tuple(measurements)
     spec = CalibrationSpec(window=window, effects=base, modes=modes)
     if candidates is None:
-        offered = [set(candidate_effects(spec.effects, m)) for m in measurements]
-        candidates = [e for e in candidate_effects(spec.effects, measurements[0]) if all(e in o for o in offered)]
+        candidates = joint_candidates(measurements, spec.effects, per_record)
     candidates = tuple(candidates)
     fit = _fitter(measurements, spec, per_record, shared, engine)
     base_fit = fit(spec.effects)
     if isinstance(base_fit, Exception):
         raise base_fit
     ranked, fits = _judged(fit, base_fit, spec.effects, candidates, 0)
-    rungs = [JointRung(tuple(spec.effects), None, base_fit, ranked)]
-    current, effects, left = base_fit, tuple(spec.effects), [c.effect for c in ranked]
-    while climb and len(rungs) <= MAX_JOINT_RUNGS:
-        best = next((c for c in rungs[-1].candidates if c.material), None)
-        if best is None:
+    first = JointRung(tuple(spec.effects), None, base_fit, ranked, fits)
+    paths = [[first]]
+    for depth in range(1, MAX_JOINT_RUNGS + 1 if climb else 1):
+        grown = []
+        for path in paths:
+            last = path[-1]
+            material = [c for c in last.candidates if c.material]
+            if not material:
+                grown.append(path)  # the climb of this path has ended
+                continue
+            tied = [c for c in material[1:2] if material[0].delta_log_evidence - c.delta_log_evidence < TIED_NATS]
+            for c in [material[0], *tied]:
+                chosen = with_effect(last.effects, c.effect)
+                taken = {r.added for r in path} | {c.effect}
+                left = [e for e in candidates if e not in taken]
+                rung = JointRung(chosen, c.effect, last.fits[c.effect])
+                if left and depth < MAX_JOINT_RUNGS:
+                    rung.candidates, rung.fits = _judged(fit, rung.fit, chosen, left, depth)
+                grown.append([*path, rung])
+        paths = sorted(grown, key=lambda p: -float(p[-1].fit.laplace.log_evidence))[:2]
+        if all(not any(c.material for c in p[-1].candidates) for p in paths):
             break
-        chosen = with_effect(effects, best.effect)
-        current = fits[best.effect] if len(rungs) == 1 else rungs[-1].candidates_fits[best.effect]
-        left = [e for e in left if e != best.effect]
-        effects = chosen
-        if not left or len(rungs) == MAX_JOINT_RUNGS:
-            rungs.append(JointRung(chosen, best.effect, current))
-            break
-        on_top, top_fits = _judged(fit, current, chosen, left, len(rungs))
-        rung = JointRung(chosen, best.effect, current, on_top)
-        rung.candidates_fits = top_fits
-        rungs.append(rung)
-    for rung in rungs:
-        rung.__dict__.pop("candidates_fits", None)
-    return JointDiagnosis(base_fit, ranked, fits, time.perf_counter() - t0, rungs=rungs)
+    best = paths[0]
+    other = None
+    if len(paths) > 1 and [r.added for r in paths[1]] != [r.added for r in best]:
+        other = (tuple(r.added for r in paths[1][1:]),
+                 float(best[-1].fit.laplace.log_evidence - paths[1][-1].fit.laplace.log_evidence))
+    return JointDiagnosis(base_fit, ranked, fits, time.perf_counter() - t0, rungs=best, other_path=other)
+
+
+def joint_candidates(measurements: Sequence, base: Iterable[str], per_record=None) -> list[str]:
+    """The candidates every record can show (:func:`beam.discovery.ranking.candidate_effects`),
+    without a geometry-changing effect on records of different stated lengths unless its parameter is
+    per record (module notes)."""
+    base = tuple(base)
+    offered = [set(candidate_effects(base, m)) for m in measurements]
+    lengths = {round(float(m.geometry.length_m), 6) for m in measurements}
+    asked = set(_names_in(per_record, tuple(EFFECTS)) or ())
+    return [e for e in candidate_effects(base, measurements[0]) if all(e in o for o in offered)
+            and (EFFECTS[e].geometry is None or len(lengths) == 1 or EFFECTS[e].geometry.parameter in asked)]
 
 
 def _judged(fit, current: JointCalibrationResult, effects: tuple[str, ...], names: Sequence[str],
@@ -665,9 +741,6 @@ def _fitter(measurements, spec, per_record, shared, engine):
     def fit(effects, starts=()):
         try:
             physical_names = _names_in(per_record, effects)
-            geometric = [EFFECTS[e].geometry.parameter for e in effects if EFFECTS[e].geometry is not None]
-            if geometric:  # each record's own clamp, relative to its own stated length
-                physical_names = [*(physical_names or []), *(g for g in geometric if g not in (physical_names or []))]
             return joint_preview(measurements, spec.with_effects(effects), per_record=physical_names,
                                  shared=shared, engine=engine, starts=starts)
         except (BeamInputError, RuntimeError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:

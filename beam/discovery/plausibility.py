@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass
 
 from beam.calibration import CalibrationResult
-from beam.physics.effects import EFFECTS, effect_of_parameter
+from beam.physics.effects import EFFECTS, parameter_spec
 from beam.physics.effects.base import BENDING_STIFFNESS
 
 __all__ = ["Finding", "STATED_MIN_FACTOR", "STATED_SIGMAS", "bound_notes", "implausible_parameters",
@@ -91,7 +91,7 @@ _SCALE_WORDS = {"EI/L": "EI / L", "EI/L^5": "EI / L⁵", "rho L": "the strip's o
 def plausible_range(name: str, fit: CalibrationResult) -> tuple[float, float] | None:
     """The plausible range (natural units) of parameter ``name`` on ``fit``'s strip, None when its
     spec gives none."""
-    spec = EFFECTS[effect_of_parameter(name)].parameter(name)
+    spec = parameter_spec(name)
     if spec.plausible is None:
         return None
     unit = _scale(spec.plausible_scale, fit)
@@ -104,7 +104,7 @@ def stated_range(name: str, fit: CalibrationResult) -> tuple[float, float, float
     stated = m.nominal.get(name)
     if stated is None or not stated > 0:
         return None
-    spec = EFFECTS[effect_of_parameter(name)].parameter(name)
+    spec = parameter_spec(name)
     spread = m.nominal_spread.get(name, spec.nominal_log_sd or 0.0)
     factor = max(math.exp(STATED_SIGMAS * float(spread)), STATED_MIN_FACTOR)
     return float(stated), float(stated) / factor, float(stated) * factor
@@ -123,7 +123,8 @@ def implausible_parameters(effect: str, fit: CalibrationResult) -> list[Finding]
             continue
         spec = spec_of.parameter(name)
         value = float(values[name])
-        shown = f"{spec.symbol} = {_number(value)}{'' if spec.unit == '1' else ' ' + spec.unit}"
+        unit = "" if spec.unit == "1" else f" {spec.unit}"
+        shown = f"{spec.symbol} = {_number(value)}{unit}"
         prior = priors.get(name)
         if name in at_bound and prior is not None:
             upper = abs(value - prior.upper) <= abs(value - prior.lower)
@@ -131,10 +132,10 @@ def implausible_parameters(effect: str, fit: CalibrationResult) -> list[Finding]
             bound = prior.upper if upper else prior.lower
             if absent:
                 findings.append(Finding(name, value, "absent", f"{shown} sits where the effect vanishes (the end of "
-                                        f"its prior, {_number(bound)} {spec.unit}): the fit switched it off"))
+                                        f"its prior, {_number(bound)}{unit}): the fit switched it off"))
             else:
                 findings.append(Finding(name, value, "bound", f"{shown} sits at the {'upper' if upper else 'lower'} "
-                                        f"bound of its prior ({_number(bound)} {spec.unit}): the data push it beyond "
+                                        f"bound of its prior ({_number(bound)}{unit}): the data push it beyond "
                                         "every value such an effect is given"))
             continue
         stated = stated_range(name, fit)
@@ -142,8 +143,8 @@ def implausible_parameters(effect: str, fit: CalibrationResult) -> list[Finding]
             said, low, high = stated
             if not low <= value <= high:
                 ratio = value / said
-                findings.append(Finding(name, value, "stated", f"{shown} is {_number(ratio)} times the {_number(said)} "
-                                        f"{spec.unit} the record states (at most a factor {_number(high / said)} "
+                findings.append(Finding(name, value, "stated", f"{shown} is {_number(ratio)} times the {_number(said)}"
+                                        f"{unit} the record states (at most a factor {_number(high / said)} "
                                         "either way)"))
             continue
         plausible = plausible_range(name, fit)
@@ -155,12 +156,13 @@ def implausible_parameters(effect: str, fit: CalibrationResult) -> list[Finding]
 def _range_words(spec, plausible: tuple[float, float]) -> str:
     """``"2–20 (…what the literature finds)"`` in natural units, with the scaled range when it has one."""
     low, high = plausible
+    unit = "" if spec.unit == "1" else f" {spec.unit}"
     if math.isinf(high):
-        text = f"the plausible {_number(low)} {spec.unit} and above"
+        text = f"the plausible {_number(low)}{unit} and above"
     elif low <= 0.0:
-        text = f"the plausible range (up to {_number(high)} {spec.unit})"
+        text = f"the plausible range (up to {_number(high)}{unit})"
     else:
-        text = f"the plausible {_number(low)}–{_number(high)} {spec.unit}"
+        text = f"the plausible {_number(low)}–{_number(high)}{unit}"
     if spec.plausible_scale is not None:
         lo, hi = spec.plausible
         scaled = (f"{_number(lo)} {_SCALE_WORDS[spec.plausible_scale]} and above" if math.isinf(hi) else
@@ -172,20 +174,15 @@ def _range_words(spec, plausible: tuple[float, float]) -> str:
 
 def bound_notes(fit: CalibrationResult) -> list[str]:
     """One clause per physical parameter of ``fit`` at a prior bound that is not at the end where
-    its effect vanishes (a damping the prior cannot make large enough, say): such a fit has not
-    found the record's value of it, whatever its convergence diagnostics say."""
+    its effect vanishes (:attr:`beam.calibration.CalibrationResult.pressed_parameters`: a damping the
+    prior cannot make large enough, say): such a fit has not found the record's value of it,
+    whatever its convergence diagnostics say."""
     values = fit.laplace.map.values
-    priors = {p.name: p.prior for p in fit.problem.parameters}
     out = []
-    for name in fit.laplace.map.at_bound:
-        if name not in fit.setup.physical_names or name not in priors:
-            continue
-        effect = effect_of_parameter(name)
-        spec = BENDING_STIFFNESS if effect is None else EFFECTS[effect].parameter(name)
-        value, prior = float(values[name]), priors[name]
+    for name in fit.pressed_parameters:
+        spec = parameter_spec(name)
+        value, prior = float(values[name]), fit.problem.parameter(name).prior
         upper = abs(value - prior.upper) <= abs(value - prior.lower)
-        if spec.absent_at in ("low", "high") and (spec.absent_at == "high") == upper:
-            continue  # the effect switched off: nothing claimed
         out.append(f"{name} = {_number(value)} {spec.unit} sits at the {'upper' if upper else 'lower'} bound of its prior "
                    f"({_number(prior.upper if upper else prior.lower)} {spec.unit})")
     return out
