@@ -268,7 +268,8 @@ def format_report(summary: dict) -> str:
         lines.append(f"  {row['mode']:>4d} {_m(row['frequency_data_Hz']):>12s} {_m(row['frequency_model_Hz']):>13s} "
                      f"{_m(row['frequency_error_pct']):>16s} {_m(row['damping_data']):>10s} {_m(row['damping_model']):>11s}"
                      + (f"  not seen: {row['note']}" if row.get("note") else ""))
-    lines += ["", f"candidate effects, best first ({ORDER_WORDS}; * missing)",
+    lines += ["", f"candidate effects on the base model, best first ({ORDER_WORDS}; * missing; the ladder judges "
+              "the rest again on top of each rung)",
               f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE':>18s}  {'judged':31s} why"]
     for c in summary["candidates"]:
         mark = "*" if c["material"] else " "

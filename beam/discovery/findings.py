@@ -474,11 +474,14 @@ class VerdictFacts:
         """:attr:`window_notes` with each effect called ``name(effect_id)`` (the dashboard: its title),
         then one sentence per candidate whose fit is not that effect (the judgement's reason)."""
         base = self.base
-        contradicted = sorted((c for c in self.ranking.candidates if window_only(c, base)),
-                              key=lambda c: -c.delta_log_evidence)
+        added = {step.added for step in getattr(self, "ladder", ()) or () if step.added is not None}
+        # an effect the ladder adds later (named missing on top of a rung) is no longer "not borne out"
+        # or "not this effect": those were its judgement on the base alone
+        kept = [c for c in self.ranking.candidates if c.effect not in added]
+        contradicted = sorted((c for c in kept if window_only(c, base)), key=lambda c: -c.delta_log_evidence)
         notes = [window_only_words(name(c.effect), c.delta_log_evidence, held_out_change(c, base), base.setup.is_free)
                  for c in contradicted[:MAX_WINDOW_NOTES]]
-        notes += [judgement_of(c, base).reason(name) for c in self.ranking.candidates
+        notes += [judgement_of(c, base).reason(name) for c in kept
                   if judgement_of(c, base).status == "implausible"][:MAX_WINDOW_NOTES]
         return notes
 
@@ -604,8 +607,8 @@ class DiagnosisReport(VerdictFacts):
         effects = self.repair_effects
         if effects is None:
             return None
-        start, end = self.base.setup.window
-        return (f"beam calibrate {data or self.measurement.name} --window {start:g}:{end:g} "
+        start, end = (f"{round(t, 3):.3f}".rstrip("0").rstrip(".") for t in self.base.setup.window)  # to the ms
+        return (f"beam calibrate {data or self.measurement.name} --window {start}:{end} "
                 f"--modes {self.base.setup.modes} --effects {','.join(effects)}")
 
     @property
@@ -803,7 +806,11 @@ def explainer(residuals: ResidualReport) -> Explainer:
             return f"{words}. What the residuals show: {sentence}"
         if judgement.status == "implausible":
             words = judgement.reason(lambda e: EFFECTS[e].title)
-            return f"{words[0].upper()}{words[1:]} (+{gain:.0f} nats in the window). What the residuals show: {sentence}"
+            change = judgement.judged_change
+            moved = ("" if not math.isfinite(change) else
+                     f", its {judgement.judged_label} {100 * abs(change):.0f} % {'lower' if change < 0 else 'higher'}")
+            return (f"{words[0].upper()}{words[1:]} (+{gain:.0f} nats in the window{moved}). What the residuals show: "
+                    f"{sentence}")
         if judgement.material and scores.get(effect, 0.0) >= 1.0:
             return sentence
         judged = judgement.judged_label

@@ -165,10 +165,11 @@ def _range_words(spec, plausible: tuple[float, float]) -> str:
         text = f"the plausible {_number(low)}–{_number(high)}{unit}"
     if spec.plausible_scale is not None:
         lo, hi = spec.plausible
-        scaled = (f"{_number(lo)} {_SCALE_WORDS[spec.plausible_scale]} and above" if math.isinf(hi) else
-                  f"up to {_number(hi)} {_SCALE_WORDS[spec.plausible_scale]}" if lo <= 0.0 else
-                  f"{_number(lo)}–{_number(hi)} {_SCALE_WORDS[spec.plausible_scale]}")
-        text += f" ({scaled} on this strip)"
+        scale = _SCALE_WORDS[spec.plausible_scale]
+        scaled = (f"{_number(lo)} {scale} and above" if math.isinf(hi) else
+                  (f"at most {scale}" if hi == 1.0 else f"up to {_number(hi)} {scale}") if lo <= 0.0 else
+                  f"{_number(lo)}–{_number(hi)} {scale}")
+        text += f": {scaled} on this strip"
     return text
 
 
