@@ -5,6 +5,7 @@ record states, and the command a student types next keeping the base's damping."
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -211,3 +212,27 @@ def test_drag_on_a_stiff_steel_bar_is_not_the_air_and_points_to_the_clamp():
     fall = np.std(bar.output[:third]) / np.std(bar.output[-third:])
     zeta_record = np.log(fall) / (np.sqrt(omega2[0]) * (bar.time_s[-1] - bar.time_s[0]) * 2 / 3)
     assert zeta_record > 4 * zeta_air
+
+
+def test_odds_for_the_effect_only_beside_an_effect_named_missing():
+    """The dashboard's row reads the candidate's judgement: "+8 388 nats, not named missing" beside
+    a fingerprint's "no sign of a missing tip mass", never odds for the effect (#38 item 8)."""
+    pytest.importorskip("panel")
+    from types import SimpleNamespace
+
+    from beam.discovery.ranking import Candidate
+    from dashboard.outputs.beam import output_units
+    from dashboard.views.diagnosis import DiagnosisView
+
+    base = SimpleNamespace(rmse_prediction_map=0.6, rmse_calibration_map=0.66,
+                           setup=SimpleNamespace(is_free=True, measurement=SimpleNamespace(output_kind="acceleration")))
+    diagnosis = SimpleNamespace(base=base)
+    words = "mode 1 is not clearly low relative to modes 2–3: no sign of a missing tip mass"
+    for status, gain in (("not_material", 8388.0), ("fails_after_window", 139.0), ("implausible", 644.0),
+                         ("missing", 8729.0)):
+        judgement = Judgement("tip_mass", status, gain, "calibration-window error", 0.66, 0.15,
+                              "error after the window (re-anchored on the record's amplitudes)", 0.24, 0.241)
+        c = Candidate("tip_mass", gain, 0.6, 0.15, 0.3, judgement.material, words, {}, judgement)
+        text = DiagnosisView._candidate_text(c, diagnosis, output_units(None))
+        assert bool(re.search(r"odds[^.;<]*for the effect", text)) == (status == "missing"), (status, text)
+        assert "re-anchored on the record's amplitudes" in text  # the error after the window it is judged on

@@ -268,8 +268,9 @@ class JointDiagnosis:
         the first natural frequency of the two joint MAP models (``f1_better_Hz``, ``f1_worse_Hz``)
         and their difference ``f1_difference_pct`` (100 |f_better - f_worse| / f_worse)."""
         out = []
-        measured = self.measured_f1_Hz()
-        for k, better, worse in self._separated():
+        pairs = self._separated()
+        measured = self.measured_f1_Hz() if pairs else []
+        for k, better, worse in pairs:
             by_effect = {c.effect: c for c in self.ladder[k].candidates}
             a, b = self.f1_Hz(better, k), self.f1_Hz(worse, k)
             records = []

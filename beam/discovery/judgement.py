@@ -96,15 +96,15 @@ class Judgement:
         amplitudes"`` or ``"held-out error"``).
     held_out_before, held_out_after : float
         That error of the model and with the candidate (NaN: no held-out part).
-    noise : float
-        The record's noise floor sd (output's unit; pooled over the records of a joint judgement),
-        NaN when unknown (point 2 then needs the fall).
     findings : tuple of Finding
         Its parameters that are not this effect's (:func:`beam.discovery.plausibility.implausible_parameters`).
     alternatives : tuple of str
         What else can explain the data, when it is not this effect (:func:`elsewhere`).
     alternative_reasons : tuple of str
         Why each alternative applies (the record's feature it needs, in words), in order.
+    noise : float
+        The record's noise floor sd (output's unit; pooled over the records of a joint judgement),
+        NaN when unknown (point 2 then needs the fall).
     """
 
     effect: str
