@@ -78,3 +78,41 @@ def stepped_beam_frequencies_Hz(segments: list[tuple[float, float, float]], coun
         return np.linalg.det(transfer[2:, 2:])  # free end: moment and shear vanish
 
     return bracket_roots(determinant, 1e-3, omega_max, count, grid=20000) / (2 * np.pi)
+
+
+def mass_spring_determinant(bending_stiffness: float, density: float, length: float, *,
+                            clamp_stiffness: float = np.inf, mass: float = 0.0, mass_at: float | None = None):
+    """The characteristic determinant D(omega) of a uniform cantilever (EI N m², rho kg/m, L m) held
+    at the root by a rotational spring k_theta (N m/rad; ``inf``: a rigid clamp), with a point mass
+    (kg, translation only) at ``mass_at`` (m from the root; default the tip): the transfer matrix of
+    [W, W', EI W'', (EI W'')'] across the two uniform segments and the mass's point matrix (the shear
+    jumps by m omega² W there), the root's state W = 0, EI W'' = k_theta W' (two unknowns: W'(0) and
+    the root's shear, or EI W''(0) and the shear for a rigid clamp), the free end's moment and shear
+    zero: the 2 x 2 determinant of those two conditions; its roots are the natural frequencies."""
+    where = length if mass_at is None else float(mass_at)
+
+    def determinant(omega):
+        root = (np.array([[0, 0], [1, 0], [clamp_stiffness, 0], [0, 1]], dtype=float) if np.isfinite(clamp_stiffness)
+                else np.array([[0, 0], [0, 0], [1, 0], [0, 1]], dtype=float))
+        state = _segment_transfer(omega, bending_stiffness, density, where) @ root
+        point = np.eye(4)
+        point[3, 0] = mass * omega**2
+        state = _segment_transfer(omega, bending_stiffness, density, length - where) @ (point @ state)
+        return np.linalg.det(state[2:, :])  # free end: moment and shear vanish
+
+    return determinant
+
+
+def cantilever_mass_spring_frequencies_Hz(bending_stiffness: float, density: float, length: float, *,
+                                          clamp_stiffness: float = np.inf, mass: float = 0.0,
+                                          mass_at: float | None = None, count: int = 3,
+                                          omega_max: float | None = None) -> np.ndarray:
+    """The first ``count`` exact natural frequencies (Hz) of :func:`mass_spring_determinant`'s beam:
+    its sign changes on a grid up to ``omega_max`` (default above the count-th mode of the
+    clamped-free beam without the mass), refined by brentq."""
+    if omega_max is None:
+        beta_l = (count + 0.5) * np.pi
+        omega_max = beta_l**2 * np.sqrt(bending_stiffness / (density * length**4))
+    determinant = mass_spring_determinant(bending_stiffness, density, length, clamp_stiffness=clamp_stiffness,
+                                          mass=mass, mass_at=mass_at)
+    return bracket_roots(determinant, 1e-3, omega_max, count, grid=400 * (count + 1)) / (2 * np.pi)

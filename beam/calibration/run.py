@@ -73,6 +73,7 @@ from beam.io.anchor import mode_order_warnings
 from beam.io.artifacts import record_warnings
 from beam.io.limits import MAX_CALIBRATION_SAMPLES
 from beam.io.measurement import Measurement
+from beam.physics.effects import effect_of_parameter, parameter_spec
 from beam.io.text import atomic_write_texts
 
 #: Header of the predictive band CSV written by ``--save``.
@@ -221,6 +222,25 @@ class CalibrationResult:
         residual = (m.output - self.map_prediction())[mask]
         return float(np.sqrt(np.mean(residual**2)))
 
+    @property
+    def pressed_parameters(self) -> tuple[str, ...]:
+        """Physical parameters whose MAP sits on a prior bound other than the end where their effect
+        vanishes (a damping the prior cannot make large enough): the calibration has not found their
+        value, so it is not called converged (:meth:`to_json`)."""
+        out = []
+        for name in self.laplace.map.at_bound:
+            if name not in self.setup.physical_names:
+                continue
+            effect = effect_of_parameter(name)
+            spec = parameter_spec(name)
+            prior = self.problem.parameter(name).prior
+            value = float(self.laplace.map.values[name])
+            upper = abs(value - prior.upper) <= abs(value - prior.lower)
+            if effect is not None and spec.absent_at in ("low", "high") and (spec.absent_at == "high") == upper:
+                continue  # the effect switched off: nothing is claimed of it
+            out.append(name)
+        return tuple(out)
+
     def linear_fit(self) -> dict | None:
         """For a free response: the initial-state amplitudes and the sensor's offset (output's
         unit, with its conditional sd) at the MAP, profiled out of the calibration; else None."""
@@ -257,9 +277,11 @@ class CalibrationResult:
             "coverage95_prediction": self.coverage95_prediction,
             "ess_min": diagnostics.ess_min if diagnostics is not None else None,
             "rhat_max": diagnostics.rhat_max if diagnostics is not None else None,
-            "converged": bool(diagnostics.converged) if diagnostics is not None else False,
+            "converged": bool(diagnostics.converged and not self.pressed_parameters) if diagnostics is not None else False,
             "warnings": [*(diagnostics.warnings if diagnostics is not None else self.laplace.warnings),
-                         *mode_order_warnings(m, self.setup.model, self.laplace.map.values), *record_warnings(m)],
+                         *mode_order_warnings(m, self.setup.model, self.laplace.map.values), *record_warnings(m),
+                         *(f"{n} sits at a bound of its prior: its value is not found there, the calibration is not "
+                           "converged on it" for n in self.pressed_parameters)],
             "log_evidence_laplace": float(self.laplace.log_evidence),
             "map": {name: float(v) for name, v in self.laplace.map.values.items()},
             "log_posterior_map": float(self.laplace.map.log_posterior),

@@ -73,6 +73,22 @@ def time_window(text: str) -> tuple[float, float]:
     return start, end
 
 
+def effect_list(text: str) -> str:
+    """Effect ids ``A,B,...`` as given, or ``+A,B``: the default model's effects
+    (:data:`beam.calibration.defaults.DEFAULT_EFFECTS`, its damping) and ``A``, ``B`` added to them
+    (the ids are checked where the model is made)."""
+    text = text.strip()
+    if not text.startswith("+"):
+        return text
+    from beam.calibration.defaults import DEFAULT_EFFECTS
+
+    added = [e.strip() for e in text[1:].split(",") if e.strip()]
+    if not added:
+        raise argparse.ArgumentTypeError(f"expected +A,B (effects added to the default {','.join(DEFAULT_EFFECTS)}), "
+                                         f"got {text!r}")
+    return ",".join([*DEFAULT_EFFECTS, *(a for a in added if a not in DEFAULT_EFFECTS)])
+
+
 class HelpFormatter(argparse.HelpFormatter):
     """Wraps one-paragraph texts (descriptions) as usual; keeps texts with line breaks (tables) as written."""
 

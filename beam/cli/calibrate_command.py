@@ -14,6 +14,7 @@ import sys
 
 from beam.cli.arguments import (
     HelpFormatter,
+    effect_list,
     effects_epilog,
     measurement_path,
     modes_choice,
@@ -61,8 +62,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_model_arguments(parser)
     defaults = CalibrationSpec()
     effects = ",".join(defaults.effects)
-    parser.add_argument("--effects", default=effects, metavar="A,B,...",
-                        help=f"effects added to the base model (default {effects or 'none'}; '' for none)")
+    parser.add_argument("--effects", default=effects, type=effect_list, metavar="A,B,...",
+                        help=f"effects added to the base model (default {effects or 'none'}; '+A,B' adds A and B to "
+                        f"that default, keeping its damping; '' for none)")
     parser.add_argument("--likelihood", choices=LIKELIHOOD_CHOICES, default=defaults.likelihood,
                         help=f"iid Gaussian noise or AR(1) correlated residuals (default {defaults.likelihood})")
     parser.add_argument("--walkers", type=positive_int, default=defaults.walkers, metavar="W",

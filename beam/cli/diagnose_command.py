@@ -10,7 +10,8 @@ import argparse
 import json
 import sys
 
-from beam.cli.arguments import HelpFormatter, effects_epilog, non_negative_int
+from beam.cli.arguments import HelpFormatter, effect_list, effects_epilog, non_negative_int
+from beam.calibration.spec import CalibrationSpec
 from beam.cli.calibrate_command import (
     add_joint_arguments,
     add_model_arguments,
@@ -34,8 +35,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=HelpFormatter,
     )
     add_model_arguments(parser)
-    parser.add_argument("--base", default="air_damping,kelvin_voigt", metavar="A,B",
-                        help="effects of the current model (default air_damping,kelvin_voigt; '' for the bare beam)")
+    defaults = ",".join(CalibrationSpec().effects)
+    parser.add_argument("--base", default=defaults, type=effect_list, metavar="A,B",
+                        help=f"effects of the current model (default {defaults}; '+A,B' adds A and B to it; '' for the "
+                        "bare beam)")
     parser.add_argument("--mcmc", action="store_true", help="re-calibrate every ladder step with full MCMC (slower)")
     parser.add_argument("--seed", type=non_negative_int, default=0, metavar="S", help="random seed of the MCMC (default 0)")
     add_joint_arguments(parser)
@@ -201,16 +204,40 @@ def format_suggestion(suggestion: dict) -> list[str]:
 
 
 def format_joint_report(summary: dict) -> str:
-    """A readable report of a joint diagnosis: candidates with their joint and per-record evidence."""
+    """A readable report of a joint diagnosis: the joint ladder and the candidates judged on each
+    rung in one table, the joint figures beside each record's (``table`` of the JSON)."""
+    from beam.discovery.judgement import ORDER_WORDS, STATUS_WORDS
+
     names = [r["record"] for r in summary["records"]]
+    unit = summary.get("output_unit", "")
     lines = [f"joint diagnosis of {len(names)} records ({', '.join(names)}), base model: "
              f"{', '.join(summary['base']) or 'bare beam'}", "",
-             "candidate effects, best first (* materially improves the joint model)",
-             f"  {'effect':18s} {'joint Δ log evidence':>21s}  each record alone"]
-    for c in summary["candidates"]:
-        mark = "*" if c["material"] else " "
-        alone = ", ".join(_nats(v) for v in c["records_delta_log_evidence"]) or c.get("error") or ""
-        lines.append(f"{mark} {c['effect']:18s} {_nats(c['delta_log_evidence']):>21s}  {alone}")
+             f"the joint ladder, and the candidates judged on each rung (best first: {ORDER_WORDS}; * missing)",
+             "  per record: a rung's error in the window / after it (the error a candidate is judged on; the MAP's"
+             f"{', ' + unit if unit else ''}); a candidate's own Δ log evidence alone, then its errors under the joint fit",
+             "  " + f"{'row':26s} {'joint Δ log Z':>14s}  {'judged':31s}"
+             + "".join(f" {f'{k + 1}: {n}':>29s}" for k, n in enumerate(names))]
+    rows = summary.get("table") or []
+    for row in rows:
+        cells = []
+        for r in row["records"]:
+            errors = f"{_m(r.get('rmse_calibration'))} / {_m(r.get('held_out_judged'))}"
+            if row["kind"] == "candidate":
+                errors = f"{_nats(r.get('delta_log_evidence_alone'))}, {errors}"
+            cells.append(f" {errors:>29s}")
+        if row["kind"] == "rung":
+            label = "base" if row["added"] is None else f"+ {row['added']}"
+            lines.append(f"  {label:26s} {_nats(row['delta_log_evidence']) if row['delta_log_evidence'] is not None else '—':>14s}"
+                         f"  {'':31s}" + "".join(cells))
+        else:
+            mark = "*" if row["status"] == "missing" else " "
+            lines.append(f"{mark}   {row['effect']:24s} {_nats(row['delta_log_evidence']):>14s}  "
+                         f"{STATUS_WORDS.get(row['status'], ''):31s}" + "".join(cells))
+    if not rows:  # a summary without the table (an older JSON): the candidates alone
+        for c in summary["candidates"]:
+            mark = "*" if c["material"] else " "
+            alone = ", ".join(_nats(v) for v in c["records_delta_log_evidence"]) or c.get("error") or ""
+            lines.append(f"{mark} {c['effect']:18s} {_nats(c['delta_log_evidence']):>21s}  {alone}")
     lines += ["", summary["verdict"]]
     lines += format_suggestion(summary["suggestion"]) if "suggestion" in summary else []
     lines.append(f"({summary['seconds']:.1f} s)")
@@ -228,6 +255,7 @@ def _nats(value) -> str:
 def format_report(summary: dict) -> str:
     """A readable report of a diagnosis, in the units ``beam calibrate`` prints (lengths in µm, a
     velocity or acceleration in its SI unit, coverage in %; the JSON keeps SI units)."""
+    from beam.discovery.judgement import ORDER_WORDS, STATUS_WORDS
     from beam.residuals.modal_id import DIFFERENCE_CONVENTION
 
     unit = summary.get("output_unit", "m")
@@ -247,19 +275,25 @@ def format_report(summary: dict) -> str:
                      f"{_m(row['frequency_error_pct']):>16s} {_m(row['damping_data']):>10s} {_m(row['damping_model']):>11s}"
                      + (f"  {row['note']}" if row.get("resolved") is False else
                         f"  not seen: {row['note']}" if row.get("note") else ""))
-    lines += ["", "candidate effects, best first (* materially improves the model)",
-              f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE':>18s}  why"]
+    lines += ["", f"candidate effects on the base model, best first ({ORDER_WORDS}; * missing; the ladder judges "
+              "the rest again on top of each rung)",
+              f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE':>18s}  {'judged':31s} why"]
     for c in summary["candidates"]:
         mark = "*" if c["material"] else " "
+        judged = STATUS_WORDS.get(c.get("status"), "")
         lines.append(f"{mark} {c['effect']:18s} {_nats(c['delta_log_evidence']):>15s} {_in_unit(c['rmse_prediction'], unit):>18s}"
-                     f"  {c['explanation']}")
+                     f"  {judged:31s} {c['explanation']}")
     lines += ["", "error ladder"]
     for step in summary["ladder"]:
         name = "base" if step["added"] is None else f"+ {step['added']}"
         lines.append(f"  {name:22s} RMSE calibration {_in_unit(step['rmse_calibration'], unit)}, held-out "
                      f"{_in_unit(step['rmse_prediction'], unit)}, held-out inside the 95 % band "
                      f"{_percent(step['coverage95_prediction'])}")
-    lines += ["", summary["verdict"]] + [f"note: {n}" for n in summary["notes"]]
+    lines += ["", summary["verdict"]]
+    repair = summary.get("repair")
+    if repair:  # the full effect list: the base's damping stays in the repaired model
+        lines.append(f"to calibrate the repaired model: {repair['command']}")
+    lines += [f"note: {n}" for n in summary["notes"]]
     lines += [f"written: {summary['report']}"] if "report" in summary else []
     lines += format_suggestion(summary["suggestion"]) if "suggestion" in summary else []
     lines.append(f"({summary['seconds']:.1f} s)")

@@ -19,14 +19,16 @@ import numpy as np
 
 import beam.residuals as dx
 from beam.calibration import CalibrationResult
+from beam.discovery.judgement import AT_NOISE_RATIO as JUDGED_AT_NOISE
+from beam.discovery.judgement import judge
+from beam.discovery.plausibility import bound_notes
 from beam.discovery.ranking import (
     MATERIAL_LOG_EVIDENCE,
     Explainer,
     LadderStep,
     Ranking,
-    HELD_OUT_RISE,
     held_out_change,
-    improves,
+    judgement_of,
     window_only,
 )
 from beam.discovery.window_hint import window_hint_notes
@@ -54,8 +56,9 @@ class ResidualReport:
 
 #: Held-out error of the last rung, in units of the noise floor, above which it is "well above the noise".
 OUTSIDE_CATALOGUE_RATIO = 2.0
-#: ... at or below which the model "predicts to the noise" (whatever the whiteness of what remains).
-AT_NOISE_RATIO = 1.5
+#: ... at or below which the model "predicts to the noise" (whatever the whiteness of what remains;
+#: the one rule's point 2 reads the same number, :data:`beam.discovery.judgement.AT_NOISE_RATIO`).
+AT_NOISE_RATIO = JUDGED_AT_NOISE
 
 
 @dataclass(frozen=True)
@@ -402,14 +405,15 @@ def remaining_words(remaining: Remaining, unit: str = "m", floor_text: str | Non
 
 
 def window_only_words(effect: str, gain_nats: float, held_out_change: float, free: bool = False) -> str:
-    """Why a large evidence gain is no support for ``effect`` when its held-out error rises
-    (:func:`beam.discovery.ranking.window_only`); ``held_out_change`` relative (0.15: 15 % higher)."""
+    """Why a large evidence gain is no support for ``effect`` when its prediction after the window
+    is worse (:func:`beam.discovery.ranking.window_only`); ``held_out_change`` relative (0.15: 15 %
+    higher): for a free decay, of the amplitude-aware prediction (:mod:`beam.discovery.held_out`)."""
     percent = 100 * held_out_change
     rise = f"{percent:.1f} %" if percent < 10 else f"{percent:.0f} %"
     if free:
-        return (f"{effect} fits the calibration window better (+{gain_nats:.0f} nats) but its error on the rest of "
-                f"the decay is {rise} higher: a decay's held-out part extrapolates each mode's damping, so it is "
-                "judged on its window")
+        return (f"{effect} fits the calibration window better (+{gain_nats:.0f} nats) but predicts the rest of the "
+                f"decay worse (its error after the window {rise} higher): not borne out on held-out data, so it is "
+                "not named missing")
     return (f"{effect} gains +{gain_nats:.0f} nats of evidence inside the calibration window while its held-out "
             f"error is {rise} higher: a base model this far from the data lets any added flexibility fit the "
             "window better, so this evidence is no support for the effect")
@@ -467,12 +471,19 @@ class VerdictFacts:
         return self.window_notes_named()
 
     def window_notes_named(self, name=str) -> list[str]:
-        """:attr:`window_notes` with each effect called ``name(effect_id)`` (the dashboard: its title)."""
+        """:attr:`window_notes` with each effect called ``name(effect_id)`` (the dashboard: its title),
+        then one sentence per candidate whose fit is not that effect (the judgement's reason)."""
         base = self.base
-        contradicted = sorted((c for c in self.ranking.candidates if window_only(c, base)),
-                              key=lambda c: -c.delta_log_evidence)
-        return [window_only_words(name(c.effect), c.delta_log_evidence, held_out_change(c, base), base.setup.is_free)
-                for c in contradicted[:MAX_WINDOW_NOTES]]
+        added = {step.added for step in getattr(self, "ladder", ()) or () if step.added is not None}
+        # an effect the ladder adds later (named missing on top of a rung) is no longer "not borne out"
+        # or "not this effect": those were its judgement on the base alone
+        kept = [c for c in self.ranking.candidates if c.effect not in added]
+        contradicted = sorted((c for c in kept if window_only(c, base)), key=lambda c: -c.delta_log_evidence)
+        notes = [window_only_words(name(c.effect), c.delta_log_evidence, held_out_change(c, base), base.setup.is_free)
+                 for c in contradicted[:MAX_WINDOW_NOTES]]
+        notes += [judgement_of(c, base).reason(name) for c in kept
+                  if judgement_of(c, base).status == "implausible"][:MAX_WINDOW_NOTES]
+        return notes
 
 
 #: Most candidates whose evidence their held-out error contradicts that a verdict names.
@@ -581,6 +592,32 @@ class DiagnosisReport(VerdictFacts):
         """Whether the last rung is well above the noise with residuals that are not white."""
         return bool(self.remaining is not None and self.remaining.outside_catalogue)
 
+    @property
+    def repair_effects(self) -> tuple[str, ...] | None:
+        """The full effect list of the repaired model (the last rung: the base's effects and every
+        effect the ladder added), None when nothing is missing. What a student calibrates next: the
+        base's damping stays in it."""
+        if self.missing is None or not self.ladder:
+            return None
+        return tuple(self.ladder[-1].effects)
+
+    def repair_command(self, data: str | None = None) -> str | None:
+        """``beam calibrate DATA --window A:B --effects …`` of :attr:`repair_effects` (``data``: how the
+        user named the record; default its name), None when nothing is missing."""
+        effects = self.repair_effects
+        if effects is None:
+            return None
+        start, end = (f"{round(t, 3):.3f}".rstrip("0").rstrip(".") for t in self.base.setup.window)  # to the ms
+        return (f"beam calibrate {data or self.measurement.name} --window {start}:{end} "
+                f"--modes {self.base.setup.modes} --effects {','.join(effects)}")
+
+    @property
+    def bound_notes(self) -> list[str]:
+        """The base fit's parameters at a prior bound (:func:`beam.discovery.plausibility.bound_notes`),
+        as notes: its value is not found there, whatever a convergence check says."""
+        return [f"the base model's {note}: its value is not found (the prior does not reach it), so no "
+                "calibration of this base is converged on it" for note in bound_notes(self.base)]
+
     def to_json(self) -> dict:
         """The summary of ``beam diagnose --json`` (see the README)."""
         base = self.base
@@ -590,11 +627,13 @@ class DiagnosisReport(VerdictFacts):
             "modes": base.setup.modes,
             **({"modes_reason": base.setup.mode_choice.reason} if base.setup.mode_choice is not None else {}),
             "base": list(base.setup.effects),
-            "rmse_calibration_base": base.rmse_calibration,
+            "rmse_calibration_base": base.rmse_calibration_map,
             "rmse_prediction_base": base.rmse_prediction_map,
             "coverage95_prediction_base": base.coverage95_prediction,
             "candidates": [c.to_json() for c in self.ranking.candidates],
             "missing": self.missing,
+            "repair": (None if self.repair_effects is None else
+                       {"effects": list(self.repair_effects), "command": self.repair_command()}),
             "indistinguishable": self.indistinguishable,
             "output": self.measurement.output_kind,
             "output_unit": self.measurement.output_unit,
@@ -611,7 +650,7 @@ class DiagnosisReport(VerdictFacts):
                           "white": bool(self.residuals.whiteness.white)},
             "residual_peaks_Hz": [dx.jsonable(p.frequency_Hz) for p in self.residuals.spectrum.peaks],
             "fingerprints": dx.jsonable(self.residuals.fingerprints),
-            "notes": list(self.residuals.notes),
+            "notes": [*self.residuals.notes, *self.bound_notes],
             "seconds": self.seconds,
         }
 
@@ -763,30 +802,38 @@ def _name_unseen(result: CalibrationResult, values: dict, comparison: list[dx.Mo
 
 
 def explainer(residuals: ResidualReport) -> Explainer:
-    """The sentence of each candidate: its fingerprint sentence, led by the evidence when the data
-    favour the effect but its fingerprint is weak (a tip mass and a soft clamp lower the modes
-    almost alike), or by why the evidence is no support when the held-out error rises
-    (:func:`window_only_words`)."""
+    """The sentence of each candidate: its fingerprint sentence, led by what the one rule decided
+    (:func:`beam.discovery.judgement.judge`) when its evidence is material: why a gain whose
+    prediction after the window is worse is no support (:func:`window_only_words`), why a fit with
+    parameters no such effect has is not this effect (and what else can explain the data), why a
+    gain whose judged error barely falls is too little, or — when the data favour the effect but its
+    fingerprint is weak (a tip mass and a soft clamp lower the modes almost alike) — the evidence."""
     scores = dx.effect_scores(residuals.fingerprints)
 
     def explain(effect: str, base_fit: CalibrationResult, fit: CalibrationResult) -> str:
+        from beam.physics.effects import EFFECTS
+
         sentence = residuals.explanations.get(effect, "")
-        gain = float(fit.laplace.log_evidence - base_fit.laplace.log_evidence)
+        judgement = judge(effect, base_fit, fit)
+        gain = judgement.delta_log_evidence
         if gain < MATERIAL_LOG_EVIDENCE:
             return sentence
-        held_out = fit.rmse_prediction_map / max(base_fit.rmse_prediction_map, 1e-300) - 1.0
-        if held_out > HELD_OUT_RISE:
-            from beam.physics.effects import EFFECTS
-
-            words = window_only_words(EFFECTS[effect].title, gain, held_out, base_fit.setup.is_free)
+        title = EFFECTS[effect].title
+        if judgement.status == "fails_after_window":
+            words = window_only_words(title, gain, judgement.held_out_change, base_fit.setup.is_free)
             return f"{words}. What the residuals show: {sentence}"
-        if scores.get(effect, 0.0) >= 1.0:
+        if judgement.status == "implausible":
+            words = judgement.reason(lambda e: EFFECTS[e].title)
+            change = judgement.judged_change
+            moved = ("" if not math.isfinite(change) else
+                     f", its {judgement.judged_label} {100 * abs(change):.0f} % {'lower' if change < 0 else 'higher'}")
+            return (f"{words[0].upper()}{words[1:]} (+{gain:.0f} nats in the window{moved}). What the residuals show: "
+                    f"{sentence}")
+        if judgement.material and scores.get(effect, 0.0) >= 1.0:
             return sentence
-        free = base_fit.setup.is_free
-        judged = "calibration-window error" if free else "held-out error"
-        before, after = ((base_fit.rmse_calibration_map, fit.rmse_calibration_map) if free
-                         else (base_fit.rmse_prediction_map, fit.rmse_prediction_map))
-        if improves(base_fit, fit):
+        judged = judgement.judged_label
+        before, after = judgement.judged_before, judgement.judged_after
+        if judgement.material:
             head = f"the data favour it strongly (+{gain:.0f} nats, {judged} /{before / max(after, 1e-300):.1f})"
             if not sentence:  # no fingerprint of its own (the sensor's mass)
                 return f"{head}; the residuals have no fingerprint of their own for it"

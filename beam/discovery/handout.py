@@ -18,6 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from beam.discovery.judgement import ORDER_WORDS, STATUS_WORDS
 from beam.io.handout import Series, band_svg, handout_html, micrometres
 from beam.physics.effects import EFFECTS
 
@@ -164,7 +165,8 @@ def diagnosis_handout(base, residuals, candidates: Sequence, ladder: Sequence, v
     candidate_rows = [[_title(c.effect),
                        f"{c.delta_log_evidence:+.1f}" if math.isfinite(c.delta_log_evidence) else "failed",
                        _amount(c.rmse_calibration if free else c.rmse_prediction, unit),
-                       "yes" if c.material else "no", c.explanation] for c in candidates]
+                       STATUS_WORDS.get(c.status, "missing" if c.material else "not material"), c.explanation]
+                      for c in candidates]
     ladder_rows = [[str(i), _title(step.added), _amount(step.rmse_calibration, unit),
                     _amount(step.rmse_prediction, unit), _pct(step.coverage95_prediction),
                     "full (MCMC)" if step.mcmc else "preview"] for i, step in enumerate(ladder)]
@@ -172,8 +174,8 @@ def diagnosis_handout(base, residuals, candidates: Sequence, ladder: Sequence, v
                   f"{row.frequency_error_pct:+.1f} %" if math.isfinite(row.frequency_error_pct)
                   else "not resolved by the record" if not row.resolved else "–"]
                  for row in residuals.comparison]
-    tables = [("Candidate effects, best first", ["effect", "evidence gain (nats)", error_name,
-                                                  "improves the model", "why"], candidate_rows),
+    tables = [(f"Candidate effects, best first ({ORDER_WORDS})", ["effect", "evidence gain (nats)", error_name,
+                                                                 "judged", "why"], candidate_rows),
               ("Error ladder", ["step", "added", "error in the window", "held-out error", "held-out in the 95 % band",
                                 "posterior"], ladder_rows)]
     if mode_rows:
@@ -197,4 +199,4 @@ def _g(value: float) -> str:
 def report_handout(report) -> str:
     """:func:`diagnosis_handout` of a :class:`beam.discovery.report.DiagnosisReport` (``beam diagnose --report``)."""
     return diagnosis_handout(report.base, report.residuals, report.ranking.candidates, report.ladder, report.verdict,
-                             report.residuals.notes)
+                             [*report.residuals.notes, *report.bound_notes])

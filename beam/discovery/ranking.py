@@ -9,20 +9,23 @@ Laplace) on the same window and compare with the current model by
   posterior samples; the Laplace evidence is available from the preview at no extra cost and is
   accurate for the near-Gaussian posteriors of well-identified beam parameters.) Reported as
   delta_log_evidence = log Z(model + effect) - log Z(model), in nats;
-* the **held-out prediction RMSE** of the MAP model (samples outside the calibration window), the
-  predictive check (the MAP's point prediction: a parameter pressed against its bound, as an
-  absent effect's is, spreads the Laplace draws and would blur the band's mean).
+* the **errors of the MAP model** (its point prediction: a parameter pressed against its bound, as
+  an absent effect's is, spreads the Laplace draws and would blur the band's mean): in the window,
+  and after it.
 
-A candidate *materially improves* the model when delta_log_evidence >= 5 nats (odds of about
-150:1, "very strong" on the Kass–Raftery scale) **and** it lowers the held-out RMSE by at least
-20 %. The best such candidate is reported as missing; when none qualifies, nothing in the catalogue
-is missing.
+Which candidate is missing is decided by one rule, :func:`beam.discovery.judgement.judge`
+(material evidence, a material fall of the error it is judged on, a prediction after the window
+that is not worse, plausible parameters); every candidate carries its
+:class:`~beam.discovery.judgement.Judgement`, and the ranking lists them in its one order
+(:func:`beam.discovery.judgement.order_key`). The best candidate named missing is reported; when
+none is, nothing in the catalogue is missing.
 
-The error ladder (:func:`beam.discovery.stream.error_ladder`) adds the materially improving candidates one at a time, best first, as long as
-each materially improves on the rung below (effects can explain the same misfit: once the best
-is in, the next may no longer help), re-calibrating at each step with the one calibration engine and start strategy of
-:mod:`beam.calibration` (the same MAP as ``beam calibrate`` with that effect set; the steps a user takes in the dashboard are re-calibrated with full
-MCMC; the command line uses the preview unless asked for MCMC).
+The error ladder (:func:`beam.discovery.stream.error_ladder`) adds the missing candidates one at
+a time, best first, as long as each is still missing on top of the rung below (effects can
+explain the same misfit: once the best is in, the next may no longer help), re-calibrating at
+each step with the one calibration engine and start strategy of :mod:`beam.calibration` (the
+same MAP as ``beam calibrate`` with that effect set; the steps a user takes in the dashboard are
+re-calibrated with full MCMC; the command line uses the preview unless asked for MCMC).
 """
 
 from __future__ import annotations
@@ -43,15 +46,22 @@ from beam.calibration import (
     calibration_preview,
 )
 from beam.calibration.defaults import DEFAULT_LIKELIHOOD
+from beam.discovery.judgement import (
+    HELD_OUT_WORSE,
+    MATERIAL_LOG_EVIDENCE,
+    MATERIAL_RMSE_FALL,
+    Judgement,
+    effect_kind,
+    elsewhere,
+    judge,
+    judge_numbers,
+    order_key,
+)
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.physics.effects import CANDIDATE_EFFECTS, EFFECTS, applicable, effect_needs, parse_effects
 from beam.residuals.envelope import RISING_DRIFT, decay_frequency_drift
 
-#: Evidence gain (nats) a candidate needs to count as a material improvement.
-MATERIAL_LOG_EVIDENCE = 5.0
-#: Relative fall of the held-out RMSE a candidate needs to count as a material improvement.
-MATERIAL_RMSE_FALL = 0.2
 
 
 @dataclass(frozen=True)
@@ -71,11 +81,14 @@ class Candidate:
     coverage95_prediction : float
         Held-out coverage of the 95 % prediction band.
     material : bool
-        Whether it materially improves the model (see the module notes).
+        Whether it is named missing (:attr:`Judgement.material <beam.discovery.judgement.Judgement.material>`).
     explanation : str
         One sentence grounded in the fingerprints of the residuals.
     parameters : dict
         Posterior summaries of the effect's own parameters.
+    judgement : Judgement or None
+        The one rule's decision (:func:`beam.discovery.judgement.judge`); None for a candidate
+        made from numbers alone (then :func:`judgement_of` judges its numbers).
     """
 
     effect: str
@@ -86,9 +99,15 @@ class Candidate:
     material: bool
     explanation: str
     parameters: dict
+    judgement: Judgement | None = None
+
+    @property
+    def status(self) -> str | None:
+        """Its judgement's status (:data:`beam.discovery.judgement.STATUSES`), None without one."""
+        return None if self.judgement is None else self.judgement.status
 
     def to_json(self) -> dict:
-        return {
+        out = {
             "effect": self.effect,
             "delta_log_evidence": _finite_or_none(self.delta_log_evidence),
             "rmse_prediction": _finite_or_none(self.rmse_prediction),
@@ -98,6 +117,9 @@ class Candidate:
             "explanation": self.explanation,
             "parameters": self.parameters,
         }
+        if self.judgement is not None:
+            out.update(self.judgement.to_json())
+        return out
 
 
 @dataclass(frozen=True)
@@ -115,6 +137,8 @@ class LadderStep:
     result: CalibrationResult | None = field(default=None, repr=False, compare=False)
 
     def to_json(self) -> dict:
+        """Its figures in the JSON: the MAP's errors (the numbers every other line quotes) and the
+        band's coverage."""
         return {
             "effects": list(self.effects),
             "added": self.added,
@@ -140,7 +164,7 @@ class Ranking:
 
     @property
     def missing(self) -> str | None:
-        """The best materially improving candidate, or None when nothing is missing."""
+        """The best candidate named missing (:func:`beam.discovery.judgement.judge`), or None."""
         return next((c.effect for c in self.candidates if c.material), None)
 
 
@@ -154,8 +178,12 @@ def record_features(measurement: Measurement, spectral: bool = True) -> frozense
     (~0.1 s on a 20 s, 4 kHz record), for a caller whose effects do not need it.
     """
     features = set(measurement.features)  # what the record shows without its spectra
-    if spectral and "free" in features and decay_frequency_drift(measurement.time_s, measurement.output) < -RISING_DRIFT:
-        features.add("rising_frequency")
+    if spectral and "free" in features:
+        memo = vars(measurement)  # the record is frozen: its drift is read once (every partial ranking asks)
+        if "_decay_frequency_drift" not in memo:
+            memo["_decay_frequency_drift"] = decay_frequency_drift(measurement.time_s, measurement.output)
+        if memo["_decay_frequency_drift"] < -RISING_DRIFT:
+            features.add("rising_frequency")
     return frozenset(features)
 
 
@@ -261,43 +289,62 @@ def rank_candidates(
 def rank_fits(base_result: CalibrationResult, names: Iterable[str],
               fits: dict[str, CalibrationResult | Exception], explain: Explainer | None = None) -> Ranking:
     """The :class:`Ranking` of the candidates ``names`` whose fits are ``fits`` (a calibration,
-    or the exception of a failed fit, ranked last) against ``base_result``."""
+    or the exception of a failed fit) against ``base_result``: each judged by the one rule
+    (:func:`beam.discovery.judgement.judge`), an implausible one told what else can explain the
+    data (:func:`beam.discovery.judgement.elsewhere`), in the one order
+    (:func:`beam.discovery.judgement.order_key`)."""
     modes = base_result.setup.modes
+    names = list(names)
+    judgements = {effect: judge(effect, base_result, fits[effect]) for effect in names}
+    if any(j.status == "implausible" for j in judgements.values()):
+        kinds = {effect_kind(e) for e, j in judgements.items() if j.status == "implausible"}
+        spectral = any("rising_frequency" in effect_needs(e) for e in EFFECTS if effect_kind(e) in kinds)
+        features = record_features(base_result.setup.measurement, spectral=spectral)
+        judgements = elsewhere(judgements, features, base_result.setup.effects)
     ranked, results = [], {}
     for effect in names:
-        result = fits[effect]
+        result, judgement = fits[effect], judgements[effect]
         if isinstance(result, Exception):
             ranked.append(Candidate(effect, -math.inf, math.nan, math.nan, math.nan, False,
-                                    f"the fit with {effect} failed ({_one_line(result)})", {}))
+                                    f"the fit with {effect} failed ({_one_line(result)})", {}, judgement))
             continue
         results[effect] = result
-        delta = float(result.laplace.log_evidence - base_result.laplace.log_evidence)
-        rmse = result.rmse_prediction_map
-        material = improves(base_result, result)
         summary = result.summary()
         own = {name: summary[name] for name in EFFECTS[effect].required_parameter_names_for(modes) if name in summary}
         sentence = explain(effect, base_result, result) if explain else EFFECTS[effect].physics
-        ranked.append(Candidate(effect, delta, rmse, result.rmse_calibration,
-                                result.coverage95_prediction, material, sentence, own))
-    ranked.sort(key=lambda c: rank_key(c, base_result))
+        ranked.append(Candidate(effect, judgement.delta_log_evidence, result.rmse_prediction_map,
+                                result.rmse_calibration_map, result.coverage95_prediction, judgement.material, sentence,
+                                own, judgement))
+    ranked.sort(key=lambda c: order_key(c.judgement))
     return Ranking(base_result, ranked, results)
 
 
-def rank_key(c: Candidate, base: CalibrationResult | None = None) -> tuple[bool, bool, float]:
-    """Sort key of the ranking: materially improving first (by evidence gain: which one is missing
-    does not change), then (given the ``base`` fit) the others whose evidence is not contradicted
-    by their held-out error (:func:`window_only`), then by evidence gain, failed fits last."""
-    demoted = base is not None and not c.material and window_only(c, base)
-    return (not c.material, demoted, -c.delta_log_evidence if math.isfinite(c.delta_log_evidence) else math.inf)
+def rank_key(c: Candidate, base: CalibrationResult | None = None) -> tuple[int, float]:
+    """Sort key of the ranking: :func:`beam.discovery.judgement.order_key` of the candidate's
+    judgement (:func:`judgement_of`; without ``base``, of its own numbers against none)."""
+    return order_key(judgement_of(c, base))
+
+
+def judgement_of(c: Candidate, base: CalibrationResult | None = None) -> Judgement:
+    """The candidate's judgement, or for a candidate made from numbers alone (no fit at hand) the
+    rule applied to its numbers against ``base``'s (no plausibility check: no parameters at hand)."""
+    if c.judgement is not None:
+        return c.judgement
+    if base is None:
+        return judge_numbers(c.effect, c.delta_log_evidence, (math.nan, math.nan), (math.nan, math.nan),
+                             judged_label="held-out error", held_out_label="held-out error")
+    free = base.setup.is_free
+    judged = ((base.rmse_calibration_map, c.rmse_calibration) if free else (base.rmse_prediction_map, c.rmse_prediction))
+    return judge_numbers(c.effect, c.delta_log_evidence, judged, (base.rmse_prediction_map, c.rmse_prediction),
+                         judged_label="calibration-window error" if free else "held-out error",
+                         held_out_label="held-out error")
 
 
 def held_out_change(candidate: Candidate, base: CalibrationResult) -> float:
-    """Relative change of the candidate's held-out RMSE against the base model's (0.15: 15 % higher;
-    NaN when either is unknown)."""
-    before = base.rmse_prediction_map
-    if not (math.isfinite(candidate.rmse_prediction) and math.isfinite(before) and before > 0):
-        return math.nan
-    return float(candidate.rmse_prediction / before - 1.0)
+    """Relative change of the candidate's judged held-out error against the base model's (0.15:
+    15 % higher; NaN when either is unknown): its judgement's (the amplitude-aware prediction of a
+    free decay, :mod:`beam.discovery.held_out`), else its held-out RMSE's."""
+    return judgement_of(candidate, base).held_out_change
 
 
 #: Relative rise of the held-out RMSE above which it "rises" (below it the optimiser's noise: the
@@ -306,42 +353,33 @@ HELD_OUT_RISE = 1e-3
 
 
 def contradicted(candidate: Candidate, base: CalibrationResult) -> bool:
-    """Whether the evidence favours ``candidate`` (a positive gain) while its held-out error rises
-    (by more than :data:`HELD_OUT_RISE`) against the base model's: the two disagree, and the evidence
-    is then no support for the effect (it sees only the calibration window)."""
+    """Whether the evidence favours ``candidate`` (a positive gain) while its judged held-out error
+    rises (by more than :data:`HELD_OUT_RISE`) against the base model's: the two disagree, and the
+    evidence is then no support for the effect (it sees only the calibration window)."""
     return bool(candidate.delta_log_evidence > 0 and held_out_change(candidate, base) > HELD_OUT_RISE)
 
 
 def window_only(candidate: Candidate, base: CalibrationResult) -> bool:
-    """A large evidence gain (at least :data:`MATERIAL_LOG_EVIDENCE`) that the held-out error
-    contradicts (:func:`contradicted`): a base model far from the data lets any added flexibility
-    fit the calibration window better. Ranked below the uncontradicted candidates and named by the
-    verdict."""
-    return bool(candidate.delta_log_evidence >= MATERIAL_LOG_EVIDENCE and contradicted(candidate, base))
+    """A material evidence gain whose prediction after the window is worse: the judgement
+    ``"fails_after_window"`` (:func:`beam.discovery.judgement.judge`). Ranked below the others and
+    named by the verdict."""
+    return judgement_of(candidate, base).status == "fails_after_window"
 
 
 def improves(current: CalibrationResult, candidate: CalibrationResult) -> bool:
-    """Whether ``candidate`` materially improves on ``current`` (evidence and held-out error).
-
-    For a free decay the error that must fall by :data:`MATERIAL_RMSE_FALL` is the calibration
-    window's, not the held-out decay's: with no input, the prediction of the rest of a decay is
-    the extrapolation of each mode's damping, and a lightly damped mode at the right frequency
-    with a slightly wrong decay scores worse than a wrong model that damps the mode away (on the
-    real strip records: the repaired model's calibration RMSE /8, its 2-20 s held-out RMSE x1.1,
-    its 2-4 s RMSE unchanged; README, "Real measurements").
-    """
-    delta = float(candidate.laplace.log_evidence - current.laplace.log_evidence)
-    if current.setup.is_free:
-        before, after = current.rmse_calibration_map, candidate.rmse_calibration_map
-    else:
-        before, after = current.rmse_prediction_map, candidate.rmse_prediction_map
-    return bool(delta >= MATERIAL_LOG_EVIDENCE and after <= (1 - MATERIAL_RMSE_FALL) * before)
+    """Whether ``candidate`` (``current`` plus one effect) is that effect named missing on top of
+    ``current``: :func:`beam.discovery.judgement.judge` (the one rule of the module notes)."""
+    added = [e for e in candidate.setup.effects if e not in set(current.setup.effects)]
+    if len(added) != 1:
+        raise BeamInputError(f"a candidate adds one effect to the model it is judged against, got {added}")
+    return judge(added[0], current, candidate).material
 
 
 def ladder_step(result: CalibrationResult, added: str | None, mcmc: bool) -> LadderStep:
     """The :class:`LadderStep` of ``result`` (``added``: the effect it adds to the rung below, None
-    for the base; ``mcmc``: whether it is a full calibration)."""
-    return LadderStep(result.setup.effects, added, result.rmse_calibration, result.rmse_prediction,
+    for the base; ``mcmc``: whether it is a full calibration): the MAP's errors, the numbers the
+    header, the candidates and the verdict quote; the band's coverage."""
+    return LadderStep(result.setup.effects, added, result.rmse_calibration_map, result.rmse_prediction_map,
                       result.coverage95_prediction, float(result.laplace.log_evidence), mcmc, result)
 
 

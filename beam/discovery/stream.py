@@ -63,6 +63,7 @@ from beam.discovery.ranking import (
     thread_fitter,
     with_effect,
 )
+from beam.discovery.held_out import remember_held_out
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS
@@ -107,6 +108,7 @@ class BaseRequest:
         """``(CalibrationResult, ResidualReport)``; a bad record or spec raises :class:`~beam.errors.BeamInputError`."""
         base = calibration_preview(measurement, self.spec, engine=engine)
         base.map_prediction()  # computed where the fit runs, carried with the result
+        remember_held_out(base)  # the amplitude-aware held-out error of a free decay, likewise
         return base, residual_report(base)
 
 
@@ -143,6 +145,7 @@ class FitRequest:
         except FIT_ERRORS as exc:
             return exc
         result.map_prediction()  # computed where the fit runs, carried with the result
+        remember_held_out(result)  # the amplitude-aware held-out error of a free decay, likewise
         return result
 
 

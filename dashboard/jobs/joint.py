@@ -26,7 +26,6 @@ request (or *Cancel*) stops the old one between two steps.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -35,8 +34,9 @@ from functools import lru_cache
 from beam.calibration import CalibrationResult, CalibrationSpec, calibration_preview, default_engine
 from beam.calibration.joint import JointCalibrationResult, joint_preview
 from beam.calibration.run import default_walkers
-from beam.discovery.joint import SEPARATING_NATS, JointDiagnosis, joint_diagnose
-from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, candidate_effects
+from beam.discovery.joint import SEPARATING_NATS, JointDiagnosis, joint_diagnose, joint_order_key
+from beam.discovery.joint import joint_candidates as joint_candidate_effects
+from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE
 from beam.discovery.suggest import next_record
 from beam.errors import BeamInputError
 from beam.inference import EnsembleRun
@@ -272,7 +272,8 @@ def joint_run(key: JointKey, measurements: Sequence[Measurement]) -> Iterator[sc
 def diagnosis_stages(key: JointKey, measurements: Sequence[Measurement], effect: str) -> Iterator[sch.Stage]:
     """The joint diagnosis of the base model and one candidate ``effect`` (in a worker process)."""
     diagnosis = joint_diagnose(measurements, window=key.window, modes=key.modes, base=key.effects,
-                               candidates=[effect], per_record=key.per_record or None, engine=default_engine())
+                               candidates=[effect], per_record=key.per_record or None, engine=default_engine(),
+                               climb=False)
     yield sch.final(diagnosis, f"{effect} judged")
 
 
@@ -282,17 +283,18 @@ def joint_candidates(key: JointKey, measurements: Sequence[Measurement]) -> list
     if key.candidates:
         return list(key.candidates)
     spec = CalibrationSpec(window=key.window, effects=key.effects, modes=key.modes)
-    offered = [set(candidate_effects(spec.effects, m)) for m in measurements]
-    return [e for e in candidate_effects(spec.effects, measurements[0]) if all(e in o for o in offered)]
+    return joint_candidate_effects(measurements, spec.effects, key.per_record or None)
 
 
 def merged(parts: Sequence[JointDiagnosis], seconds: float) -> JointDiagnosis:
     """One :class:`JointDiagnosis` of several one-candidate diagnoses of the same base model:
-    every candidate ranked by its joint Δ log evidence (failed fits last), every fit kept."""
+    every candidate in the library's one order (:func:`beam.discovery.joint.joint_order_key`: its
+    judgement, then its joint Δ log evidence; failed fits last), every fit kept; its ladder the base
+    and the missing candidate (the climb on top of it is the command line's)."""
     candidates = [c for d in parts for c in d.candidates]
-    candidates.sort(key=lambda c: -math.inf if c.delta_log_evidence is None else -c.delta_log_evidence)
+    candidates.sort(key=joint_order_key)
     fits = {name: fit for d in parts for name, fit in d.fits.items()}
-    return replace(parts[0], candidates=candidates, fits=fits, seconds=seconds)
+    return replace(parts[0], candidates=candidates, fits=fits, seconds=seconds, rungs=[])
 
 
 def joint_diagnosis_run(key: JointKey, measurements: Sequence[Measurement]) -> Iterator[sch.Stage[JointDiagnosis]]:

@@ -22,7 +22,7 @@ import pandas as pd
 from beam.calibration.handout import calibration_handout
 from beam.errors import BeamInputError
 from beam.physics.effects import EFFECTS, parameter_spec
-from beam.discovery.ranking import contradicted
+from beam.discovery.ranking import judgement_of
 from beam.discovery.report import remaining_words
 from beam.residuals.noise import record_noise_floor
 from dashboard.outputs.exports import jsonable
@@ -489,8 +489,13 @@ def judged_readouts(result, floor_m: float | None = None) -> list[dict]:
     return out
 
 
-def verdict_text(diagnosis) -> str:
-    """The diagnosis verdict in words, with effect titles, odds and the distance to the noise (Markdown)."""
+def verdict_text(diagnosis, rungs: list[dict] | None = None) -> str:
+    """The diagnosis verdict in words, with effect titles, odds and the distance to the noise (Markdown).
+
+    ``rungs``: the error ladder's rows (:func:`dashboard.state.beam.ladder_rung`, the beam view's
+    calibrations in the read-out unit). When the last one is the model diagnosed, the error "now"
+    is that row's, the figure the beam view shows for it (one number on the page), not the
+    diagnosis's own preview of the same model."""
     if diagnosis is None:
         return ""
     if diagnosis.pending:
@@ -510,10 +515,12 @@ def verdict_text(diagnosis) -> str:
         free = diagnosis.base.setup.is_free
         what = "the error in the calibration window" if free else "the held-out error"
         before, after = u.scale * parts.before, u.scale * parts.after
+        if rungs and rungs[-1]["effects"] == ", ".join(diagnosis.base.setup.effects) and rungs[-1]["unit"] == u.unit:
+            before = rungs[-1]["rmse_calibration" if free else "rmse_prediction"]  # the beam view's figure of it
         names = ", then ".join(effect_title(e) for e in [missing, *climbed])
         text = (f"**Missing: {names}.** With {'them' if climbed else 'it'} {what} is {fmt_value(after)} {u.unit} instead "
                 f"of {fmt_value(before)} {u.unit} ({change_words(after, before)}); evidence "
-                f"{evidence_words(best.delta_log_evidence) if not contradicted(best, diagnosis.base) else f'{best.delta_log_evidence:+.1f} nats in the calibration window'}.")
+                f"{evidence_words(best.delta_log_evidence) if judgement_of(best, diagnosis.base).supports else f'{best.delta_log_evidence:+.1f} nats in the calibration window'}.")
         if climbed:
             text += (f" ({effect_title(climbed[0])} shows only once {effect_title(missing)} is in the model: "
                      "the diagnosis ranked the candidates again on top of it.)")

@@ -15,7 +15,8 @@ import pandas as pd
 import panel as pn
 import param
 
-from beam.discovery.ranking import contradicted
+from beam.discovery.judgement import ORDER_WORDS, STATUS_WORDS
+from beam.discovery.ranking import judgement_of
 from beam.discovery.report import p_words
 from beam.residuals import difference_words
 from dashboard.outputs import beam as bs
@@ -193,11 +194,11 @@ class DiagnosisView(pn.viewable.Viewer):
         run = pn.widgets.Button(label="Diagnose the current model", color="primary", css_classes=["diag-run"])
         run.on_click(lambda e: d.request())
         stale = Markdown(pn.bind(self._stale, d.param.diagnosis, beam.param.result), margin=(0, 10))
-        verdict = Markdown(pn.bind(bs.verdict_text, d.param.diagnosis), css_classes=["diag-verdict"],
+        verdict = Markdown(pn.bind(bs.verdict_text, d.param.diagnosis, d.param.ladder), css_classes=["diag-verdict"],
                            sizing_mode="stretch_width", styles={"font-size": "13pt"})
         self._show_candidates()
         self._main.extend([self._status(), pn.Row(run, stale, sizing_mode="stretch_width"), verdict,
-                           Markdown("### Candidate effects (best first)", margin=(0, 10)), self._candidates])
+                           Markdown(f"### Candidate effects (best first: {ORDER_WORDS})", margin=(0, 10)), self._candidates])
 
     @staticmethod
     def _plot(dmap, **kw) -> pn.pane.HoloViews:
@@ -343,14 +344,22 @@ class DiagnosisView(pn.viewable.Viewer):
 
     @staticmethod
     def _candidate_text(c, diagnosis, u) -> str:
-        """A candidate's row: its errors, its evidence (worded as odds for the effect only when the
-        held-out error does not contradict it, :func:`beam.discovery.ranking.contradicted`), its
-        explanation and parameters."""
+        """A candidate's row: the report's decision on it (its judgement: the one rule of
+        :func:`beam.discovery.judgement.judge`, never re-derived here), its errors, its evidence
+        (worded as odds for the effect only when it is named missing), its explanation and parameters."""
         title = effect_title(c.effect)
+        judgement = judgement_of(c, diagnosis.base)
         params = "; ".join(f"{_parameter_words(n, u.si_unit)} = {s['mean']:.3g}" for n, s in c.parameters.items())
-        evidence = (f"{c.delta_log_evidence:+.1f} nats inside the calibration window only, not borne out on held-out data"
-                    if contradicted(c, diagnosis.base) else evidence_words(c.delta_log_evidence))
-        return (f"**{title}**{' — materially better' if c.material else ''}<br>"
+        if judgement.supports:
+            evidence = evidence_words(c.delta_log_evidence)
+        elif judgement.status == "fails_after_window":
+            evidence = f"{c.delta_log_evidence:+.1f} nats inside the calibration window only, not borne out on held-out data"
+        elif math.isfinite(c.delta_log_evidence):
+            evidence = f"{c.delta_log_evidence:+.1f} nats, not named missing ({STATUS_WORDS[judgement.status]})"
+        else:
+            evidence = "fit failed"
+        head = " — missing" if judgement.material else f" — {STATUS_WORDS[judgement.status]}"
+        return (f"**{title}**{head}<br>"
                 f"{_errors_words(c, diagnosis, u)}, "
                 f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
                 f"<span title='{bs.GLOSSES['log evidence']}'>{evidence}</span>"
@@ -423,14 +432,14 @@ def _change(after: float, before: float) -> str:
 
 
 def _errors_words(candidate, diagnosis, u) -> str:
-    """The errors a candidate is judged on, in the output's unit: the held-out error, and for a free
-    decay first the calibration window's (a decay's candidates are judged on the window: the held-out
-    part extrapolates each mode's damping; :func:`beam.discovery.ranking.improves`)."""
-    base = diagnosis.base
-    held = u.scale * candidate.rmse_prediction
-    text = f"held-out error {fmt_value(held)} {u.unit} {_change(held, u.scale * base.rmse_prediction_map)}"
-    if base.setup.is_free:
-        window = u.scale * candidate.rmse_calibration
-        text = (f"calibration-window error {fmt_value(window)} {u.unit} "
-                f"{_change(window, u.scale * base.rmse_calibration_map)}; {text}")
+    """The errors a candidate is judged on (its judgement's, :func:`beam.discovery.judgement.judge`),
+    in the output's unit: for a free decay the calibration window's, then the error after the window
+    (amplitude-aware: re-anchored on the record's amplitudes, or forward for an amplitude-dependent
+    force); for a driven record the held-out error."""
+    judgement = judgement_of(candidate, diagnosis.base)
+    held_before, held_after = u.scale * judgement.held_out_before, u.scale * judgement.held_out_after
+    text = f"{judgement.held_out_label} {fmt_value(held_after)} {u.unit} {_change(held_after, held_before)}"
+    if diagnosis.base.setup.is_free:
+        before, after = u.scale * judgement.judged_before, u.scale * judgement.judged_after
+        text = f"{judgement.judged_label} {fmt_value(after)} {u.unit} {_change(after, before)}; {text}"
     return text

@@ -17,11 +17,15 @@ from typing import Any
 
 from beam.errors import BeamInputError
 
-__all__ = ["ABSENT_AT", "Effect", "catalogue_effect", "Fingerprint", "GeometryChange", "ParameterSpec", "Part", "Refusal", "StartHints",
+__all__ = ["ABSENT_AT", "PLAUSIBLE_SCALES", "Effect", "catalogue_effect", "Fingerprint", "GeometryChange", "ParameterSpec", "Part", "Refusal", "StartHints",
            "TARGETS", "Term"]
 
 #: Where on its prior's range a parameter's effect vanishes (:attr:`ParameterSpec.absent_at`).
 ABSENT_AT = ("low", "high", "centre")
+#: What a :attr:`ParameterSpec.plausible` range is counted in (:attr:`ParameterSpec.plausible_scale`):
+#: None natural units; ``"EI/L"`` the strip's root stiffness (N m/rad, and N m for a moment: a
+#: rotation in rad); ``"EI/L^5"`` (N/m³: a cubic tip stiffness); ``"rho L"`` the strip's own mass (kg).
+PLAUSIBLE_SCALES = (None, "EI/L", "EI/L^5", "rho L")
 
 
 @dataclass(frozen=True)
@@ -52,9 +56,14 @@ class ParameterSpec:
         quantity is usually known: :func:`beam.calibration.setup.parameter_prior`); None: a
         nominal value of it is not expected (asked for, it is a KeyError).
     plausible : (float, float) or None
-        Values the literature finds for it (natural units), when it does; None otherwise.
+        Values the literature finds for it (in ``plausible_scale``), when it does; None otherwise.
+        A calibrated value outside it is not this effect (:mod:`beam.discovery.plausibility`).
     plausible_source : str or None
         Where ``plausible`` comes from (references), None when ``plausible`` is.
+    plausible_scale : str or None
+        What ``plausible`` is counted in (:data:`PLAUSIBLE_SCALES`): None natural units, else a
+        scale of the record's strip (its EI at the calibrated value and its stated length and
+        density), so that one range holds for a 2 mm aluminium strip and a 5 mm steel bar.
     """
 
     name: str
@@ -68,8 +77,11 @@ class ParameterSpec:
     nominal_log_sd: float | None = None
     plausible: tuple[float, float] | None = None
     plausible_source: str | None = None
+    plausible_scale: str | None = None
 
     def __post_init__(self) -> None:
+        if self.plausible_scale not in PLAUSIBLE_SCALES:
+            raise ValueError(f"{self.name}: plausible_scale must be one of {PLAUSIBLE_SCALES}, got {self.plausible_scale!r}")
         if self.absent_at not in ABSENT_AT:
             raise ValueError(f"absent_at must be one of {ABSENT_AT}, got {self.absent_at!r}")
         if (self.plausible is None) != (self.plausible_source is None):

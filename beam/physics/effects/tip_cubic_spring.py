@@ -10,6 +10,13 @@ where its solver runs; it is calibrated on free decays too.
 The frequency of mode 1 rises with the amplitude (a hardening backbone): that is its
 fingerprint. The spectral starts of a model with it match the record's peaks to the modes
 linearised at the window's amplitude (:func:`equivalent_omega2`).
+
+**Plausible values** (:data:`PLAUSIBLE_SOURCE`), in units of EI / L⁵ (``plausible_scale``; K =
+k3 L⁵ / EI): up to 3000. Linearised at a tip amplitude A (harmonic balance, mass-normalised
+shapes: phi_1(L)² = 4 / rho L, omega_1² = 12.36 EI / rho L⁴), the spring raises f1 by about
+0.12 K (A / L)²: at A = L / 20, 0.03 % for K = 1 (the order of a cantilever's own geometric
+hardening), 30 % for K = 1000, 90 % for K = 3000. A hardening beyond that is not a spring at the
+tip but contact (a stop, a clamp that closes). lab_run_4's simulated spring: K = 612.
 """
 
 from __future__ import annotations
@@ -20,10 +27,13 @@ import beam.physics.effects.fingerprint as fpr
 from beam.physics.effects.channel import LAW_POINT_CUBIC, Channel
 from beam.physics.effects.effect import Effect, Fingerprint, ParameterSpec, StartHints
 
-__all__ = ["EFFECT", "STIFFNESS", "equivalent_omega2"]
+__all__ = ["EFFECT", "PLAUSIBLE_SOURCE", "STIFFNESS", "equivalent_omega2"]
 
+PLAUSIBLE_SOURCE = ("harmonic balance of the tip spring on mode 1 (df1 / f1 = 0.12 k3 L^5 / EI (A / L)^2): at most a 90 % "
+                    "hardening at a tip swing of L / 20; a cantilever's own geometric hardening is of order EI / L^5")
 STIFFNESS = ParameterSpec("tip_cubic_stiffness_N_m3", "N/m³", "k_3", "cubic stiffness at the tip", 1.0, 1e7,
-                          nominal_log_sd=1.5)
+                          nominal_log_sd=1.5, plausible=(0.0, 3000.0), plausible_source=PLAUSIBLE_SOURCE,
+                          plausible_scale="EI/L^5")
 
 #: Mode-1 frequency 0.5 % higher at the largest amplitude.
 THRESHOLD = 0.005
