@@ -106,28 +106,28 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
 
     shown(tabs.active)
 
+    beam_view = views.get("Beam calibration")
+
     def opened(event) -> None:  # the beam views start their (heavier) jobs when first opened
         shown(event.new)
         view = list(views.values())[event.new]
-        if hasattr(view, "activate"):
-            if view is not views.get("Beam calibration") and hasattr(views.get("Beam calibration"), "activate"):
-                views["Beam calibration"].activate()
-            view.activate()
+        if view.opens_beam and beam_view is not None:  # the tabs about the beam view's record start it too
+            beam_view.activate()
+        view.activate()
 
     tabs.param.watch(opened, "active")
     for view in views.values():  # a view may open another tab (the window study: a cell in the beam view)
-        if "goto" in view.param:
-            view.param.watch(lambda event: setattr(tabs, "active", list(views).index(event.new)) if event.new else None,
-                             "goto")
+        view.param.watch(lambda event: setattr(tabs, "active", list(views).index(event.new)) if event.new else None,
+                         "goto")
 
     diagnosis_view = views.get("Diagnosis")
     if hasattr(diagnosis_view, "prebuild"):
         def prebuild(event) -> None:  # once the beam view's first calibration is final: the server is idle
             if event.new == "final":
-                session.beam.param.unwatch(prebuild_watcher)
+                session.beam.run.param.unwatch(prebuild_watcher)
                 diagnosis_view.prebuild()
 
-        prebuild_watcher = session.beam.param.watch(prebuild, "stage")
+        prebuild_watcher = session.beam.run.param.watch(prebuild, "stage")
 
     def start() -> None:
         session.toy.request(debounce=False)

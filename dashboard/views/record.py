@@ -19,14 +19,12 @@ import html
 import io
 
 import panel as pn
-import param
 
 from dashboard.jobs.beam import MAX_UPLOAD_BYTES, upload_size_text
 from dashboard.plots.record import BeamSketch, SpectrumPlot
-from dashboard.runtime.staging import run_steps
-from dashboard.state.session import SessionState
 from dashboard.views.beam import UPLOAD_CHUNK_BYTES
-from dashboard.views.panes import FLEX_ITEM_INPUTS, FLEX_ITEM_MAIN, HTML, Markdown, alert_html, status_html
+from dashboard.views.panes import FLEX_ITEM_INPUTS, FLEX_ITEM_MAIN, HTML, Markdown, alert_html, run_status
+from dashboard.views.tab import TabView
 
 __all__ = ["RecordView", "read_html"]
 
@@ -96,7 +94,7 @@ def read_html(summary: dict | None) -> str:
     return f"<table class='record-read' style='font-size:inherit'>{''.join(rows)}</table>"
 
 
-class RecordView(pn.viewable.Viewer):
+class RecordView(TabView):
     """Bring your own record: read any file, describe the beam in a student's words, calibrate.
 
     Parameters
@@ -105,57 +103,36 @@ class RecordView(pn.viewable.Viewer):
         The browser session's state.
     """
 
-    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+    placeholder = "Open this tab to bring your own record."
+    css_classes = ("record-view",)
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._record = self.session.record
-        self._built = False
-        self._layout = pn.Column(Markdown("Open this tab to bring your own record."), sizing_mode="stretch_width",
-                                 css_classes=["record-view"])
-        self._layout.param.watch(self._shown, "visible")
 
-    def __panel__(self):
-        return self._layout
-
-    @property
-    def built(self) -> bool:
-        """Whether the view's pieces exist."""
-        return self._built
-
-    def _shown(self, event) -> None:
-        if event.new:
-            self.build()
-
-    def build(self) -> None:
-        """Build the widgets and plots (once), in steps (see :mod:`dashboard.runtime.staging`)."""
-        if self._built:
-            return
-        self._built = True
+    def frame(self) -> None:
         self._left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS, css_classes=["record-inputs"])
         self._main = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_MAIN, css_classes=["record-main"])
-        self._layout[:] = [pn.FlexBox(self._left, self._main, flex_wrap="wrap", align_items="flex-start",
-                                      sizing_mode="stretch_width")]
-        run_steps([self._build_status, self._build_file, self._build_form, self._build_plots, self._build_actions])
+        self.layout[:] = [pn.FlexBox(self._left, self._main, flex_wrap="wrap", align_items="flex-start",
+                                     sizing_mode="stretch_width")]
+
+    def steps(self) -> list:
+        return [self._build_status, self._build_file, self._build_form, self._build_plots, self._build_actions]
 
     # -- steps -------------------------------------------------------------------------------------
     def _build_status(self) -> None:
         r = self._record
-        p = r.param
 
-        def status(stage, text, requested, read, described, loaded, form_error):
-            return status_html("record-status", stage, text, requested, 0, _STAGE_TEXT[stage],
-                               file=html.escape(read.file_name) if read is not None else "",
-                               described=int(described is not None), modes=len(described.modes_Hz) if described else 0,
-                               loaded=html.escape(loaded))
+        def data(read, described, loaded):
+            return {"file": html.escape(read.file_name) if read is not None else "",
+                    "described": int(described is not None), "modes": len(described.modes_Hz) if described else 0,
+                    "loaded": html.escape(loaded)}
 
         self._main.extend([
             Markdown(INTRO, sizing_mode="stretch_width", margin=(0, 10)),
-            HTML(pn.bind(status, p.stage, p.status, p.requested, p.read, p.described, p.loaded, p.form_error),
-                 sizing_mode="stretch_width", margin=(0, 10)),
-            HTML(pn.bind(lambda e: alert_html("danger", f"<b>Error:</b> {html.escape(e)}") if e else "", p.error),
-                 sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-error"]),
-            pn.Card(HTML(pn.bind(lambda read: read_html(read.summary() if read is not None else None), p.read),
+            *run_status(r.run, "record-status", _STAGE_TEXT, error_css="record-error", data=data, bar=False,
+                        depends=(r.param.read, r.param.described, r.param.loaded)),
+            pn.Card(HTML(pn.bind(lambda read: read_html(read.summary() if read is not None else None), r.param.read),
                          sizing_mode="stretch_width", css_classes=["record-what"]),
                     title="What was read", collapsible=False, sizing_mode="stretch_width"),
         ])
@@ -221,7 +198,7 @@ class RecordView(pn.viewable.Viewer):
                 opened_here.clear()
                 card.collapsed = True
 
-        r.param.watch(opened, "error")
+        r.run.param.watch(opened, "error")
         r.param.watch(read, "read")
         return card
 
