@@ -34,7 +34,8 @@ from beam.calibration import (
 from beam.calibration.modes import MAX_MODES
 from beam.errors import BeamInputError
 from beam.io.measurement import Measurement
-from beam.physics.effects import EFFECTS
+from beam.discovery.ranking import record_features
+from beam.physics.effects import EFFECTS, applicable
 from dashboard.jobs.beam import (
     CalibrationKey,
     bundled_datasets,
@@ -162,9 +163,13 @@ class BeamState(RunOwner, Pins, param.Parameterized):
 
     # -- datasets --------------------------------------------------------------------------------
     def dataset_label(self, name: str) -> str:
-        """``"lab_run_1 — title"`` of a bundled dataset, ``"upload: name — title"`` of an upload."""
+        """``"lab_run_1 — title"`` of a bundled dataset, ``"upload: name — title"`` of an upload (its file's
+        name instead of a title that only restates it: "Raw Data.csv, described in the dashboard" was cut
+        in the menus)."""
         if name in self.uploads:
-            return f"upload: {self.uploads[name].name} — {self.uploads[name].title}"
+            m, file_name = self.uploads[name], self._files.get(name)
+            title = file_name if file_name and m.title.startswith(file_name) else m.title
+            return f"upload: {m.name} — {title}"
         return bundled_datasets().get(name, name)
 
     def record_name(self, name: str | None = None) -> str:
@@ -215,11 +220,29 @@ class BeamState(RunOwner, Pins, param.Parameterized):
         except Exception as exc:  # noqa: BLE001 - a bundled file broken on disk: say so, keep the rest
             self._fail(user_message(sch.readable_error(exc)))
             return
-        with editing(self):
-            self.measurement = m
+        with editing(self):  # the result shown was the previous record's: none until this one's preview
+            self.param.update(measurement=m, result=None)
         self._set_window(m)
+        left_out = self._keep_applicable(m)
         self._apply_defaults(self.dataset, previous)
-        self.request()
+        note = f" ({', '.join(left_out)} left out: not on this record)" if left_out else ""
+        self.request(status=f"new record: calibrating{note}")
+
+    def _keep_applicable(self, measurement) -> list[str]:
+        """Quietly drop the effects of the model that do not apply to ``measurement`` (a patch's on a
+        bare strip, an input's on a free decay: the previous record's model would be refused); returns
+        the titles of those dropped."""
+        features = record_features(measurement, spectral=False)
+        kept = [e for e in self.effects if applicable(e, features)]
+        if kept == list(self.effects):
+            return []
+        dropped = [EFFECTS[e].title for e in self.effects if e not in kept]
+        self._quiet = True
+        try:
+            self.effects = kept
+        finally:
+            self._quiet = False
+        return dropped
 
     def _fail(self, message: str) -> None:
         """A failure outside a run (a dataset that cannot be read): said as a failed request is."""
@@ -301,12 +324,11 @@ class BeamState(RunOwner, Pins, param.Parameterized):
         """Whether the current dataset is a bundled one (its results are shared by every session's cache)."""
         return self.dataset in bundled_datasets()
 
-    def request(self, *, debounce: bool = True) -> int:
+    def request(self, *, debounce: bool = True, status: str = "new inputs: calibrating") -> int:
         """Calibrate with the current inputs (preview, MCMC, final); returns the request id."""
         key = self.key()
         job = bind(calibration_run, key, self.measurement, known=self.known_maps(key), use_cache=self.is_bundled())
-        rid = self.run.request(job, debounce_s=None if debounce else 0.0, status="new inputs: calibrating",
-                               subject=self.record_name())
+        rid = self.run.request(job, debounce_s=None if debounce else 0.0, status=status, subject=self.record_name())
         self._keys[rid] = key
         if len(self._keys) > 50:
             self._keys.pop(min(self._keys))
@@ -334,10 +356,14 @@ class BeamState(RunOwner, Pins, param.Parameterized):
             with editing(self):
                 self.param.update(result=update.value, final=update.value, final_key=key)
 
-    @staticmethod
-    def effect_options() -> dict[str, str]:
-        """``{label with units: effect id}`` for the check-boxes."""
-        return {effect_label(e): e for e in EFFECTS}
+    def effect_options(self) -> dict[str, str]:
+        """``{label with units: effect id}`` for the check-boxes: the effects that apply to the record
+        (:func:`beam.physics.effects.applicable`: no patch's effect on a bare strip, no input's on a free
+        decay) and those in the model."""
+        m = self.measurement
+        features = record_features(m, spectral=False) if m is not None else None
+        return {effect_label(e): e for e in EFFECTS
+                if features is None or e in self.effects or applicable(e, features)}
 
 
 class DiagnosisState(RunOwner, param.Parameterized):

@@ -106,7 +106,7 @@ class RecordState(RunOwner, param.Parameterized):
     def __init__(self, **params) -> None:
         super().__init__(**params)
         with editing(self):
-            self.run = Run("Reading the file", words=READ_WORDS, show=self._show_read)
+            self.run = Run("Reading {}", words=READ_WORDS, show=self._show_read)
             self.beam_run = Run("Describing the beam", show=self._show_described)
         self._loaded_from: Described | None = None
         self._file: tuple[str | None, bytes | str | None] | None = None  # the latest file dropped

@@ -80,7 +80,8 @@ class Run(param.Parameterized):
     Parameters
     ----------
     label : str
-        What runs, for the session's status line (``"Calibration"``, ``"Diagnosis"``).
+        What runs, for the session's status line (``"Calibration"``, ``"Diagnosis"``: "... of SUBJECT";
+        a ``{}`` in it takes the subject's place: ``"Reading {}"``).
     words : Words
         How its updates read.
     show : callable, optional

@@ -55,7 +55,8 @@ LANDING_SEED = 7
 #: How the toy's runs read (a partial result comes while the sampler runs; the decimals of the
 #: final's seconds are read by the benchmark, ``tests/benchmarks/bench_dashboard.py``).
 TOY_WORDS = Words(partial="sampling", ready="{message}: ready in {seconds:.2f} s", failed="could not run this scenario.")
-SWEEP_WORDS = Words(progress="running", partial="running", ready="{message}", failed="window sweep failed.")
+SWEEP_WORDS = Words(progress="running", partial="running", ready="{message}: done in {seconds:.1f} s",
+                    failed="window sweep failed.")
 _INPUTS = ("window_s", "discrepancy", "kind", "noise_sd", "horizon_s", "likelihood", "seed")
 
 
@@ -154,7 +155,6 @@ class ToyState(RunOwner, Pins, param.Parameterized):
         if update.kind == "final":
             with editing(self):
                 self.sweep = update.value
-            return {"status": update.message}
         if update.kind == "error":
             return {"status": f"window sweep failed: {user_message(update.message)}"}
         return None

@@ -67,6 +67,13 @@ def stage_text(stage: str, result) -> str:
     return _STAGE_TEXT.get(stage, stage)
 
 
+def effects_caption(measurement) -> str:
+    """The words over the effect check-boxes: what the bare model already has for this record (the
+    patch's drive only when the record has a patch)."""
+    patch = measurement is not None and measurement.geometry.has_patch
+    return ("**Effects in the model** (besides the beam's stiffness EI" + (" and the patch's drive k_p)" if patch else ")"))
+
+
 #: Colour of a read-out's number by its judgement (:func:`dashboard.outputs.beam.judged_readouts`).
 KIND_COLOURS = {"good": "#1a7f37", "bad": "#c62828", "warn": "#a35200", "none": "#212529"}
 
@@ -237,37 +244,44 @@ class BeamCalibrationView(TabView):
         # and refuses a file over max_file_size in the browser ("File is too large"), before sending
         # anything. No type filter: browsers report a CSV as text/csv, application/vnd.ms-excel or
         # nothing, a TOML file mostly as nothing; the contents are checked on the server.
-        droppers = {}
-        for kind, limit in (("csv", MAX_UPLOAD_BYTES), ("toml", MAX_SIDECAR_UPLOAD_BYTES)):
+        limits = {"csv": MAX_UPLOAD_BYTES, "toml": MAX_SIDECAR_UPLOAD_BYTES}
+        droppers: dict[str, pn.widgets.FileDropper] = {}
+        load = pn.widgets.Button(label="Load the uploaded measurement", color="primary", sizing_mode="stretch_width",
+                                 css_classes=["beam-upload-load"], disabled=True)
+
+        def ready(*_) -> None:
+            load.disabled = not (droppers["csv"].value and droppers["toml"].value)
+
+        def new_dropper(kind: str) -> pn.widgets.FileDropper:
             droppers[kind] = pn.widgets.FileDropper(
-                multiple=False, max_file_size=str(limit), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
+                multiple=False, max_file_size=str(limits[kind]), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
                 layout="compact", width=None, sizing_mode="stretch_width", margin=(0, 10, 5, 10),
                 css_classes=[f"beam-upload-{kind}"])
-        csv, toml = droppers["csv"], droppers["toml"]
+            droppers[kind].param.watch(ready, "value")
+            return droppers[kind]
 
         def last(dropper: pn.widgets.FileDropper) -> tuple[str | None, bytes | str | None]:
             """The dropper's (latest) file as (name, contents); (None, None) before one is uploaded."""
             return next(reversed(dropper.value.items()), (None, None))
 
-        load = pn.widgets.Button(label="Load the uploaded measurement", color="primary", sizing_mode="stretch_width",
-                                 css_classes=["beam-upload-load"], disabled=True)
+        def upload(event) -> None:
+            """Load both files; refused, fresh widgets (theirs said "Upload complete": the files arrived)."""
+            if not beam.upload(*last(droppers["csv"]), *last(droppers["toml"])):
+                card[2], card[4] = new_dropper("csv"), new_dropper("toml")
+                ready()
 
-        def ready(*_) -> None:
-            load.disabled = not (csv.value and toml.value)
-
-        csv.param.watch(ready, "value")
-        toml.param.watch(ready, "value")
-        load.on_click(lambda e: beam.upload(*last(csv), *last(toml)))
-        return select, pn.Card(
+        load.on_click(upload)
+        card = pn.Card(
             Markdown(f"**Upload** a record: `NAME.csv` (`time_s`, then `voltage_V`, `force_N` or no input column "
                      "for a free response, then `displacement_m`, `velocity_m_s` or `acceleration_m_s2`) and its "
                      f"sidecar `NAME.toml` (geometry, sensor position); the CSV at most "
                      f"{upload_size_text(MAX_UPLOAD_BYTES)} ({MAX_UPLOAD_BYTES // 2**20} MiB), the sidecar at most "
                      f"{upload_size_text(MAX_SIDECAR_UPLOAD_BYTES)}. Drop or browse both, then load them.",
                      margin=(0, 10)),
-            Markdown("Data file (.csv)", margin=(0, 10)), csv,
-            Markdown("Sidecar (.toml)", margin=(0, 10)), toml, load,
+            Markdown("Data file (.csv)", margin=(0, 10)), new_dropper("csv"),
+            Markdown("Sidecar (.toml)", margin=(0, 10)), new_dropper("toml"), load,
             title="Measurement", collapsible=False, sizing_mode="stretch_width")
+        return select, card
 
     def _controls(self) -> pn.Card:
         beam = self._beam
@@ -282,33 +296,40 @@ class BeamCalibrationView(TabView):
         beam.param.watch(bounds, "measurement")
         modes = pn.widgets.IntSlider.from_param(beam.param.modes, name="Number of modes", sizing_mode="stretch_width",
                                                 css_classes=["beam-modes"])
-        options = beam.effect_options()
-        effects = pn.widgets.CheckBoxGroup(options=options, value=list(beam.effects), inline=False,
+        effects = pn.widgets.CheckBoxGroup(options=beam.effect_options(), value=list(beam.effects), inline=False,
                                            sizing_mode="stretch_width", css_classes=["beam-effects"])
         effects.param.watch(lambda e: setattr(beam, "effects", list(e.new)) if list(e.new) != list(beam.effects) else None,
                             "value")
         beam.param.watch(lambda e: setattr(effects, "value", list(e.new)) if list(e.new) != effects.value else None,
                          "effects")
+
+        def offered(*_):  # the effects that apply to this record (no patch's effects on a bare strip)
+            options = beam.effect_options()
+            if options != effects.options:
+                effects.options = options
+
+        beam.param.watch(offered, ["measurement", "effects"])
         likelihood = pn.widgets.Select.from_param(beam.param.likelihood, sizing_mode="stretch_width")
-        return pn.Card(window, modes, Markdown("**Effects in the model** (besides the beam's stiffness EI and the "
-                                               "patch's drive k_p)",
-                                                       margin=(5, 10, 0, 10)),
-                       effects, likelihood, title="Model and calibration", collapsible=False, sizing_mode="stretch_width")
+        caption = Markdown(pn.bind(lambda m: effects_caption(m), beam.param.measurement), margin=(5, 10, 0, 10),
+                           css_classes=["beam-effects-caption"])
+        return pn.Card(window, modes, caption, effects, likelihood, title="Model and calibration", collapsible=False,
+                       sizing_mode="stretch_width")
 
     # -- outputs --------------------------------------------------------------------------------
     def _status(self) -> list:
         beam = self._beam
 
-        def data(result, dataset):
+        def data(result, dataset, record):
             r = bs.readouts(result)
-            return {"dataset": dataset, "effects": "+".join(result.setup.effects) if result is not None else "",
+            return {"dataset": dataset, "record": html.escape(record),
+                    "effects": "+".join(result.setup.effects) if result is not None else "",
                     "preview": int(result is None or result.is_preview),
                     "averaged": int(result is not None and result.approximation is not None),
                     "rmse_prediction": f"{r['rmse_prediction']:.6g}", "unit": r["unit"]}
 
         return run_status(beam.run, "cal-status", _STAGE_TEXT, error_css="beam-cal-error", data=data,
-                          text=lambda stage, result, dataset: stage_text(stage, result),
-                          depends=(beam.param.result, beam.param.dataset))
+                          text=lambda stage, result, *_: stage_text(stage, result),
+                          depends=(beam.param.result, beam.param.dataset, beam.run.param.shown_subject))
 
     def _readouts(self) -> pn.pane.HTML:
         """The read-outs, judged against the model (one HTML pane whose text changes: cheap in the browser)."""

@@ -9,6 +9,7 @@ the error ladder.
 
 from __future__ import annotations
 
+import html
 import math
 
 import pandas as pd
@@ -27,12 +28,15 @@ from dashboard.outputs.beam import (
 )
 from dashboard.plots.diagnosis import DiagnosisPlots
 from dashboard.state.beam import NO_ANSWER
+from dashboard.state.run import BUSY
 from dashboard.views.panes import (
     BUTTON_WRAP,
     FLEX_ITEM_GUIDE,
     FLEX_ITEM_MAIN,
+    HTML,
     DataFrame,
     Markdown,
+    alert_html,
     diagnosis_download,
     run_status,
 )
@@ -129,9 +133,12 @@ class DiagnosisView(TabView):
                 self._attach_when_ready]
 
     def start(self) -> None:
-        """Diagnose the beam view's model when the tab is first opened."""
-        if self._diag.requested == 0:
-            self._diag.request()
+        """Diagnose the beam view's model when the tab is opened and the diagnosis shown is not of it
+        (the first time, and after the student moved on to another record or model), unless one is
+        on its way (running, or waiting for an effect being added)."""
+        d = self._diag
+        if d.requested == 0 or (not d.is_current() and not d.run.busy and not d.adding):
+            d.request()
 
     def _attach_when_ready(self) -> None:
         """Put the built page in place now if there is something to show, else when there is.
@@ -177,14 +184,39 @@ class DiagnosisView(TabView):
         self.candidates = pn.Column(sizing_mode="stretch_width", css_classes=["diag-candidates"])
         d.param.watch(self._show_candidates, ["diagnosis", "adding"])
         beam.param.watch(self._show_candidates, "effects")
+        beam.run.param.watch(self._show_candidates, "requested")  # another record or model: the Add buttons go grey
         run = pn.widgets.Button(label="Diagnose the current model", color="primary", css_classes=["diag-run"])
         run.on_click(lambda e: d.request())
-        stale = Markdown(pn.bind(self._stale, d.param.diagnosis, beam.param.result), margin=(0, 10))
-        verdict = Markdown(pn.bind(bs.verdict_text, d.param.diagnosis), css_classes=["diag-verdict"],
-                           sizing_mode="stretch_width", styles={"font-size": "13pt"})
+        depends = (d.param.diagnosis, d.run.param.shown_subject, beam.run.param.requested)
+        stale = HTML(pn.bind(self._stale, *depends, d.run.param.stage), sizing_mode="stretch_width", margin=(0, 10),
+                     css_classes=["diag-stale"])
+        verdict = Markdown(pn.bind(self._verdict, *depends), css_classes=["diag-verdict"], sizing_mode="stretch_width",
+                           styles={"font-size": "13pt"})
         self._show_candidates()
-        self._main.extend([*self._status(), pn.Row(run, stale, sizing_mode="stretch_width"), verdict,
-                           Markdown("### Candidate effects (best first)", margin=(0, 10)), self.candidates])
+        findings = pn.Column(verdict, Markdown("### Candidate effects (best first)", margin=(0, 10)), self.candidates,
+                             sizing_mode="stretch_width", css_classes=["diag-findings"])
+        # another record's or model's findings are greyed (Add disabled: _show_candidates)
+        d.param.watch(lambda e: self._grey(findings), "diagnosis")
+        beam.run.param.watch(lambda e: self._grey(findings), "requested")
+        self._grey(findings)
+        self._main.extend([*self._status(), pn.Row(run, sizing_mode="stretch_width"), stale, findings])
+
+    def _grey(self, findings: pn.Column) -> None:
+        """The findings shown at full strength when they are the current record's and model's, greyed when not."""
+        current = self._diag.diagnosis is None or self._diag.is_current()
+        styles = {"opacity": "1" if current else "0.5"}  # (an emptied style is not taken off in the browser)
+        if findings.styles != styles:
+            findings.styles = styles
+
+    def _verdict(self, diagnosis, record: str, _requested) -> str:
+        """The verdict, under a line naming the record and model it is about (partial or final)."""
+        if diagnosis is None:
+            return ""
+        spec = diagnosis.key.spec
+        window = f"window {spec.window[0]:g}–{spec.window[1]:g} s" if spec.window else "default window"
+        model = ", ".join(effect_title(e) for e in spec.effects) or "the bare beam"
+        head = f"**Diagnosis of {record or 'this record'}** ({window}, {spec.modes} modes; model: {model})"
+        return f"{head}\n\n{bs.verdict_text(diagnosis)}"
 
     @staticmethod
     def _plot(dmap, **kw) -> pn.pane.HoloViews:
@@ -238,20 +270,36 @@ class DiagnosisView(TabView):
                                    collapsible=True, collapsed=False, sizing_mode="stretch_width",
                                    css_classes=["diag-class-guide"]), self._reveal(), diagnosis_download(self._diag)])
 
-    def _stale(self, diagnosis, _result) -> str:
-        if diagnosis is None or self._diag.is_current():
+    def _stale(self, diagnosis, record: str, _requested, stage: str) -> str:
+        """A notice over findings that are not of the beam view's record and model (empty when they are)."""
+        d = self._diag
+        if diagnosis is None or d.is_current():
             return ""
-        return "*The beam view's dataset, window, modes or effects changed since this diagnosis.*"
+        now = self.session.beam.record_name()
+        what = (f"not of <b>{html.escape(now)}</b>, the record the <i>Beam calibration</i> tab shows now"
+                if now != record else "not of the window, modes or effects the <i>Beam calibration</i> tab has now")
+        then = ("The diagnosis of the current model is on its way: its first results replace these."
+                if stage in BUSY else "Press <b>Diagnose the current model</b> (or open this tab again) to diagnose it.")
+        return alert_html("warning", f"This diagnosis is of <b>{html.escape(record)}</b>, {what}: its verdict and "
+                                     f"candidates are greyed and <i>Add</i> is off. {then}")
 
     def _status(self) -> list:
         d = self._diag
 
-        def data(ladder, adding):
+        def data(ladder, adding, diagnosis, record, _requested):
             last = ladder[-1]["rmse_prediction"] if ladder else float("nan")
             return {"ladder_n": len(ladder), "ladder_rmse": f"{last:.6g}",
-                    "ladder_unit": ladder[-1]["unit"] if ladder else "", "adding": adding}
+                    "ladder_unit": ladder[-1]["unit"] if ladder else "", "adding": adding,
+                    "record": html.escape(record), "current": int(diagnosis is not None and d.is_current())}
 
-        return run_status(d.run, "diag-status", _STAGE_TEXT, error_css="diag-error", data=data, depends=(d.param.ladder, d.param.adding))
+        def text(stage, ladder, adding, *_):
+            if adding and stage in BUSY:
+                return f"Adding {effect_title(adding)}: re-calibrating the model, then diagnosing it again…"
+            return _STAGE_TEXT.get(stage, stage)
+
+        return run_status(d.run, "diag-status", _STAGE_TEXT, error_css="diag-error", data=data, text=text,
+                          depends=(d.param.ladder, d.param.adding, d.param.diagnosis, d.run.param.shown_subject,
+                                   self.session.beam.run.param.requested))
 
     def _show_candidates(self, *_) -> None:
         """The candidates' rows: best first once every candidate is ranked; while they are being
@@ -271,9 +319,10 @@ class DiagnosisView(TabView):
                 self.candidates[:] = []
             self._rows, self._rows_key = {}, None
             return
-        if _ and getattr(_[0], "name", "") in ("adding", "effects") and d.requested > d.shown:
+        if _ and getattr(_[0], "name", "") in ("adding", "effects", "requested") and d.requested > d.shown:
             return  # a diagnosis of the new model is on its way and replaces the rows: no repaint for this
         u = bs.output_units(diagnosis)
+        current = d.is_current()  # another record's or model's candidates cannot be added to this one
         ranked = {c.effect: c for c in diagnosis.candidates}
         names = [c.effect for c in diagnosis.candidates] + list(diagnosis.pending)
         done = not diagnosis.pending
@@ -285,7 +334,7 @@ class DiagnosisView(TabView):
             # the Add buttons are enabled when all are ranked (the rows are remade then): a
             # button's change re-renders it and lays out the whole page (~0.2 s of chromium each)
             states[effect] = (f"Add {title}" if not present else f"{title} is in the model",
-                              not done or present or bool(d.adding),
+                              not done or present or bool(d.adding) or not current,
                               self._candidate_text(c, diagnosis, u) if c is not None else f"**{title}**<br>*being ranked…*")
         rows = getattr(self, "_rows", {})
         # rank order and colours once all are ranked; a fixed order before

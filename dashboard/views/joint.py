@@ -264,7 +264,7 @@ class JointView(TabView):
                     "panels": len(self.panels), "preview": int(result is None or result.joint.is_preview),
                     "candidates": len(diagnosis.candidates) if diagnosis is not None else 0}
 
-        return run_status(run, css, texts, data=data, depends=(st.param.result, st.param.diagnosis), sticky=False)
+        return run_status(run, css, texts, data=data, depends=(st.param.result, st.param.diagnosis))
 
     def _build_status(self) -> None:
         self._centre.extend(self._status(self._joint.run, "joint-status", _STAGE_TEXT))

@@ -20,12 +20,13 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
+from html import escape as html_escape
 
 import panel as pn
 
 from dashboard.state.run import BUSY
 
-__all__ = ["ALERT_COLOURS", "STICKY_STATUS", "WRAP", "bar_percent", "compare_card", "download_card", "run_status", "BASE_TEXT_PX", "BUTTON_WRAP", "ClassroomDesign", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "DataFrame",
+__all__ = ["ALERT_COLOURS", "WRAP", "bar_percent", "compare_card", "download_card", "run_status", "BASE_TEXT_PX", "BUTTON_WRAP", "ClassroomDesign", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "DataFrame",
            "HTML", "MIN_TEXT_PX", "corner_grid", "diagnosis_download", "Markdown", "READABLE_CSS", "ROOT_CSS", "alert_html",
            "status_html", "three_columns"]
 
@@ -93,15 +94,11 @@ def alert_html(kind: str, html: str) -> str:
 def status_html(css: str, stage: str, status: str, requested: int, shown: int, text: str, **data) -> str:
     """The status line, with the state in ``data-*`` attributes (read by the browser tests)."""
     attrs = " ".join(f'data-{k.replace("_", "-")}="{v}"' for k, v in data.items())
-    detail = f" <small>({status})</small>" if status else ""
+    detail = f" <small>({html_escape(status)})</small>" if status else ""
     return (f'<div class="{css}" data-stage="{stage}" data-requested="{requested}" data-shown="{shown}" {attrs}>'
             f"<b>{text}</b>{detail}</div>")
 
 
-#: The status line and its bar stay at the top of the window while the page scrolls (after
-#: *Add*, far down the candidates, the status had scrolled out of view while the model was
-#: re-calibrated and diagnosed again): sticky at the top of its column, over the content.
-STICKY_STATUS = {"position": "sticky", "top": "0", "z-index": "10", "background": "#ffffff"}
 #: An error's box keeps its text inside: a long word (a path, a quoted header) wraps.
 WRAP = {"overflow-wrap": "anywhere", "word-break": "break-word", "max-width": "100%"}
 
@@ -114,11 +111,11 @@ def bar_percent(stage: str, fraction: float) -> int:
 
 
 def run_status(run, css: str, texts: dict, *, error_css: str | None = None, data=None, text=None, depends=(),
-               bar: bool = True, bar_label: str | None = None, sticky: bool = True) -> list:
+               bar: bool = True, bar_label: str | None = None) -> list:
     """A run's status line (:func:`status_html`: the state in ``data-*`` attributes for the tests)
     with its progress bar, and its error (a red box, shown only when there is one), from the
-    run's parameters: two panes, to put straight into a page's column (the line sticks to the top
-    of that column's part of the window).
+    run's parameters: two panes, for a page's column. (The session's one status line above the tabs,
+    :mod:`dashboard.views.status`, is the one that stays in view.)
 
     Parameters
     ----------
@@ -133,8 +130,6 @@ def run_status(run, css: str, texts: dict, *, error_css: str | None = None, data
         of ``texts``; ``values`` are those of ``depends`` (parameters of other objects).
     bar, bar_label : bool, str
         Whether there is a progress bar, and its label.
-    sticky : bool
-        Whether the line and its bar stay in view while the page scrolls (:data:`STICKY_STATUS`).
     """
     p = run.param
 
@@ -151,8 +146,7 @@ def run_status(run, css: str, texts: dict, *, error_css: str | None = None, data
     alert = pn.pane.Alert(pn.bind(lambda e: f"**Error:** {e}" if e else "", p.error), alert_type="danger",
                           visible=pn.bind(bool, p.error), sizing_mode="stretch_width", css_classes=[error_css or f"{css}-error"],
                           styles=WRAP)
-    return [pn.Column(*head, sizing_mode="stretch_width", styles=STICKY_STATUS if sticky else {},
-                      css_classes=[f"{css}-line"]), alert]
+    return [pn.Column(*head, sizing_mode="stretch_width", css_classes=[f"{css}-line"]), alert]
 
 
 def compare_card(state, colour: str) -> pn.Card:

@@ -18,6 +18,8 @@ from __future__ import annotations
 import html
 import io
 
+import numpy as np
+
 import panel as pn
 
 from dashboard.jobs.beam import MAX_UPLOAD_BYTES, upload_size_text
@@ -34,6 +36,8 @@ _STAGE_TEXT = {
     "read": "Record read.",
     "error": "Could not read that file.",
 }
+#: The tab a loaded record is calibrated in.
+BEAM_TAB = "Beam calibration"
 INTRO = ("**Your own record**: a phone taped to a ruler (phyphox, Physics Toolbox), a LabVIEW `.lvm`, an NI "
          "`.tdms`, a MATLAB `.mat`, a NumPy `.npy`/`.npz` or any CSV/text table. Drop the file, say what the beam "
          "is, check that the ideal beam's first mode sits near the record's first peak, then calibrate.")
@@ -124,9 +128,15 @@ class RecordView(TabView):
         r = self._record
 
         def data(read, described, loaded):
+            record = read.record if read is not None else None
             return {"file": html.escape(read.file_name) if read is not None else "",
                     "described": int(described is not None), "modes": len(described.modes_Hz) if described else 0,
-                    "loaded": html.escape(loaded)}
+                    "loaded": html.escape(loaded),
+                    # what was read, in SI units: the signal's largest magnitude, the rate (Hz), the duration (s)
+                    "peak": f"{float(np.max(np.abs(record.output))):.6g}" if record is not None else "",
+                    "rate": f"{record.rate_Hz:.6g}" if record is not None else "",
+                    "duration": f"{record.duration_s:.6g}" if record is not None else "",
+                    "signal": html.escape(record.output_column) if record is not None else ""}
 
         self._main.extend([
             Markdown(INTRO, sizing_mode="stretch_width", margin=(0, 10)),
@@ -139,10 +149,6 @@ class RecordView(TabView):
 
     def _build_file(self) -> None:
         r = self._record
-        dropper = pn.widgets.FileDropper(
-            multiple=False, max_file_size=str(MAX_UPLOAD_BYTES), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
-            layout="compact", width=None, sizing_mode="stretch_width", margin=(0, 10, 5, 10),
-            css_classes=["record-upload"])
         seen: dict[str, object] = {}
 
         def dropped(event) -> None:  # a file finished uploading (a removal triggers this too: ignored)
@@ -153,11 +159,28 @@ class RecordView(TabView):
                     r.upload(name, data)
                     return
 
-        dropper.param.watch(dropped, "value")
-        self._left.append(pn.Card(
+        def new_dropper() -> pn.widgets.FileDropper:
+            dropper = pn.widgets.FileDropper(
+                multiple=False, max_file_size=str(MAX_UPLOAD_BYTES), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
+                layout="compact", width=None, sizing_mode="stretch_width", margin=(0, 10, 5, 10),
+                css_classes=["record-upload"])
+            dropper.param.watch(dropped, "value")
+            return dropper
+
+        card = pn.Card(
             Markdown(f"Drop or browse **one record file** (at most {upload_size_text(MAX_UPLOAD_BYTES)}); no sidecar "
                      "needed: the form below describes the beam.", margin=(0, 10)),
-            dropper, title="1. Your record", collapsible=False, sizing_mode="stretch_width"))
+            new_dropper(), title="1. Your record", collapsible=False, sizing_mode="stretch_width")
+
+        def refused(event) -> None:
+            """The upload widget says "Upload complete" once a file has arrived, whatever the reading finds:
+            a file refused leaves a fresh widget (the message above says why)."""
+            if event.new:
+                seen.clear()
+                card[1] = new_dropper()
+
+        r.run.param.watch(refused, "error")
+        self._left.append(card)
         self._left.append(self._reading_options())
 
     def _reading_options(self) -> pn.Card:
@@ -270,15 +293,19 @@ class RecordView(TabView):
                                                "sensor_mass_kg", "sensor_mass_approximate")))
         load = pn.widgets.Button(label="Load and calibrate", color="primary", sizing_mode="stretch_width",
                                  disabled=ready, css_classes=["record-load"])
-        load.on_click(lambda e: r.load())
+        def load_and_show(event) -> None:  # the calibration is shown where it runs: the page goes there
+            if r.load() is not None:
+                self.open_tab(BEAM_TAB)
+
+        load.on_click(load_and_show)
         sidecar = pn.widgets.FileDownload(
             callback=lambda: io.StringIO(r.sidecar_text()), filename="beam.toml",
             label="Download the sidecar (TOML) for the command line", sizing_mode="stretch_width",
             disabled=pn.bind(lambda d: d is None, r.param.described), css_classes=["record-sidecar"])
         r.param.watch(lambda e: setattr(sidecar, "filename", r.sidecar_name()), "read")
         done = HTML(pn.bind(lambda name: alert_html(
-            "success", f"Loaded into the beam calibration as <b>{html.escape(name)}</b>: open the "
-                       "<b>Beam calibration</b> tab to see it calibrated (it is calibrating now).") if name else "",
+            "success", f"Loaded into the beam calibration as <b>{html.escape(name)}</b>: the <b>Beam calibration</b> "
+                       "tab calibrates it now (the page went there; come back here for the next record).") if name else "",
             r.param.loaded), sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-loaded"])
         self._left.append(pn.Card(
             load, done, sidecar,
