@@ -264,13 +264,9 @@ class BeamCalibrationView(TabView):
             """The dropper's (latest) file as (name, contents); (None, None) before one is uploaded."""
             return next(reversed(dropper.value.items()), (None, None))
 
-        def upload(event) -> None:
-            """Load both files; refused, fresh widgets (theirs said "Upload complete": the files arrived)."""
-            if not beam.upload(*last(droppers["csv"]), *last(droppers["toml"])):
-                card[2], card[4] = new_dropper("csv"), new_dropper("toml")
-                ready()
-
-        load.on_click(upload)
+        # (a refused pair keeps its widgets: replaced at once after the click, their FilePond threw in
+        # the browser, "Cannot read properties of null (reading 'file')"; the red box says why)
+        load.on_click(lambda event: beam.upload(*last(droppers["csv"]), *last(droppers["toml"])))
         card = pn.Card(
             Markdown(f"**Upload** a record: `NAME.csv` (`time_s`, then `voltage_V`, `force_N` or no input column "
                      "for a free response, then `displacement_m`, `velocity_m_s` or `acceleration_m_s2`) and its "
