@@ -14,7 +14,10 @@ reasons are in ``docs/decisions.md``):
 * inference runs in worker processes (:mod:`dashboard.runtime.workers`), started once per server
   with the rest of the process set-up (:func:`dashboard.runtime.server.prepare`);
 * the first toy run starts when the page has loaded (``pn.state.onload``), at once (no
-  debounce), so the preview is on screen moments later.
+  debounce), so the preview is on screen moments later;
+* with ``panel serve --warm`` the server says it is ready only once everything is imported, the
+  worker processes are warm and the first results a class asks for are in the caches
+  (:func:`warm_results`): the first visitor gets the app and its results at once.
 
 ``BEAM_DASHBOARD_LAG_LOG=lag.jsonl`` records where the event loop stalls
 (:mod:`dashboard.runtime.monitor`).
@@ -71,6 +74,7 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
     from dashboard.jobs.warm import schedule_warm_up
     from dashboard.state.session import SessionState
     from dashboard.views.panes import ROOT_CSS, ClassroomDesign
+    from dashboard.views.status import session_status
     from dashboard.views.tabs import VIEWS
 
     pn.extension("filedropper", notifications=False)  # the upload widget (built with the Beam tab, after load)
@@ -106,28 +110,28 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
 
     shown(tabs.active)
 
+    beam_view = views.get("Beam calibration")
+
     def opened(event) -> None:  # the beam views start their (heavier) jobs when first opened
         shown(event.new)
         view = list(views.values())[event.new]
-        if hasattr(view, "activate"):
-            if view is not views.get("Beam calibration") and hasattr(views.get("Beam calibration"), "activate"):
-                views["Beam calibration"].activate()
-            view.activate()
+        if view.opens_beam and beam_view is not None:  # the tabs about the beam view's record start it too
+            beam_view.activate()
+        view.activate()
 
     tabs.param.watch(opened, "active")
     for view in views.values():  # a view may open another tab (the window study: a cell in the beam view)
-        if "goto" in view.param:
-            view.param.watch(lambda event: setattr(tabs, "active", list(views).index(event.new)) if event.new else None,
-                             "goto")
+        view.param.watch(lambda event: setattr(tabs, "active", list(views).index(event.new)) if event.new else None,
+                         "goto")
 
     diagnosis_view = views.get("Diagnosis")
     if hasattr(diagnosis_view, "prebuild"):
         def prebuild(event) -> None:  # once the beam view's first calibration is final: the server is idle
             if event.new == "final":
-                session.beam.param.unwatch(prebuild_watcher)
+                session.beam.run.param.unwatch(prebuild_watcher)
                 diagnosis_view.prebuild()
 
-        prebuild_watcher = session.beam.param.watch(prebuild, "stage")
+        prebuild_watcher = session.beam.run.param.watch(prebuild, "stage")
 
     def start() -> None:
         session.toy.request(debounce=False)
@@ -139,7 +143,8 @@ def create_app(session: SessionState | None = None) -> pn.template.BootstrapTemp
         pn.state.onload(start)
     else:
         start()
-    template = pn.template.BootstrapTemplate(title=TITLE, main=[tabs], header_background="#2f4f6f",
+    # one status line for the whole session, above the tabs and always in view (dashboard.views.status)
+    template = pn.template.BootstrapTemplate(title=TITLE, main=[session_status(session), tabs], header_background="#2f4f6f",
                                              design=ClassroomDesign, raw_css=[ROOT_CSS])
     template.session_state = session  # for tests and debugging
     template.views = views
@@ -157,8 +162,38 @@ def start_workers() -> None:
     scheduler.shared_pool().start_processes()
 
 
+def warming() -> bool:
+    """Whether this run of the script is ``panel serve --warm``'s, before the server starts: its
+    document's session has no server."""
+    context = getattr(pn.state.curdoc, "session_context", None)
+    return context is not None and getattr(context, "server_context", None) is None
+
+
+def warm_results(timeout_s: float = 300.0) -> None:
+    """What the first visitors ask for first, computed while ``--warm`` holds the server's start: the
+    landing's toy result, the default record's calibration and its diagnosis, kept in the process's
+    caches (:mod:`dashboard.jobs.toy`, :mod:`dashboard.jobs.beam`), and the worker processes warm."""
+    from dashboard.state.session import SessionState
+
+    session = SessionState()
+    try:
+        session.toy.request(debounce=False)
+        session.beam.request(debounce=False)
+        session.wait(timeout_s)
+        session.diagnosis.request()
+        session.wait(timeout_s)
+    finally:
+        session.close()
+
+
 if __name__.startswith("bokeh"):
     _startup = start(start_workers)  # once per server process (``--warm``: before the first visitor)
+    if warming() and not _startup.done:
+        # ``--warm``: the server says it is ready when this returns, so the page is usable then (not
+        # the loading page: that is for a start without --warm)
+        _startup.wait()
+        if not _startup.error:
+            warm_results()
     if not _startup.done or _startup.error:
         loading_page(_startup, TITLE).servable(title=f"{TITLE}: starting")  # the title tells it apart (tests)
     else:

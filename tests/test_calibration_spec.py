@@ -65,8 +65,8 @@ def test_cli_api_and_dashboard_defaults_are_the_specs():
     assert (beam_state.likelihood.default, beam_state.seed.default, beam_state.target_ess.default) == (
         spec.likelihood, spec.seed, spec.target_ess)
     assert state.WINDOW_FRACTION == spec.window_fraction
-    key = CalibrationKey("lab_run_1", (0.0, 1.0), spec.effects, 4)
-    assert key.spec == CalibrationSpec(window=(0.0, 1.0), modes=4)
+    key = state.BeamState(dataset="lab_run_1", window_s=(0.0, 1.0), modes=4).key()
+    assert isinstance(key, CalibrationKey) and key.spec == CalibrationSpec(window=(0.0, 1.0), modes=4)
 
 
 def test_a_default_changed_in_one_place_is_seen_by_the_cli_the_api_and_the_dashboard(monkeypatch):
@@ -92,7 +92,8 @@ def test_a_default_changed_in_one_place_is_seen_by_the_cli_the_api_and_the_dashb
 
     monkeypatch.setattr(state, "DEFAULTS", CalibrationSpec())  # what the dashboard reads when imported
     assert state._default_window(record) == (0.0, round(0.4 * float(record.time_s[-1]), 2))
-    assert CalibrationKey("x", (0.0, 1.0), ("air_damping",), 4).spec.target_ess == 500.0  # key's default: the spec's
+    key = CalibrationKey("x", CalibrationSpec.of(window=(0.0, 1.0), effects=("air_damping",), modes=4))
+    assert key.spec.target_ess == 500.0  # key's default: the spec's
 
 
 def test_resolve_fills_the_window_and_auto_modes_once():

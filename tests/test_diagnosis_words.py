@@ -164,6 +164,7 @@ def test_the_default_class_flow_ends_at_the_noise_without_contradiction():
     pytest.importorskip("panel")
     import tomllib
 
+    from beam.calibration import CalibrationSpec
     from beam.discovery.report import diagnose
     from beam.io.measurement import read_measurement
     from dashboard.jobs.beam import CalibrationKey
@@ -176,7 +177,8 @@ def test_the_default_class_flow_ends_at_the_noise_without_contradiction():
     report = diagnose(read_measurement("assets/measurements/lab_run_1.csv"), window=(0.0, 1.05), modes=7, base=effects)
     assert report.missing is None and report.remaining.at_noise, report.verdict
     assert "predicts to the noise" in report.verdict and "outside the catalogue" not in report.verdict
-    d = Diagnosis.of(report, CalibrationKey("lab_run_1", (0.0, 1.05), effects, 7, "iid"))  # the dashboard's
+    d = Diagnosis.of(report, CalibrationKey("lab_run_1", CalibrationSpec(window=(0.0, 1.05), effects=effects, modes=7,
+                                                                       likelihood="iid")))  # the dashboard's
     words = verdict_text(d) + " " + _whiteness_text(d)
     assert "predicts to the noise" in words and "outside the catalogue" not in words, words
     assert "not missing physics" in words or report.remaining.white

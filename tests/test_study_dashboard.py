@@ -82,7 +82,7 @@ def test_the_state_lays_out_the_cells_of_beam_study(session):
 def test_wrong_inputs_say_why_and_start_nothing(session, inputs, words):
     st = session.study
     st.param.update(**inputs)
-    assert st.run() == 0
+    assert st.start() == 0
     assert words in st.error and st.requested == 0 and st.stage == "idle"
 
 
@@ -141,7 +141,7 @@ def test_a_cell_opens_in_the_beam_view(session):
     before = beam.requested
     st.open_cell({"position": 0, "index": 1, "cell": cell, "row": {"error": None}, "extra": {"modes": 5}})
     key = beam.key()
-    assert (key.dataset, key.window, key.effects, key.likelihood, key.modes, key.seed) == (
+    assert (beam.dataset, key.spec.window, key.spec.effects, key.spec.likelihood, key.spec.modes, key.spec.seed) == (
         "lab_run_1", (0.0, 0.6), ("air_damping", "kelvin_voigt", "patch_stiffening"), "ar1", 5, 0)
     assert beam.requested > before and beam.stage == "queued"
 
@@ -150,8 +150,8 @@ def test_updates_fill_the_state_in_order_and_a_failure_keeps_the_cells(session):
     st = session.study
     entry = {"position": 1, "index": 1, "cell": None, "row": {"error": None}, "extra": {}}
     failed = {"position": 0, "index": 0, "cell": None, "row": {"error": "BeamInputError: too short"}, "extra": {}}
-    st.on_run_update(sch.Update(1, "partial", entry, 0.5, "1 of 2 cells", 1.0))
-    st.on_run_update(sch.Update(1, "partial", failed, 1.0, "2 of 2 cells", 2.0))
+    st.run.on_update(sch.Update(1, "partial", entry, 0.5, "1 of 2 cells", 1.0))
+    st.run.on_update(sch.Update(1, "partial", failed, 1.0, "2 of 2 cells", 2.0))
     assert st.entries == [entry, failed] and st.stage == "running" and "1 failed" in st.status
-    st.on_run_update(sch.Update(1, "error", None, None, "lost the scheduler", 3.0))
+    st.run.on_update(sch.Update(1, "error", None, None, "lost the scheduler", 3.0))
     assert st.stage == "error" and st.entries == [entry, failed] and "lost the scheduler" in st.error

@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import tempfile
 from collections.abc import Iterator
-from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from typing import NamedTuple
 
 from beam.calibration import (
     CalibrationResult,
@@ -38,6 +38,7 @@ from beam.calibration import (
     default_engine,
     remember_maps,
 )
+from beam.calibration.engine import record_digest
 from beam.errors import BeamInputError
 from beam.inference import Progress
 from beam.io.limits import MAX_MEASUREMENT_BYTES, MAX_TOML_BYTES
@@ -58,6 +59,7 @@ __all__ = [
     "LAPLACE_STATUS",
     "REAL_DATASETS",
     "CalibrationKey",
+    "record_key",
     "bundled_datasets",
     "calibration_run",
     "calibration_stages",
@@ -76,36 +78,43 @@ ASSETS = REPO / "assets"
 MAX_UPLOAD_BYTES = MAX_MEASUREMENT_BYTES
 #: Largest accepted upload of a TOML sidecar (bytes): the library's limit on what it reads.
 MAX_SIDECAR_UPLOAD_BYTES = MAX_TOML_BYTES
-#: Final calibrations by :class:`CalibrationKey` (bundled datasets only).
+#: Final calibrations by :class:`CalibrationKey` (bundled datasets only: an upload is its session's).
 CALIBRATIONS = LRU(24)
-#: Diagnoses by (dataset, window, effects, modes).
+#: Diagnoses by :class:`CalibrationKey` of their spec (:func:`dashboard.jobs.diagnosis.diagnosis_key`; bundled only).
 DIAGNOSES = LRU(8)
 
 
-@dataclass(frozen=True)
-class CalibrationKey:
-    """Everything a calibration depends on; ``dataset`` is a bundled name or an upload id, the
-    rest the fields of its :attr:`spec` (None: :class:`beam.calibration.CalibrationSpec`'s default)."""
+class CalibrationKey(NamedTuple):
+    """What a calibration (or a diagnosis) of the dashboard depends on: the record's content and the spec.
 
-    dataset: str
-    window: tuple[float, float]
-    effects: tuple[str, ...]
-    modes: int
-    likelihood: str | None = None
-    seed: int | None = None
-    target_ess: float | None = None
+    Attributes
+    ----------
+    record : str
+        Digest of the record's content (:func:`record_key`; not its name: the same file uploaded
+        twice is one record).
+    spec : CalibrationSpec
+        The calibration's settings (window, effects, modes, likelihood, seed, target ESS).
+    """
 
-    def __post_init__(self) -> None:
-        defaults = CalibrationSpec()
-        for name in ("likelihood", "seed", "target_ess"):
-            if getattr(self, name) is None:
-                object.__setattr__(self, name, getattr(defaults, name))
+    record: str
+    spec: CalibrationSpec
 
-    @property
-    def spec(self) -> CalibrationSpec:
-        """The :class:`~beam.calibration.CalibrationSpec` of the calibration."""
-        return CalibrationSpec(window=self.window, effects=self.effects, modes=self.modes, likelihood=self.likelihood,
-                               seed=self.seed, target_ess=self.target_ess)
+
+def record_key(measurement: Measurement) -> str:
+    """The digest a key holds for ``measurement`` (:func:`beam.calibration.engine.record_digest`: its
+    samples, kinds, geometry and nominal values), computed once per measurement object."""
+    found = _DIGESTS.get(id(measurement))
+    if found is not None and found[0] is measurement:
+        return found[1]
+    digest = record_digest(measurement)
+    _DIGESTS[id(measurement)] = (measurement, digest)
+    while len(_DIGESTS) > 64:
+        _DIGESTS.pop(next(iter(_DIGESTS)))
+    return digest
+
+
+#: id(measurement) -> (measurement, digest), the last few (a 64 MB record's digest takes ~0.1 s).
+_DIGESTS: dict[int, tuple[Measurement, str]] = {}
 
 
 # -- datasets ---------------------------------------------------------------------------------
@@ -229,13 +238,14 @@ def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int
     Parameters
     ----------
     key : CalibrationKey
-        Inputs (window, effects, modes, likelihood, seed, target ESS).
+        The record's digest and the spec (window, effects, modes, likelihood, seed, target ESS).
     measurement : Measurement
-        The record ``key.dataset`` names.
+        The record ``key.record`` is the digest of.
     every : int
         Ensemble steps between two progress reports (the cancellation points).
     use_cache : bool
-        Publish a cached final result at once when there is one (bundled datasets).
+        Publish a cached final result at once when there is one, and keep this one (the state
+        asks it for the bundled datasets only).
     known : tuple
         MAPs a diagnosis found on this record, window, modes and likelihood
         (:attr:`Diagnosis.known_maps`): the calibration of one of those models starts from its
@@ -247,23 +257,23 @@ def calibration_run(key: CalibrationKey, measurement: Measurement, *, every: int
         ``preview``, ``progress`` items, ``final``; a bad input raises
         :class:`~beam.errors.BeamInputError` (published as ``error``).
     """
-    cacheable = use_cache and key.dataset in bundled_datasets()
-    cached = CALIBRATIONS.get(key) if cacheable else None
+    cached = CALIBRATIONS.get(key) if use_cache else None
     if cached is not None:
         yield sch.final(cached, "posterior (cached)")
         return
-    yield from cached_stages(CALIBRATIONS, key if cacheable else None, calibration_stages, key, measurement, every=every,
-                             known=known)
+    yield from cached_stages(CALIBRATIONS, key if use_cache else None, calibration_stages, key, measurement,
+                             every=every, known=known)
 
 
 def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: int = 25,
                        known: tuple = ()) -> Iterator[sch.Stage[CalibrationResult]]:
     """The computation of :func:`calibration_run` (in a worker process; no cache)."""
     engine = default_engine()  # this worker process's
+    spec = key.spec
     if known:
-        remember_maps(measurement, window=key.window, modes=key.modes, maps=known, likelihood=key.likelihood,
+        remember_maps(measurement, window=spec.window, modes=spec.modes, maps=known, likelihood=spec.likelihood,
                       engine=engine)
-    stream = calibration_stream(measurement, key.spec, every=every, engine=engine)
+    stream = calibration_stream(measurement, spec, every=every, engine=engine)
     done = 0.0
     try:
         for event in stream:

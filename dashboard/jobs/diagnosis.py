@@ -36,11 +36,11 @@ from beam.discovery import (
 )
 from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS  # noqa: F401 - the catalogue the diagnosis ranks (tests read it here)
-from dashboard.jobs.beam import DIAGNOSES, CalibrationKey, bundled_datasets
+from dashboard.jobs.beam import DIAGNOSES, CalibrationKey
 from dashboard.jobs.warm import warm_up
 from dashboard.runtime import scheduler as sch
 
-__all__ = ["Diagnosis", "DiagnosisFits", "diagnosis_run", "diagnosis_stages", "request_stages"]
+__all__ = ["Diagnosis", "DiagnosisFits", "diagnosis_key", "diagnosis_run", "diagnosis_stages", "request_stages"]
 
 
 @dataclass
@@ -51,7 +51,7 @@ class Diagnosis(DiagnosisReport):
     Attributes
     ----------
     key : CalibrationKey
-        Dataset, window, effects (the base model), modes.
+        The record's digest and the spec of the model diagnosed (window, effects: the base model, modes).
     known_maps : tuple
         ``(effects, MapResult)`` of every model the diagnosis calibrated (a screening fit's as
         ``((FIRST_STAGE, *effects), MapResult)``), for **Add** and the next diagnosis (see
@@ -67,10 +67,19 @@ class Diagnosis(DiagnosisReport):
                    known_maps=known_maps)
 
 
+def diagnosis_key(key: CalibrationKey) -> CalibrationKey:
+    """What a diagnosis of ``key``'s model depends on: the record, window, effects (the base model) and
+    modes (its fits use the spec's defaults for the rest)."""
+    spec = key.spec
+    return CalibrationKey(key.record, CalibrationSpec(window=spec.window, effects=spec.effects, modes=spec.modes))
+
+
 def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: bool = True,
                   known: tuple = ()) -> Iterator[sch.Stage[Diagnosis]]:
     """The diagnosis of the beam view's model on its window (a scheduler job); ``known``: MAPs an
-    earlier diagnosis (or calibration) found on the same record, window, modes and likelihood.
+    earlier diagnosis (or calibration) found on the same record, window, modes and likelihood;
+    ``use_cache``: publish a cached diagnosis of the same :func:`diagnosis_key` at once and keep
+    this one (the state asks it for the bundled datasets only).
 
     Yields
     ------
@@ -79,15 +88,14 @@ def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: b
         ``partial`` after every ranked candidate, ``progress`` while the climb ranks the candidates
         left on top of the best, ``final``.
     """
-    cacheable = use_cache and key.dataset in bundled_datasets()
-    dkey = (key.dataset, key.window, key.effects, key.modes)
-    cached = DIAGNOSES.get(dkey) if cacheable else None
+    dkey = diagnosis_key(key)
+    cached = DIAGNOSES.get(dkey) if use_cache else None
     if cached is not None:
         yield sch.final(cached, "diagnosis (cached)")
         return
     try:
         for stage in diagnosis_stages(key, measurement, known):
-            if stage.kind == "final" and cacheable:
+            if stage.kind == "final" and use_cache:
                 DIAGNOSES.put(dkey, stage.value)
             yield stage
     except sch.Cancelled:
@@ -152,10 +160,10 @@ class DiagnosisFits:
 def diagnosis_stages(key: CalibrationKey, measurement: Measurement, known: tuple = ()) -> Iterator[sch.Stage[Diagnosis]]:
     """The computation of :func:`diagnosis_run` (no cache): :func:`beam.discovery.diagnosis_stream`
     with the base fit in one worker process and every other request on :class:`DiagnosisFits`."""
-    spec = CalibrationSpec(window=key.window, effects=key.effects, modes=key.modes)
+    spec = diagnosis_key(key).spec
     engine = Engine()  # this diagnosis's optima, sent with each request
-    if key.likelihood == spec.likelihood:
-        remember_maps(measurement, window=key.window, modes=key.modes, maps=known, likelihood=spec.likelihood,
+    if key.spec.likelihood == spec.likelihood:
+        remember_maps(measurement, window=spec.window, modes=spec.modes, maps=known, likelihood=spec.likelihood,
                       engine=engine)
     stream = diagnosis_stream(engine, measurement, spec)
     fits = DiagnosisFits(measurement, engine)

@@ -30,6 +30,7 @@ import time
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
+from typing import NamedTuple
 
 from beam.calibration import CalibrationResult, CalibrationSpec, calibration_preview, default_engine
 from beam.calibration.joint import JointCalibrationResult, joint_preview
@@ -63,44 +64,33 @@ MAX_RECORDS = 6
 EVERY = 25
 
 
-@dataclass(frozen=True)
-class JointKey:
-    """Everything a joint calibration depends on.
+class JointKey(NamedTuple):
+    """Everything a joint calibration (or diagnosis) depends on: the records' contents and the spec.
 
     Attributes
     ----------
-    datasets : tuple of str
-        The records' dataset ids, in the order chosen (record K of the joint problem is the K-th).
-    window : tuple of float
-        Calibration window (s), the same on every record.
-    effects : tuple of str
-        Effects of the model (catalogue names).
-    modes : int
-        Modes kept on every record.
+    records : tuple of str
+        The records' digests (:func:`dashboard.jobs.beam.record_key`), in the order chosen (record K
+        of the joint problem is the K-th).
+    spec : CalibrationSpec
+        The settings of every record: window, effects, modes, seed; ``steps`` the joint MCMC's
+        ensemble steps (None: the Laplace preview only).
     per_record : str
         Physical parameters calibrated per record (``beam calibrate --per-record``: names, their
         unambiguous start or effect names, comma-separated; '' none).
-    steps : int
-        Ensemble steps of the joint MCMC (0: the Laplace preview only).
-    seed : int
-        Seed of the sampler and of the band draws.
     candidates : tuple of str
         Effects a joint diagnosis tries (empty: every candidate all the records can show).
     """
 
-    datasets: tuple[str, ...]
-    window: tuple[float, float]
-    effects: tuple[str, ...]
-    modes: int
+    records: tuple[str, ...]
+    spec: CalibrationSpec
     per_record: str = ""
-    steps: int = 0
-    seed: int = 0
     candidates: tuple[str, ...] = ()
 
     @property
-    def spec(self) -> CalibrationSpec:
-        """The :class:`~beam.calibration.CalibrationSpec` of every record."""
-        return CalibrationSpec(window=self.window, effects=self.effects, modes=self.modes, seed=self.seed)
+    def steps(self) -> int:
+        """Ensemble steps of the joint MCMC (0: none)."""
+        return int(self.spec.steps or 0)
 
 
 @dataclass
@@ -210,7 +200,7 @@ def joint_stages(key: JointKey, measurements: Sequence[Measurement], memory: tup
     :class:`JointCalibrationResult` whose per-record views are computed."""
     engine = default_engine()
     engine.merge(memory)
-    spec = key.spec
+    spec = replace(key.spec, steps=None)
     preview = joint_preview(measurements, spec, per_record=key.per_record or None, engine=engine)
     preview.record_results()
     yield sch.preview(preview, "joint preview (MAP + Laplace)")
@@ -241,7 +231,7 @@ def joint_run(key: JointKey, measurements: Sequence[Measurement]) -> Iterator[sc
     """
     measurements = tuple(measurements)
     check_records(measurements)
-    spec = key.spec
+    spec = replace(key.spec, steps=None)  # each record alone: its preview
     n = len(measurements)
     yield sch.progress(0.02, f"calibrating each of the {n} records alone first")
     singles: list[CalibrationResult | None] = [None] * n
@@ -271,7 +261,8 @@ def joint_run(key: JointKey, measurements: Sequence[Measurement]) -> Iterator[sc
 # -- diagnosis ------------------------------------------------------------------------------------
 def diagnosis_stages(key: JointKey, measurements: Sequence[Measurement], effect: str) -> Iterator[sch.Stage]:
     """The joint diagnosis of the base model and one candidate ``effect`` (in a worker process)."""
-    diagnosis = joint_diagnose(measurements, window=key.window, modes=key.modes, base=key.effects,
+    spec = key.spec
+    diagnosis = joint_diagnose(measurements, window=spec.window, modes=spec.modes, base=spec.effects,
                                candidates=[effect], per_record=key.per_record or None, engine=default_engine(),
                                climb=False)
     yield sch.final(diagnosis, f"{effect} judged")
@@ -282,8 +273,7 @@ def joint_candidates(key: JointKey, measurements: Sequence[Measurement]) -> list
     them by default), or ``key.candidates`` when given."""
     if key.candidates:
         return list(key.candidates)
-    spec = CalibrationSpec(window=key.window, effects=key.effects, modes=key.modes)
-    return joint_candidate_effects(measurements, spec.effects, key.per_record or None)
+    return joint_candidate_effects(measurements, key.spec.effects, key.per_record or None)
 
 
 def merged(parts: Sequence[JointDiagnosis], seconds: float) -> JointDiagnosis:

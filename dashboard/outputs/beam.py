@@ -11,8 +11,6 @@ from __future__ import annotations
 import io
 import json
 import math
-import os
-import tempfile
 import threading
 from dataclasses import dataclass
 
@@ -25,7 +23,7 @@ from beam.physics.effects import EFFECTS, parameter_spec
 from beam.discovery.ranking import judgement_of
 from beam.discovery.report import remaining_words
 from beam.residuals.noise import record_noise_floor
-from dashboard.outputs.exports import jsonable
+from dashboard.outputs.exports import jsonable, posterior_netcdf
 
 __all__ = [
     "OutputUnits",
@@ -287,21 +285,6 @@ def diagnosis_html(diagnosis, rungs: list[dict]) -> io.BytesIO | None:
 def bands_csv(result) -> io.BytesIO | None:
     """:meth:`CalibrationResult.band_table` (time, data, window flag, mean and 95 % bands, SI units)."""
     return None if result is None else io.BytesIO(result.band_table().encode("utf-8"))
-
-
-def posterior_netcdf(result) -> io.BytesIO | None:
-    """The MCMC posterior as an ArviZ netCDF-4 file; None for a preview."""
-    posterior = None if result is None else result.posterior
-    if posterior is None:
-        return None
-    fd, path = tempfile.mkstemp(suffix=".nc", prefix="beam-posterior-")
-    os.close(fd)
-    try:
-        posterior.to_netcdf(path)
-        with open(path, "rb") as fh:
-            return io.BytesIO(fh.read())
-    finally:
-        os.unlink(path)
 
 
 def thinned_draws(result, n: int = 500) -> dict[str, np.ndarray]:

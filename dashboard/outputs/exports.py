@@ -1,4 +1,5 @@
-"""Downloads of a toy result: JSON summary, predictive-band CSV, posterior netCDF.
+"""Downloads: of a toy result (JSON summary, predictive-band CSV, printable summary), and the ones
+every result shares (:func:`jsonable`, :func:`posterior_netcdf`, used by :mod:`dashboard.outputs.beam` too).
 
 Pure Python. Each function returns the file content (``io.BytesIO`` for
 :class:`panel.widgets.FileDownload`) or None when the result cannot provide it.
@@ -78,7 +79,8 @@ def _scalar(v):
 
 
 def posterior_netcdf(result) -> io.BytesIO | None:
-    """The MCMC posterior as an ArviZ netCDF-4 file, or None (preview or intermediate result)."""
+    """The MCMC posterior of a result (toy or beam: its ``posterior``) as an ArviZ netCDF-4 file, or None
+    (a preview or an intermediate result)."""
     posterior = None if result is None else result.posterior
     if posterior is None:
         return None

@@ -46,10 +46,19 @@ def user_message(message: str) -> str:
 
     ``"window (--window 12 s) must be shorter than the horizon (--horizon 10 s)"`` becomes
     ``"window (12 s) must be shorter than the horizon (10 s)"``; ``"noise sd (--noise) must
-    not be negative"`` becomes ``"noise sd must not be negative"``.
+    not be negative"`` becomes ``"noise sd must not be negative"``. No binary content reaches the
+    page: a quoted piece of a file that is not text (``got '\\ufffdPNG'``) becomes ``(binary
+    content)``, and any other unprintable character is dropped.
     """
     text = re.sub(r"\s*\(--[\w-]+\)", "", message)
-    return re.sub(r"\(--[\w-]+\s+", "(", text)
+    text = re.sub(r"\(--[\w-]+\s+", "(", text)
+    text = _BINARY_QUOTE.sub("(binary content)", text)
+    return "".join(c for c in text if c.isprintable() and c != "\ufffd")
+
+
+#: A quoted piece of text holding a character no text file has (the decoder's replacement
+#: character, a control character): a binary file's bytes quoted in a library message.
+_BINARY_QUOTE = re.compile(r"""(['"])[^'"]{0,200}?[\ufffd\x00-\x08\x0b\x0c\x0e-\x1f\x7f][^'"]{0,200}?\1""")
 
 
 def _stage(result) -> str:

@@ -27,15 +27,15 @@ import numpy as np
 from dashboard.outputs.beam import effect_title as _title
 from dashboard.outputs.beam import output_units
 from dashboard.plots.elements import HIDE_ON_CLICK, css_class, hv, name_source
-from dashboard.plots.fonts import HV_FONTSIZE, TICKS_PX
+from dashboard.plots.fonts import HV_ACTIVE_TOOLS, HV_FONTSIZE, TICKS_PX
 from dashboard.plots.timeseries import COLORS
 
 __all__ = ["DiagnosisPlots"]
 
 UM = 1e6
 RED = "#d62728"
-_TOOLS = {"default_tools": ["pan", "wheel_zoom", "box_zoom", "reset", "save"], "toolbar": "above", "height": 270,
-          "responsive": True, "fontsize": HV_FONTSIZE}
+_TOOLS = {"default_tools": ["pan", "wheel_zoom", "box_zoom", "reset", "save"], "active_tools": HV_ACTIVE_TOOLS,
+          "toolbar": "above", "height": 270, "responsive": True, "fontsize": HV_FONTSIZE}
 
 
 def _empty_residual() -> dict:

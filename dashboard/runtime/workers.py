@@ -3,9 +3,18 @@
 Why: the server's event loop answers every browser. Inference on threads of the server
 process shares its GIL with the event loop, and on the 2-core machine that made every piece of
 event-loop work (building a session, applying a slider change, drawing a result) two to three
-times slower while anything was sampling. In separate processes the event loop keeps its
+times slower while anything was sampling (the slowest of eight sessions' requests 1.5-2.5 s with
+threads, 0.37-0.73 s with processes). In separate processes the event loop keeps its
 interpreter to itself, and the operating system shares the cores (the workers can run at a
 lower priority, ``nice``).
+
+Why not :class:`concurrent.futures.ProcessPoolExecutor` (measured,
+``tests/benchmarks/bench_dashboard_runs.py``): it cannot stop a call that runs, so a calibration
+superseded mid-MCMC holds its process to the end (the new request's preview 16.5 s after it was
+made, against 3.2 s here, load 9-11 on 2 cores); it returns one value per call, so the preview
+and the sampler's progress could not stream; and its plain pickle refuses a calibration result
+(``Can't pickle local object 'prepare.<locals>.starts'``: the problem's starting points are a
+closure, which the pickler below replaces).
 
 Pure Python (no panel, holoviews or bokeh).
 

@@ -2,29 +2,29 @@
 
 Param only (no panel import), tested without a server or a browser. Several records of one beam
 (bundled lab runs, the shipped real runs, the session's uploads) are chosen together; *Calibrate
-jointly* (:meth:`JointState.calibrate`) runs :func:`dashboard.jobs.joint.joint_run` on the
-``joint`` run slot, *Diagnose jointly* (:meth:`JointState.diagnose`)
-:func:`dashboard.jobs.joint.joint_diagnosis_run` on ``joint-diagnosis``. Nothing runs on an input
+jointly* (:meth:`JointState.calibrate`) runs :func:`dashboard.jobs.joint.joint_run` (its run:
+``run``), *Diagnose jointly* (:meth:`JointState.diagnose`)
+:func:`dashboard.jobs.joint.joint_diagnosis_run` (``diag_run``). Nothing runs on an input
 change: a joint calibration costs each record's own calibration first. A failed request sets
-``error`` (``diag_error``) and keeps the result shown.
+its run's ``error`` and keeps the result shown.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
 from functools import partial as bind
 
 import param
 
 from beam.calibration.modes import MAX_MODES
 from beam.discovery.joint import JointDiagnosis
+from beam.calibration import CalibrationSpec
 from beam.physics.effects import EFFECTS, modal_damping, sensor_mass
-from dashboard.jobs.beam import effect_label
+from dashboard.jobs.beam import effect_label, record_key
 from dashboard.jobs.joint import JointKey, JointOutcome, available_records, joint_diagnosis_run, joint_run, load_record
-from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState
 from dashboard.state.editing import editing
+from dashboard.state.run import Run, RunOwner, Words
 
 __all__ = ["DEFAULT_EFFECTS", "DEFAULT_RECORDS", "SAMPLING", "JointState"]
 
@@ -36,10 +36,9 @@ DEFAULT_RECORDS = ("adxl_50cm_114655", "adxl_50cm_114759")
 DEFAULT_EFFECTS = (modal_damping.EFFECT.id, sensor_mass.EFFECT.id)
 #: Sampling choices as shown: the Laplace preview only, or emcee for that many ensemble steps.
 SAMPLING = {"Laplace only (seconds)": 0, "MCMC, 300 steps (~1 min)": 300, "MCMC, 1000 steps (minutes)": 1000}
-STAGES = ("idle", "queued", "preview", "sampling", "final", "error")
 
 
-class JointState(param.Parameterized):
+class JointState(RunOwner, param.Parameterized):
     """Several records of one beam, calibrated and diagnosed together, for one session.
 
     Parameters
@@ -61,40 +60,24 @@ class JointState(param.Parameterized):
     seed = param.Integer(0, bounds=(0, None), precedence=-1, label="Seed (sampler)")
 
     beam = param.ClassSelector(class_=BeamState, constant=True, doc="The session's beam calibration state.")
-    stage = param.Selector(default="idle", objects=list(STAGES), constant=True)
-    status = param.String("", constant=True)
-    progress = param.Number(0.0, bounds=(0.0, 1.0), constant=True)
-    error = param.String("", constant=True, doc="Why the latest joint calibration failed, or ''.")
-    requested = param.Integer(0, constant=True)
-    shown = param.Integer(0, constant=True)
+    run = param.ClassSelector(class_=Run, constant=True, doc="The joint calibration.")
+    diag_run = param.ClassSelector(class_=Run, constant=True, doc="The joint diagnosis.")
     result = param.ClassSelector(class_=JointOutcome, default=None, allow_None=True, constant=True,
                                  doc="The joint calibration shown (preview, then final).")
-    diag_stage = param.Selector(default="idle", objects=list(STAGES), constant=True)
-    diag_status = param.String("", constant=True)
-    diag_progress = param.Number(0.0, bounds=(0.0, 1.0), constant=True)
-    diag_error = param.String("", constant=True, doc="Why the latest joint diagnosis failed, or ''.")
-    diag_requested = param.Integer(0, constant=True)
-    diag_shown = param.Integer(0, constant=True)
     diagnosis = param.ClassSelector(class_=JointDiagnosis, default=None, allow_None=True, constant=True,
                                     doc="The joint diagnosis shown (partial while candidates are judged).")
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._slot: sch.RunSlot | None = None
-        self._diag_slot: sch.RunSlot | None = None
+        with editing(self):
+            self.run = Run("Joint calibration", show=lambda update: self._show(update, "result"))
+            self.diag_run = Run("Joint diagnosis", words=Words(kept=" The previous diagnosis is still shown."),
+                                show=lambda update: self._show(update, "diagnosis"))
         self.refresh_records()
         if not self.records:
             self.records = [n for n in DEFAULT_RECORDS if n in self.param.records.objects]
-
-    @classmethod
-    def attached(cls, session) -> JointState:
-        """A state on ``session`` (a :class:`~dashboard.state.session.SessionState`): its beam
-        state's uploads, and two run slots, ``joint`` and ``joint-diagnosis``."""
-        state = cls(beam=session.beam)
-        state._slot = session.slot("joint", state.on_run_update, debounce_s=0.0)
-        state._diag_slot = session.slot("joint-diagnosis", state.on_diagnosis_update, debounce_s=0.0)
-        session.beam.param.watch(lambda event: state.refresh_records(), "uploads")
-        return state
+        if self.beam is not None:
+            self.beam.param.watch(lambda event: self.refresh_records(), "uploads")
 
     # -- records ---------------------------------------------------------------------------------
     def uploads(self) -> dict:
@@ -117,74 +100,54 @@ class JointState(param.Parameterized):
         """``{label with units: effect id}`` for the check-boxes."""
         return {effect_label(e): e for e in EFFECTS}
 
-    def key(self) -> JointKey:
-        """The :class:`~dashboard.jobs.joint.JointKey` of the current inputs."""
+    def spec(self) -> CalibrationSpec:
+        """The :class:`~beam.calibration.CalibrationSpec` of every record (window, effects, modes, the
+        joint MCMC's steps and seed)."""
         lo, hi = (round(float(v), 4) for v in self.window_s)
-        effects = tuple(e for e in EFFECTS if e in set(self.effects))
-        return JointKey(tuple(self.records), (lo, hi), effects, int(self.modes), self.per_record.strip(),
-                        int(self.sampling), int(self.seed))
+        return CalibrationSpec.of(window=(lo, hi), effects=tuple(e for e in EFFECTS if e in set(self.effects)),
+                                  modes=int(self.modes), steps=int(self.sampling) or None, seed=int(self.seed))
+
+    def key(self, candidates: tuple[str, ...] = ()) -> JointKey:
+        """The :class:`~dashboard.jobs.joint.JointKey` of the current inputs (``candidates``: those a joint
+        diagnosis tries, empty for every one)."""
+        return JointKey(tuple(record_key(m) for m in self.measurements()), self.spec(), self.per_record.strip(),
+                        tuple(candidates))
 
     def measurements(self) -> list:
         uploads = self.uploads()
         return [load_record(n, uploads) for n in self.records]
 
+    def _subject(self) -> str:
+        return ", ".join(self.beam.record_name(n) if self.beam is not None else n for n in self.records)
+
     # -- requests --------------------------------------------------------------------------------
     def calibrate(self) -> int:
         """Calibrate the chosen records jointly (each alone first); returns the request id."""
-        key = self.key()
-        rid = self._slot.request(bind(joint_run, key, self.measurements()), debounce_s=0.0)
-        with editing(self):
-            self.param.update(requested=rid, stage="queued", progress=0.0, error="",
-                              status=f"calibrating {len(key.datasets)} records jointly")
-        return rid
+        measurements = self.measurements()
+        return self.run.request(bind(joint_run, self.key(), measurements), subject=self._subject(),
+                                status=f"calibrating {len(measurements)} records jointly")
 
     def diagnose(self, candidates: tuple[str, ...] = ()) -> int:
         """Rank the candidate effects (default: every one the records can show) on the chosen
         records jointly; returns the request id."""
-        key = replace(self.key(), candidates=tuple(candidates))
-        rid = self._diag_slot.request(bind(joint_diagnosis_run, key, self.measurements()), debounce_s=0.0)
-        with editing(self):
-            self.param.update(diag_requested=rid, diag_stage="queued", diag_progress=0.0, diag_error="",
-                              diag_status=f"judging the candidate effects on {len(key.datasets)} records jointly")
-        return rid
+        measurements = self.measurements()
+        return self.diag_run.request(bind(joint_diagnosis_run, self.key(candidates), measurements),
+                                     subject=self._subject(),
+                                     status=f"judging the candidate effects on {len(measurements)} records jointly")
 
     def cancel(self) -> None:
         """Stop both jobs; what is shown stays."""
-        for slot, prefix in ((self._slot, ""), (self._diag_slot, "diag_")):
-            if getattr(self, f"{prefix}stage") in ("queued", "preview", "sampling"):
-                slot.cancel()
-                with editing(self):
-                    self.param.update(**{f"{prefix}stage": "idle", f"{prefix}progress": 0.0,
-                                         f"{prefix}status": "cancelled; the previous result is kept"})
+        for run in (self.run, self.diag_run):
+            run.cancel("cancelled; the previous result is kept")
 
     # -- updates from the scheduler ------------------------------------------------------------
-    def on_run_update(self, update: sch.Update) -> None:
-        """The ``joint`` slot's callback."""
-        self._show(update, "", "result", "result")
-
-    def on_diagnosis_update(self, update: sch.Update) -> None:
-        """The ``joint-diagnosis`` slot's callback."""
-        self._show(update, "diag_", "diagnosis", "diagnosis")
-
-    def _show(self, update: sch.Update, prefix: str, value_name: str, what: str) -> None:
-        """An update of a job: its stage, status, progress and error (parameters named ``prefix`` +
-        those) and, for a result, the value (``value_name``); an error keeps the value shown."""
-        if update.kind == "error":
-            kept = f" The previous {what} is still shown." if getattr(self, value_name) is not None else ""
-            values = {"stage": "error", "error": user_message(update.message), "progress": 0.0, "status": f"failed.{kept}"}
-        elif update.kind == "progress":
-            values = {"stage": "sampling", "progress": update.fraction or 0.0, "status": update.message}
-        else:
-            final = update.kind == "final"
-            values = {"stage": "final" if final else "preview", "error": "", "shown": update.request,
-                      "progress": 1.0 if final else update.fraction or 0.0,
-                      "status": f"{update.message}: ready in {update.elapsed_s:.1f} s" if final else update.message}
-        with editing(self):
-            self.param.update(**{prefix + k: v for k, v in values.items()},
-                              **({value_name: update.value} if "shown" in values else {}))
+    def _show(self, update: sch.Update, name: str) -> None:
+        """A result of a job (``name``: ``result`` or ``diagnosis``); an error keeps the one shown."""
+        if update.kind in ("preview", "partial", "final"):
+            with editing(self):
+                setattr(self, name, update.value)
 
     def close(self) -> None:
         """Cancel both jobs (the session ends)."""
-        for slot in (self._slot, self._diag_slot):
-            if slot is not None:
-                slot.cancel()
+        for run in (self.run, self.diag_run):
+            run.close()

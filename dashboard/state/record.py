@@ -40,6 +40,7 @@ from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState
 from dashboard.state.editing import editing
+from dashboard.state.run import Run, RunOwner, Words
 
 __all__ = ["FORM_INPUTS", "READ_OPTIONS", "RecordState"]
 
@@ -55,10 +56,12 @@ READ_OPTIONS = {"record_name": "record", "signal_column": "column", "signal_unit
 OFFERED_UNITS = SIGNAL_UNITS
 #: Units of a time column (the readers' ``time_unit``).
 TIME_UNITS = ("s", "ms", "us")
-STAGES = ("idle", "reading", "read", "error")
+#: How reading a file reads (a file refused keeps the record read before).
+READ_WORDS = Words(progress="reading", partial="reading", final="read", ready="read in {seconds:.1f} s", failed="",
+                   kept="the previous record is kept")
 
 
-class RecordState(param.Parameterized):
+class RecordState(RunOwner, param.Parameterized):
     """A record of the user's own, described in a student's words, for one session.
 
     Parameters
@@ -104,9 +107,8 @@ class RecordState(param.Parameterized):
 
     # -- outputs -------------------------------------------------------------------------------
     beam = param.ClassSelector(class_=BeamState, constant=True, doc="The session's beam calibration state.")
-    stage = param.Selector(default="idle", objects=list(STAGES), constant=True, doc="Where the latest upload is.")
-    status = param.String("", constant=True, doc="One-line status for the user.")
-    error = param.String("", constant=True, doc="Why the latest upload was refused, or ''.")
+    run = param.ClassSelector(class_=Run, constant=True, doc="Reading the latest file (its error: why it was refused).")
+    beam_run = param.ClassSelector(class_=Run, constant=True, doc="Describing the beam of the record read.")
     read = param.ClassSelector(class_=RecordRead, default=None, allow_None=True, constant=True,
                                doc="The record shown (the latest file read).")
     described = param.ClassSelector(class_=Described, default=None, allow_None=True, constant=True,
@@ -124,26 +126,17 @@ class RecordState(param.Parameterized):
                              "calibration (empty for a record of one tap).")
     joint = param.Parameter(None, doc="The session's JointState (the \"Several records\" view), which takes a "
                             "record's taps; None: the taps are not handed over.")
-    requested = param.Integer(0, constant=True, doc="Id of the latest upload request.")
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._read_slot: sch.RunSlot | None = None
-        self._beam_slot: sch.RunSlot | None = None
+        with editing(self):
+            self.run = Run("Reading {}", words=READ_WORDS, show=self._show_read)
+            self.beam_run = Run("Describing the beam", show=self._show_described)
         self._loaded_from: Described | None = None
         self._file: tuple[str | None, bytes | str | None] | None = None  # the latest file dropped
         self._contents: FileContents | None = None  # its records and columns, once read
         self._record_shown: str | None = None  # the record whose columns file_columns lists
         self._quiet = False
-
-    @classmethod
-    def attached(cls, session) -> RecordState:
-        """A state on ``session`` (a :class:`~dashboard.state.session.SessionState`): its beam state
-        and two run slots, ``record-read`` and ``record-beam``."""
-        state = cls(beam=session.beam)
-        state._read_slot = session.slot("record-read", state.on_read_update, debounce_s=0.0)
-        state._beam_slot = session.slot("record-beam", state.on_beam_update)
-        return state
 
     # -- the file --------------------------------------------------------------------------------
     def upload(self, file_name: str | None, data: bytes | str | None) -> int:
@@ -196,27 +189,20 @@ class RecordState(param.Parameterized):
 
     def _read(self) -> int:
         file_name, data = self._file
-        rid = self._read_slot.request(bind(read_job, file_name, data, **self.options()), debounce_s=0.0)
-        with editing(self):
-            self.param.update(requested=rid, stage="reading", status=f"reading {file_name}", error="")
-        return rid
+        return self.run.request(bind(read_job, file_name, data, **self.options()), stage="reading",
+                                status=f"reading {file_name}", subject=file_name or "")
 
-    def on_read_update(self, update: sch.Update) -> None:
-        """The read slot's callback."""
-        if update.kind == "progress":
-            return
+    def _show_read(self, update: sch.Update) -> dict | None:
+        """The file's records and columns as soon as they are read (``partial``); the file read
+        (``final``): shown, and its beam described again."""
         if update.kind == "partial":  # the file's records and columns, before any choice
             self._contents = update.value
             self._show_contents()
-            return
-        with editing(self):
-            if update.kind == "error":
-                self.param.update(stage="error", error=user_message(update.message),
-                                  status="the previous record is kept" if self.read is not None else "")
-                return
-            self.param.update(stage="read", error="", read=update.value, described=None, form_error="", loaded="",
-                              status=f"read in {update.elapsed_s:.1f} s")
-        self._describe()
+        elif update.kind == "final":
+            with editing(self):
+                self.param.update(read=update.value, described=None, form_error="", loaded="")
+            self._describe()
+        return None
 
     # -- the form --------------------------------------------------------------------------------
     def missing(self) -> list[str]:
@@ -258,15 +244,14 @@ class RecordState(param.Parameterized):
     def _describe(self) -> None:
         document = self.document()
         if document is None or self.read is None:
-            if self._beam_slot is not None:
-                self._beam_slot.cancel()
+            self.beam_run.cancel("the form changed")
             with editing(self):
                 self.param.update(described=None, form_error="")
             return
-        self._beam_slot.request(bind(describe_job, self.read, document))
+        self.beam_run.request(bind(describe_job, self.read, document), debounce_s=None, status="describing the beam")
 
-    def on_beam_update(self, update: sch.Update) -> None:
-        """The beam slot's callback."""
+    def _show_described(self, update: sch.Update) -> None:
+        """The beam described (or why the library refuses the description)."""
         with editing(self):
             if update.kind == "error":
                 self.param.update(described=None, form_error=user_message(update.message))
@@ -287,16 +272,17 @@ class RecordState(param.Parameterized):
         if not self.can_load():
             return (self.loaded or None) if self._loaded_from is self.described else None
         measurement = self.described.measurement
+        file_name = self.read.file_name
         together = len(measurement.taps) > 1 and self.joint is not None and self.segment is None  # no pluck chosen
         taps = measurement.taps if together else ()
         ids, name = [], None
         for tap in taps:
             if tap.measurement.name != measurement.name:
-                ids.append(self.beam.add_upload(tap.measurement, select=False))
+                ids.append(self.beam.add_upload(tap.measurement, file_name=file_name, select=False))
             else:
-                ids.append(name := self.beam.add_upload(measurement))
+                ids.append(name := self.beam.add_upload(measurement, file_name=file_name))
         if name is None:
-            name = self.beam.add_upload(measurement)
+            name = self.beam.add_upload(measurement, file_name=file_name)
         self._loaded_from = self.described
         status = f"loaded into the beam calibration as {name}"
         if ids:
@@ -306,5 +292,6 @@ class RecordState(param.Parameterized):
             status = (f"{len(ids)} taps loaded into Several records and calibrated together there; the strongest "
                       f"into the beam calibration as {name}")
         with editing(self):
-            self.param.update(loaded=name, loaded_taps=ids, status=status)
+            self.param.update(loaded=name, loaded_taps=ids)
+        self.run.note(status=status)
         return name

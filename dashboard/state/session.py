@@ -8,15 +8,16 @@ thread, which is what the unit tests use.
 Layout
 ------
 :class:`SessionState`
-    Owns the run slots (one per activity; all share the process-wide
-    :class:`~dashboard.runtime.scheduler.RunPool`) and one sub-state per view: ``toy``
-    (:class:`ToyState`), ``beam`` and ``diagnosis`` (:mod:`dashboard.state.beam`).
+    One sub-state per view: ``toy`` (:class:`ToyState`), ``beam`` and ``diagnosis``
+    (:mod:`dashboard.state.beam`), ``study``, ``record``, ``joint``. Each activity of theirs that
+    runs a job is a :class:`~dashboard.state.run.Run`; the session gives each run its own slot of
+    the process-wide :class:`~dashboard.runtime.scheduler.RunPool` (:meth:`SessionState.attach`:
+    a new request cancels only its own activity's) and closes them all when the page closes.
 :class:`ToyState`
     Inputs of the toy scenario (parameters with units in their labels, from which the view
     builds its widgets) and outputs: the result shown (preview, then intermediate MCMC
-    results, then the final posterior), the pinned result for comparison, the window sweep,
-    status, progress and error message. A failed request sets ``error`` and keeps the previous
-    result.
+    results, then the final posterior), the pinned result for comparison, the window sweep
+    (its own run). A failed request sets its run's ``error`` and keeps the previous result.
 """
 
 from __future__ import annotations
@@ -33,15 +34,15 @@ from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import BeamState, DiagnosisState
 from dashboard.state.editing import editing
-from dashboard.state.study import StudyState
-from dashboard.state.record import RecordState
 from dashboard.state.joint import JointState
+from dashboard.state.record import RecordState
+from dashboard.state.run import Pins, Run, RunOwner, Words
+from dashboard.state.study import StudyState, study_pool
 
 __all__ = ["LANDING_SEED", "LIKELIHOOD_LABELS", "SessionState", "ToyState"]
 
 #: Likelihood choices as shown to the user.
 LIKELIHOOD_LABELS = {"i.i.d. Gaussian": "iid", "AR(1) correlated": "ar1"}
-STAGES = ("idle", "queued", "preview", "sampling", "final", "error")
 #: Seconds between two progress updates of a run: each one redraws a status line and a bar on
 #: the server's event loop, so with eight sessions sampling at once 0.2 s meant 40 a second.
 PROGRESS_INTERVAL_S = 0.4
@@ -51,10 +52,15 @@ PROGRESS_INTERVAL_S = 0.4
 #: Measured: seed 7, coverage 95.7 % (seed 0, the library's default, gave 82.3 % with f outside its
 #: interval, the worst of the ten).
 LANDING_SEED = 7
+#: How the toy's runs read (a partial result comes while the sampler runs; the decimals of the
+#: final's seconds are read by the benchmark, ``tests/benchmarks/bench_dashboard.py``).
+TOY_WORDS = Words(partial="sampling", ready="{message}: ready in {seconds:.2f} s", failed="could not run this scenario.")
+SWEEP_WORDS = Words(progress="running", partial="running", ready="{message}: done in {seconds:.1f} s",
+                    failed="window sweep failed.")
 _INPUTS = ("window_s", "discrepancy", "kind", "noise_sd", "horizon_s", "likelihood", "seed")
 
 
-class ToyState(param.Parameterized):
+class ToyState(RunOwner, Pins, param.Parameterized):
     """Inputs and results of the toy periodic model for one session.
 
     Changing any input parameter requests a new run (debounced); :meth:`request` does it
@@ -80,10 +86,8 @@ class ToyState(param.Parameterized):
     target_ess = param.Number(1000.0, bounds=(100.0, 10000.0), label="Target ESS (per parameter)", precedence=-1)
 
     # -- outputs ---------------------------------------------------------------------------------
-    stage = param.Selector(default="idle", objects=list(STAGES), constant=True, doc="Where the latest request is.")
-    status = param.String("", constant=True, doc="One-line status for the user.")
-    progress = param.Number(0.0, bounds=(0.0, 1.0), constant=True, doc="Fraction of the MCMC done.")
-    error = param.String("", constant=True, doc="Readable message of the latest failed request, or ''.")
+    run = param.ClassSelector(class_=Run, constant=True, doc="The calibration of the current scenario.")
+    sweep_run = param.ClassSelector(class_=Run, constant=True, doc="The window sweep of the shown scenario.")
     result = param.ClassSelector(class_=ToyResult, default=None, allow_None=True, constant=True,
                                  doc="ToyResult shown: preview, partial or final.")
     final = param.ClassSelector(class_=ToyResult, default=None, allow_None=True, constant=True,
@@ -92,20 +96,18 @@ class ToyState(param.Parameterized):
                                  doc="ToyResult kept for comparison.")
     sweep = param.List(None, item_type=dict, allow_None=True, constant=True,
                        doc="Window sweep rows (dicts of window, RMSE and coverage) of the shown scenario.")
-    sweep_status = param.String("", constant=True)
-    requested = param.Integer(0, constant=True, doc="Id of the latest request.")
-    shown = param.Integer(0, constant=True, doc="Id of the request the shown result belongs to.")
 
-    def __init__(self, run_slot: sch.RunSlot | None = None, sweep_slot: sch.RunSlot | None = None, **params) -> None:
+    def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._run_slot = run_slot
-        self._sweep_slot = sweep_slot
-        self._timings: dict[int, dict[str, float]] = {}
+        with editing(self):
+            self.run = Run("Toy calibration", words=TOY_WORDS, show=self._show)
+            self.sweep_run = Run("Window sweep", words=SWEEP_WORDS, show=self._show_sweep)
         self._sweep_key: ToyScenario | None = None
 
-    def attach(self, run_slot: sch.RunSlot, sweep_slot: sch.RunSlot) -> None:
-        """Give the state its run slots (done by :class:`SessionState`)."""
-        self._run_slot, self._sweep_slot = run_slot, sweep_slot
+    @property
+    def sweep_status(self) -> str:
+        """What the window sweep is doing (its run's status)."""
+        return self.sweep_run.status
 
     # -- inputs -> requests ----------------------------------------------------------------------
     def scenario(self) -> ToyScenario:
@@ -127,38 +129,15 @@ class ToyState(param.Parameterized):
 
     def request(self, *, debounce: bool = True) -> int:
         """Run the current scenario (preview, MCMC, then the sweep); returns the request id."""
-        scenario = self.scenario()
-        rid = self._run_slot.request(bind(toy_run, scenario), debounce_s=None if debounce else 0.0)
-        with editing(self):
-            self.param.update(requested=rid, stage="queued", progress=0.0, status="new inputs: calibrating")
-        return rid
-
-    def timings(self, request: int) -> dict[str, float]:
-        """Seconds from request to each published stage, e.g. ``{"preview": 0.2, "final": 0.9}``."""
-        return dict(self._timings.get(request, {}))
+        return self.run.request(bind(toy_run, self.scenario()), debounce_s=None if debounce else 0.0,
+                                status="new inputs: calibrating")
 
     # -- updates from the scheduler ------------------------------------------------------------
-    def on_run_update(self, update: sch.Update) -> None:
-        """The run slot's callback: show an update of this state's latest request."""
-        times = self._timings.setdefault(update.request, {})
-        times.setdefault(update.kind, update.elapsed_s)
-        if len(self._timings) > 50:
-            self._timings.pop(min(self._timings))
-        with editing(self):
-            if update.kind == "error":
-                kept = " The previous result is still shown." if self.result is not None else ""
-                self.param.update(stage="error", error=user_message(update.message), progress=0.0,
-                                  status=f"could not run this scenario.{kept}")
-            elif update.kind == "progress":
-                self.param.update(stage="sampling", progress=update.fraction or 0.0, status=update.message)
-            elif update.kind in ("preview", "partial"):
-                self.param.update(stage="preview" if update.kind == "preview" else "sampling", error="",
-                                  result=update.value, shown=update.request,
-                                  progress=update.fraction or 0.0, status=update.message)
-            else:  # final
-                self.param.update(stage="final", error="", result=update.value, final=update.value,
-                                  shown=update.request, progress=1.0,
-                                  status=f"{update.message}: ready in {update.elapsed_s:.2f} s")
+    def _show(self, update: sch.Update) -> None:
+        """The toy run's results: preview, partial, final (then the sweep of its scenario)."""
+        if update.kind in ("preview", "partial", "final"):
+            with editing(self):
+                self.param.update(result=update.value, **({"final": update.value} if update.kind == "final" else {}))
         if update.kind == "final":
             self._request_sweep(update.value.scenario)
 
@@ -166,36 +145,23 @@ class ToyState(param.Parameterized):
         if self._sweep_key == sweep_key(scenario):
             return
         self._sweep_key = sweep_key(scenario)
-        self._sweep_slot.request(bind(toy_sweep, scenario), debounce_s=0.0)
         with editing(self):  # the old sweep belongs to another scenario: do not show it
-            self.param.update(sweep=None, sweep_status="computing the window sweep")
+            self.sweep = None
+        self.sweep_run.request(bind(toy_sweep, scenario), status="computing the window sweep")
 
-    def on_sweep_update(self, update: sch.Update) -> None:
-        """The sweep slot's callback: show an update of the sweep."""
-        with editing(self):
-            if update.kind == "error":
-                self.param.update(sweep_status=f"window sweep failed: {user_message(update.message)}")
-            elif update.kind == "partial":  # status only: redrawing the sweep per window would load the event loop
-                self.param.update(sweep_status=update.message)
-            elif update.kind == "final":
-                self.param.update(sweep=update.value, sweep_status=update.message)
-
-    # -- compare ---------------------------------------------------------------------------------
-    def pin(self) -> None:
-        """Keep the shown result for comparison with the next ones."""
-        if self.result is not None:
+    def _show_sweep(self, update: sch.Update) -> dict | None:
+        """The sweep's rows once all windows are done (redrawing the sweep per window would load the
+        event loop: the partial stages change the status only)."""
+        if update.kind == "final":
             with editing(self):
-                self.pinned = self.result
-
-    def unpin(self) -> None:
-        """Drop the pinned result."""
-        with editing(self):
-            self.pinned = None
+                self.sweep = update.value
+        if update.kind == "error":
+            return {"status": f"window sweep failed: {user_message(update.message)}"}
+        return None
 
     def describe(self) -> dict:
         """Plain summary of inputs and status (for logs and tests)."""
-        return {"scenario": asdict(self.scenario()), "stage": self.stage, "status": self.status, "error": self.error,
-                "requested": self.requested, "shown": self.shown}
+        return {"scenario": asdict(self.scenario()), **self.run.describe()}
 
 
 class SessionState(param.Parameterized):
@@ -224,29 +190,36 @@ class SessionState(param.Parameterized):
                  **params) -> None:
         super().__init__(**params)
         self._pool, self._dispatch, self._debounce = pool, dispatch, debounce_s
-        self._slots: dict[str, sch.RunSlot] = {}
+        self._runs: dict[str, Run] = {}
         toy = ToyState(**(toy_inputs or {}))
-        toy.attach(self.slot("toy", toy.on_run_update), self.slot("toy-sweep", toy.on_sweep_update, debounce_s=0.0))
         beam = BeamState(**(beam_inputs or {}))
-        beam.attach(self.slot("beam", beam.on_run_update))
         diagnosis = DiagnosisState(beam=beam)
-        diagnosis.attach(self.slot("diagnosis", diagnosis.on_run_update, debounce_s=0.0))
         with editing(self):
             self.param.update(toy=toy, beam=beam, diagnosis=diagnosis)
-        self.study = StudyState(beam=beam, dispatch=dispatch)  # the window study (dashboard.state.study)
-        self.record = RecordState.attached(self)  # the "Your record" view's state
-        self.joint = JointState.attached(self)  # the "Several records" view's state (dashboard.state.joint)
+        self.study = StudyState(beam=beam)  # the window study (dashboard.state.study)
+        self.record = RecordState(beam=beam)  # the "Your record" view's state
+        self.joint = JointState(beam=beam)  # the "Several records" view's state (dashboard.state.joint)
+        self.attach("toy", toy.run)
+        self.attach("toy-sweep", toy.sweep_run, debounce_s=0.0)
+        self.attach("beam", beam.run)
+        self.attach("diagnosis", diagnosis.run, debounce_s=0.0)
+        self.attach("study", self.study.run, debounce_s=0.0, pool=study_pool())
+        self.attach("record-read", self.record.run, debounce_s=0.0)
+        self.attach("record-beam", self.record.beam_run)
+        self.attach("joint", self.joint.run, debounce_s=0.0)
+        self.attach("joint-diagnosis", self.joint.diag_run, debounce_s=0.0)
         self.record.joint = self.joint  # a record of several taps is calibrated there, every tap together
 
-    def slot(self, name: str, on_update: Callable[[sch.Update], None], *, debounce_s: float | None = None) -> sch.RunSlot:
-        """A new named run slot of this session (one per activity: a new request cancels only its own)."""
-        if name in self._slots:
+    def attach(self, name: str, run: Run, *, debounce_s: float | None = None, pool: sch.RunPool | None = None) -> Run:
+        """Give ``run`` a new run slot named ``name`` (one per activity: a new request cancels only its
+        own), on ``pool`` (default the session's); returns the run."""
+        if name in self._runs:
             raise ValueError(f"run slot {name!r} exists already")
-        slot = sch.RunSlot(on_update, pool=self._pool, dispatch=self._dispatch,
-                           debounce_s=self._debounce if debounce_s is None else debounce_s,
-                           progress_interval_s=PROGRESS_INTERVAL_S, name=name)
-        self._slots[name] = slot
-        return slot
+        run.attach(sch.RunSlot(run.on_update, pool=pool or self._pool, dispatch=self._dispatch,
+                               debounce_s=self._debounce if debounce_s is None else debounce_s,
+                               progress_interval_s=PROGRESS_INTERVAL_S, name=name))
+        self._runs[name] = run
+        return run
 
     @property
     def pool(self) -> sch.RunPool:
@@ -254,15 +227,20 @@ class SessionState(param.Parameterized):
         return self._pool if self._pool is not None else sch.shared_pool()
 
     @property
+    def runs(self) -> dict[str, Run]:
+        """The session's runs by slot name (in the order of the views)."""
+        return dict(self._runs)
+
+    @property
     def slots(self) -> dict[str, sch.RunSlot]:
         """The session's run slots by name."""
-        return dict(self._slots)
+        return {name: run.slot for name, run in self._runs.items()}
 
     def wait(self, timeout: float = 30.0) -> bool:
-        """Block until every slot's latest request has finished (tests and scripts)."""
-        return all(slot.wait(timeout) for slot in self._slots.values())
+        """Block until every run's latest request has finished (tests and scripts)."""
+        return all(run.wait(timeout) for run in self._runs.values())
 
     def close(self) -> None:
-        """Cancel every run (call when the session ends)."""
-        for slot in self._slots.values():
-            slot.close()
+        """Cancel every run and refuse new requests (call when the session ends)."""
+        for run in self._runs.values():
+            run.close()

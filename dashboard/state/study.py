@@ -37,13 +37,16 @@ from dashboard.outputs.toy import user_message
 from dashboard.runtime import scheduler as sch
 from dashboard.state.beam import DATASET_DEFAULTS, BeamState
 from dashboard.state.editing import editing
+from dashboard.state.run import Run, RunOwner, Words
 
 __all__ = ["LIKELIHOOD_LABELS", "MAX_REMEMBERED", "StudyState", "default_windows_spec", "shared_client",
            "study_pool"]
 
 #: Likelihoods as the check-boxes show them.
 LIKELIHOOD_LABELS = {"i.i.d. Gaussian": "iid", "AR(1) correlated": "ar1"}
-STAGES = ("idle", "queued", "running", "final", "cancelled", "error")
+#: How a study's run reads.
+STUDY_WORDS = Words(progress="running", partial="running", ready="{message} in {seconds:.0f} s",
+                    failed="the study stopped; the cells finished are still shown", kept="")
 #: Finished cells this server process keeps (about 60 kB each): a study run again shows them at once.
 MAX_REMEMBERED = 2000
 #: Threads of :func:`study_pool`: studies of this many sessions wait for their cells at once (the
@@ -152,7 +155,7 @@ def _set_text(effects) -> str:
     return ",".join(e for e in EFFECTS if e in set(effects))
 
 
-class StudyState(param.Parameterized):
+class StudyState(RunOwner, param.Parameterized):
     """Inputs and cells of the "Window study" view for one session.
 
     Parameters
@@ -160,8 +163,8 @@ class StudyState(param.Parameterized):
     beam : BeamState
         The beam calibration state: its datasets (bundled and uploaded) are the study's, and
         :meth:`open_cell` sets its inputs to a cell's.
-    dispatch : callable, optional
-        The session's dispatch (see :class:`~dashboard.state.session.SessionState`).
+
+    Its run (:attr:`run`) gets its slot from the session, on :func:`study_pool`.
     """
 
     dataset = param.Selector(default=None, objects=list(bundled_datasets()), label="Dataset",
@@ -175,20 +178,16 @@ class StudyState(param.Parameterized):
     likelihoods = param.ListSelector(default=["iid", "ar1"], objects=LIKELIHOOD_LABELS, label="Likelihoods")
 
     beam = param.ClassSelector(class_=BeamState, constant=True)
-    stage = param.Selector(default="idle", objects=list(STAGES), constant=True, doc="Where the latest study is.")
-    status = param.String("", constant=True, doc="One-line status for the user.")
-    progress = param.Number(0.0, bounds=(0.0, 1.0), constant=True, doc="Fraction of the cells finished.")
-    error = param.String("", constant=True, doc="Why the latest study could not run, or ''.")
+    run = param.ClassSelector(class_=Run, constant=True, doc="The latest study (its progress: the fraction of cells done).")
     total = param.Integer(0, constant=True, doc="Cells of the latest study.")
     entries = param.List([], constant=True, doc="Finished cells of the latest study, in the order they finished "
                                                 "(the partial values of study_job).")
     layout = param.List([], constant=True, doc="The latest study's cells in table order: (window index, StudyCell).")
-    requested = param.Integer(0, constant=True, doc="Id of the latest study.")
 
-    def __init__(self, dispatch: Callable | None = None, **params) -> None:
+    def __init__(self, **params) -> None:
         super().__init__(**params)
-        self._slot = sch.RunSlot(self.on_run_update, pool=study_pool(), dispatch=dispatch, debounce_s=0.0,
-                                 name="study")
+        with editing(self):
+            self.run = Run("Window study", words=STUDY_WORDS, show=self._show)
         self._quiet = False
         self._sync_datasets()
         self.beam.param.watch(self._sync_datasets, "uploads")
@@ -238,8 +237,7 @@ class StudyState(param.Parameterized):
         try:
             m = self.measurement()
         except Exception as exc:  # noqa: BLE001 - a broken file: say so, keep the rest
-            with editing(self):
-                self.error = user_message(sch.readable_error(exc))
+            self.run.note(error=user_message(sch.readable_error(exc)))
             return
         options = self.effect_set_options()
         self.param.effect_sets.objects = list(options.values())
@@ -270,65 +268,55 @@ class StudyState(param.Parameterized):
         likelihoods = [v for v in LIKELIHOOD_LABELS.values() if v in self.likelihoods]
         return study_cells([(self.dataset, m)], windows, sets, likelihoods, seed=int(self.beam.seed))
 
-    def run(self) -> int:
+    def start(self) -> int:
         """Start a study of the current inputs (it replaces the running one); returns its id, 0 when the
         inputs are wrong (``error`` says why; the cells shown are kept)."""
         try:
             cells = self.cells()
         except BeamInputError as exc:
-            with editing(self):
-                self.param.update(error=str(exc), status="check the inputs: the study did not start")
+            self.run.note(error=str(exc), status="check the inputs: the study did not start")
             return 0
         m = self.measurement()
         records = {record_fingerprint(m): m}
         holder: dict[str, int] = {}
+        slot = self.run.slot
 
         def stop() -> bool:
             rid = holder.get("rid")
-            return rid is not None and (self._slot.latest != rid or not self._slot.busy)
+            return rid is not None and (slot.latest != rid or not slot.busy)
 
-        rid = self._slot.request(bind(study_job, records, cells, stop), debounce_s=0.0)
-        holder["rid"] = rid
         with editing(self):
-            self.param.update(requested=rid, stage="queued", progress=0.0, error="", total=len(cells), entries=[],
-                              layout=cells, status=f"{len(cells)} cells queued")
+            self.param.update(total=len(cells), entries=[], layout=cells)
+        rid = self.run.request(bind(study_job, records, cells, stop), status=f"{len(cells)} cells queued",
+                               subject=self.beam.record_name(self.dataset))
+        holder["rid"] = rid
         return rid
 
     def cancel(self) -> None:
         """Stop the running study: its cells not finished are cancelled on the cluster (a cell already
         calibrating runs to its end there, unseen); the finished ones stay shown."""
-        if self.stage not in ("queued", "running"):
-            return
-        self._slot.cancel()
-        with editing(self):
-            self.param.update(stage="cancelled", status=f"cancelled after {len(self.entries)} of {self.total} cells")
+        self.run.cancel(f"cancelled after {len(self.entries)} of {self.total} cells", stage="cancelled")
 
     def close(self) -> None:
         """Cancel and refuse further studies (the session ended)."""
-        self._slot.close()
+        self.run.close()
 
     def wait(self, timeout: float | None = None) -> bool:
         """Block until the latest study has finished (tests and scripts)."""
-        return self._slot.wait(timeout)
+        return self.run.wait(timeout)
 
-    def on_run_update(self, update: sch.Update) -> None:
-        """The run slot's callback: show a finished cell (or the end, or a failure) of the latest study."""
-        with editing(self):
-            if update.kind == "error":
-                self.param.update(stage="error", error=user_message(update.message),
-                                  status="the study stopped; the cells finished are still shown")
-            elif update.kind == "progress":
-                self.param.update(stage="running", status=update.message)
-            elif update.kind == "partial":
-                failed = sum(1 for e in self.entries if e["row"]["error"]) + bool(update.value["row"]["error"])
-                self.param.update(stage="running", entries=[*self.entries, update.value],
-                                  progress=update.fraction or 0.0,
-                                  status=update.message + (f", {failed} failed" if failed else ""))
-            else:
-                failed = sum(1 for e in self.entries if e["row"]["error"])
-                self.param.update(stage="final", progress=1.0,
-                                  status=f"{update.message} in {update.elapsed_s:.0f} s"
-                                         + (f", {failed} failed (see their errors)" if failed else ""))
+    def _show(self, update: sch.Update) -> dict | None:
+        """A finished cell (or the end) of the latest study; the status counts the failed cells."""
+        failed = sum(1 for e in self.entries if e["row"]["error"])
+        if update.kind == "partial":
+            failed += bool(update.value["row"]["error"])
+            with editing(self):
+                self.entries = [*self.entries, update.value]
+            return {"status": update.message + (f", {failed} failed" if failed else "")}
+        if update.kind == "final":
+            return {"status": f"{update.message} in {update.elapsed_s:.0f} s"
+                              + (f", {failed} failed (see their errors)" if failed else "")}
+        return None
 
     # -- a cell in the beam view -----------------------------------------------------------------
     def open_cell(self, entry: dict) -> None:
@@ -347,5 +335,5 @@ class StudyState(param.Parameterized):
     def describe(self) -> dict:
         """Plain summary of inputs and status (for logs and tests)."""
         return {"dataset": self.dataset, "windows": self.windows, "effect_sets": list(self.effect_sets),
-                "likelihoods": list(self.likelihoods), "stage": self.stage, "status": self.status,
-                "done": len(self.entries), "total": self.total, "error": self.error}
+                "likelihoods": list(self.likelihoods), **self.run.describe(), "done": len(self.entries),
+                "total": self.total}

@@ -11,7 +11,6 @@ from __future__ import annotations
 import html
 
 import panel as pn
-import param
 
 from dashboard.jobs.beam import (
     MAX_SIDECAR_UPLOAD_BYTES,
@@ -21,21 +20,20 @@ from dashboard.jobs.beam import (
 from dashboard.outputs import beam as bs
 from dashboard.plots.beam import BeamTimeSeriesPlot
 from dashboard.plots.corner import CornerPlot
-from dashboard.runtime.staging import run_steps
 from dashboard.state.beam import NO_ANSWER
-from dashboard.state.session import SessionState
 from dashboard.views.panes import (
     BUTTON_WRAP,
-    FLEX_ITEM_GUIDE,
-    FLEX_ITEM_INPUTS,
-    FLEX_ITEM_MAIN,
     HTML,
     DataFrame,
     Markdown,
     alert_html,
+    compare_card,
     corner_grid,
-    status_html,
+    download_card,
+    run_status,
+    three_columns,
 )
+from dashboard.views.tab import TabView
 from dashboard.views.texts import beam_guide
 
 __all__ = ["UPLOAD_CHUNK_BYTES", "BeamCalibrationView"]
@@ -67,6 +65,13 @@ def stage_text(stage: str, result) -> str:
         if stage == "final" and result.is_preview:
             return _LAPLACE_TEXT
     return _STAGE_TEXT.get(stage, stage)
+
+
+def effects_caption(measurement) -> str:
+    """The words over the effect check-boxes: what the bare model already has for this record (the
+    patch's drive only when the record has a patch)."""
+    patch = measurement is not None and measurement.geometry.has_patch
+    return ("**Effects in the model** (besides the beam's stiffness EI" + (" and the patch's drive k_p)" if patch else ")"))
 
 
 #: Colour of a read-out's number by its judgement (:func:`dashboard.outputs.beam.judged_readouts`).
@@ -131,87 +136,61 @@ def _true_noise(answer: dict | None) -> float | None:
     return None if answer is None else answer.get("noise_m")
 
 
-class BeamCalibrationView(pn.viewable.Viewer):
+class BeamCalibrationView(TabView):
     """Calibrate the cantilever beam model on a measurement and judge it on the held-out record.
 
     Parameters
     ----------
     session : SessionState
         The browser session's state.
+
+    Built when its tab is first opened (~0.3 s of the event loop saved for the sessions that
+    never open it). Attributes read by the tests: :attr:`plot` (the measurement-and-bands
+    figure), :attr:`result_tabs` (the tabs below it) and :attr:`corner` (the pair plot, built
+    when its tab is first opened).
     """
 
-    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+    placeholder = "Open this tab to load the beam calibration view."
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._beam = self.session.beam
-        self._built = False
-        # built when the tab is first opened (~0.3 s of the event loop per session saved
-        # for the sessions that never open it)
-        self._layout = pn.Column(Markdown("Open this tab to load the beam calibration view."),
-                                 sizing_mode="stretch_width")
+        self.plot: BeamTimeSeriesPlot | None = None
+        self.result_tabs: pn.Tabs | None = None
+        self.corner: CornerPlot | None = None
 
-    @property
-    def layout(self):
-        """The view's root panel (what ``__panel__`` returns)."""
-        return getattr(self, "_layout", None)
-
-    @property
-    def corner(self):
-        """The pair plot of the posterior draws (None until the first result)."""
-        return getattr(self, "_corner", None)
-
-    @property
-    def built(self):
-        """Whether the view's pieces exist (built when its tab is first opened)."""
-        return getattr(self, "_built", None)
-
-    @property
-    def plot(self):
-        """The measurement-and-bands figure."""
-        return getattr(self, "_plot", None)
-
-    @property
-    def result_tabs(self):
-        """The tabs below the plot (bands, pair plot, tables, ...)."""
-        return getattr(self, "_tabs", None)
-
-    def __panel__(self):
-        return self._layout
-
-    def build(self) -> None:
-        """Build the widgets, plots and tables (once), in steps (see :mod:`dashboard.runtime.staging`)."""
-        if self._built:
-            return
-        self._built = True
-        self._left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS, css_classes=["beam-inputs"])
-        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN,
-                                 css_classes=["beam-main"])
-        self._right = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=["beam-guide"])
+    def frame(self) -> None:
+        self._left, self._centre, self._right, row = three_columns("beam")
         # the dataset's menu above the columns: in the 300 px input column its titles were cut
         self._top = pn.Row(sizing_mode="stretch_width", css_classes=["beam-top"])
-        self._layout[:] = [self._top, pn.FlexBox(self._left, self._centre, self._right, flex_wrap="wrap",
-                                                 align_items="flex-start", sizing_mode="stretch_width")]
-        run_steps([self._build_status, self._build_figure, self._build_plot, self._build_inputs, self._build_side,
-                   self._build_tabs])
+        self.layout[:] = [self._top, row]
+
+    def steps(self) -> list:
+        return [self._build_status, self._build_figure, self._build_plot, self._build_inputs, self._build_side,
+                self._build_tabs]
+
+    def start(self) -> None:
+        """The first calibration (when the tab is first opened)."""
+        if self._beam.requested == 0:
+            self._beam.request(debounce=False)
 
     # -- the steps of the build ------------------------------------------------------------------
     def _build_status(self) -> None:
-        self._centre.extend([self._status(), self._readouts(), self._convergence()])
+        self._centre.extend([*self._status(), self._readouts(), self._convergence()])
 
     def _build_figure(self) -> None:  # the bokeh figure alone (not in the document yet)
         beam = self._beam
-        self._plot = BeamTimeSeriesPlot()
-        self._plot.show_measurement(beam.measurement)
-        self._plot.update(beam.result, beam.pinned)
-        beam.param.watch(lambda e: self._plot.update(beam.result, beam.pinned), ["result", "pinned"])
-        beam.param.watch(lambda e: self._plot.show_measurement(e.new), "measurement")
+        self.plot = BeamTimeSeriesPlot()
+        self.plot.show_measurement(beam.measurement)
+        self.plot.update(beam.result, beam.pinned)
+        beam.param.watch(lambda e: self.plot.update(beam.result, beam.pinned), ["result", "pinned"])
+        beam.param.watch(lambda e: self.plot.show_measurement(e.new), "measurement")
         d = self.session.diagnosis
-        d.param.watch(lambda e: self._plot.show_true_noise(_true_noise(e.new)), "answer")
-        self._plot.show_true_noise(_true_noise(d.answer))
+        d.param.watch(lambda e: self.plot.show_true_noise(_true_noise(e.new)), "answer")
+        self.plot.show_true_noise(_true_noise(d.answer))
 
     def _build_plot(self) -> None:
-        self._centre.append(pn.pane.Bokeh(self._plot.figure, sizing_mode="stretch_width", height=420))
+        self._centre.append(pn.pane.Bokeh(self.plot.figure, sizing_mode="stretch_width", height=420))
 
     def _build_inputs(self) -> None:
         select, card = self._dataset_card()
@@ -229,12 +208,11 @@ class BeamCalibrationView(pn.viewable.Viewer):
 
     def _build_tabs(self) -> None:
         beam = self._beam
-        self._corner: CornerPlot | None = None
         self._posterior_tab = pn.Column(Markdown(
             "Posterior draws (the parameter values that fit the data): each parameter alone on the diagonal, "
             "pairs below — blue current, grey pinned, green the truth after *Reveal*.", margin=(0, 10)),
             sizing_mode="stretch_width")
-        self._tabs = pn.Tabs(
+        self.result_tabs = pn.Tabs(
             ("Parameters", DataFrame(pn.bind(bs.truth_table, beam.param.result, self.session.diagnosis.param.answer),
                                              sizing_mode="stretch_width", escape=True,
                                              css_classes=["beam-parameter-table"])),
@@ -243,16 +221,10 @@ class BeamCalibrationView(pn.viewable.Viewer):
             ("Compare table", DataFrame(pn.bind(bs.compare_table, beam.param.result, beam.param.pinned),
                                                 sizing_mode="stretch_width", escape=True)),
             dynamic=True, sizing_mode="stretch_width")
-        self._tabs.param.watch(self._tab_opened, "active")
+        self.result_tabs.param.watch(self._tab_opened, "active")
         beam.param.watch(self._update_corner, ["result", "pinned"])
         self.session.diagnosis.param.watch(self._update_corner, "answer")
-        self._centre.append(self._tabs)
-
-    def activate(self) -> None:
-        """Build the view and start the first calibration (called when the tab is first opened)."""
-        self.build()
-        if self._beam.requested == 0:
-            self._beam.request(debounce=False)
+        self._centre.append(self.result_tabs)
 
     # -- inputs ---------------------------------------------------------------------------------
     def _dataset_card(self) -> tuple[pn.widgets.Select, pn.Card]:
@@ -272,37 +244,40 @@ class BeamCalibrationView(pn.viewable.Viewer):
         # and refuses a file over max_file_size in the browser ("File is too large"), before sending
         # anything. No type filter: browsers report a CSV as text/csv, application/vnd.ms-excel or
         # nothing, a TOML file mostly as nothing; the contents are checked on the server.
-        droppers = {}
-        for kind, limit in (("csv", MAX_UPLOAD_BYTES), ("toml", MAX_SIDECAR_UPLOAD_BYTES)):
+        limits = {"csv": MAX_UPLOAD_BYTES, "toml": MAX_SIDECAR_UPLOAD_BYTES}
+        droppers: dict[str, pn.widgets.FileDropper] = {}
+        load = pn.widgets.Button(label="Load the uploaded measurement", color="primary", sizing_mode="stretch_width",
+                                 css_classes=["beam-upload-load"], disabled=True)
+
+        def ready(*_) -> None:
+            load.disabled = not (droppers["csv"].value and droppers["toml"].value)
+
+        def new_dropper(kind: str) -> pn.widgets.FileDropper:
             droppers[kind] = pn.widgets.FileDropper(
-                multiple=False, max_file_size=str(limit), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
+                multiple=False, max_file_size=str(limits[kind]), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
                 layout="compact", width=None, sizing_mode="stretch_width", margin=(0, 10, 5, 10),
                 css_classes=[f"beam-upload-{kind}"])
-        csv, toml = droppers["csv"], droppers["toml"]
+            droppers[kind].param.watch(ready, "value")
+            return droppers[kind]
 
         def last(dropper: pn.widgets.FileDropper) -> tuple[str | None, bytes | str | None]:
             """The dropper's (latest) file as (name, contents); (None, None) before one is uploaded."""
             return next(reversed(dropper.value.items()), (None, None))
 
-        load = pn.widgets.Button(label="Load the uploaded measurement", color="primary", sizing_mode="stretch_width",
-                                 css_classes=["beam-upload-load"], disabled=True)
-
-        def ready(*_) -> None:
-            load.disabled = not (csv.value and toml.value)
-
-        csv.param.watch(ready, "value")
-        toml.param.watch(ready, "value")
-        load.on_click(lambda e: beam.upload(*last(csv), *last(toml)))
-        return select, pn.Card(
+        # (a refused pair keeps its widgets: replaced at once after the click, their FilePond threw in
+        # the browser, "Cannot read properties of null (reading 'file')"; the red box says why)
+        load.on_click(lambda event: beam.upload(*last(droppers["csv"]), *last(droppers["toml"])))
+        card = pn.Card(
             Markdown(f"**Upload** a record: `NAME.csv` (`time_s`, then `voltage_V`, `force_N` or no input column "
                      "for a free response, then `displacement_m`, `velocity_m_s` or `acceleration_m_s2`) and its "
                      f"sidecar `NAME.toml` (geometry, sensor position); the CSV at most "
                      f"{upload_size_text(MAX_UPLOAD_BYTES)} ({MAX_UPLOAD_BYTES // 2**20} MiB), the sidecar at most "
                      f"{upload_size_text(MAX_SIDECAR_UPLOAD_BYTES)}. Drop or browse both, then load them.",
                      margin=(0, 10)),
-            Markdown("Data file (.csv)", margin=(0, 10)), csv,
-            Markdown("Sidecar (.toml)", margin=(0, 10)), toml, load,
+            Markdown("Data file (.csv)", margin=(0, 10)), new_dropper("csv"),
+            Markdown("Sidecar (.toml)", margin=(0, 10)), new_dropper("toml"), load,
             title="Measurement", collapsible=False, sizing_mode="stretch_width")
+        return select, card
 
     def _controls(self) -> pn.Card:
         beam = self._beam
@@ -317,41 +292,40 @@ class BeamCalibrationView(pn.viewable.Viewer):
         beam.param.watch(bounds, "measurement")
         modes = pn.widgets.IntSlider.from_param(beam.param.modes, name="Number of modes", sizing_mode="stretch_width",
                                                 css_classes=["beam-modes"])
-        options = beam.effect_options()
-        effects = pn.widgets.CheckBoxGroup(options=options, value=list(beam.effects), inline=False,
+        effects = pn.widgets.CheckBoxGroup(options=beam.effect_options(), value=list(beam.effects), inline=False,
                                            sizing_mode="stretch_width", css_classes=["beam-effects"])
         effects.param.watch(lambda e: setattr(beam, "effects", list(e.new)) if list(e.new) != list(beam.effects) else None,
                             "value")
         beam.param.watch(lambda e: setattr(effects, "value", list(e.new)) if list(e.new) != effects.value else None,
                          "effects")
+
+        def offered(*_):  # the effects that apply to this record (no patch's effects on a bare strip)
+            options = beam.effect_options()
+            if options != effects.options:
+                effects.options = options
+
+        beam.param.watch(offered, ["measurement", "effects"])
         likelihood = pn.widgets.Select.from_param(beam.param.likelihood, sizing_mode="stretch_width")
-        return pn.Card(window, modes, Markdown("**Effects in the model** (besides the beam's stiffness EI and the "
-                                               "patch's drive k_p)",
-                                                       margin=(5, 10, 0, 10)),
-                       effects, likelihood, title="Model and calibration", collapsible=False, sizing_mode="stretch_width")
+        caption = Markdown(pn.bind(lambda m: effects_caption(m), beam.param.measurement), margin=(5, 10, 0, 10),
+                           css_classes=["beam-effects-caption"])
+        return pn.Card(window, modes, caption, effects, likelihood, title="Model and calibration", collapsible=False,
+                       sizing_mode="stretch_width")
 
     # -- outputs --------------------------------------------------------------------------------
-    def _status(self) -> pn.Column:
+    def _status(self) -> list:
         beam = self._beam
 
-        def html(stage, status, requested, shown, result, dataset):
+        def data(result, dataset, record):
             r = bs.readouts(result)
-            effects = "+".join(result.setup.effects) if result is not None else ""
-            return status_html("cal-status", stage, status, requested, shown, stage_text(stage, result),
-                               dataset=dataset, effects=effects, preview=int(result is None or result.is_preview),
-                               averaged=int(result is not None and result.approximation is not None),
-                               rmse_prediction=f"{r['rmse_prediction']:.6g}", unit=r["unit"])
+            return {"dataset": dataset, "record": html.escape(record),
+                    "effects": "+".join(result.setup.effects) if result is not None else "",
+                    "preview": int(result is None or result.is_preview),
+                    "averaged": int(result is not None and result.approximation is not None),
+                    "rmse_prediction": f"{r['rmse_prediction']:.6g}", "unit": r["unit"]}
 
-        p = beam.param
-        status = HTML(pn.bind(html, p.stage, p.status, p.requested, p.shown, p.result, p.dataset),
-                              sizing_mode="stretch_width", margin=(5, 10, 0, 10))
-        bar = pn.indicators.Progress(
-            value=pn.bind(lambda s, f: 100 if s == "final" else round(100 * f) if s in ("preview", "sampling") else 0,
-                          p.stage, p.progress),
-            max=100, sizing_mode="stretch_width", height=14, margin=(0, 10), bar_color="primary")
-        alert = pn.pane.Alert(pn.bind(lambda e: f"**Error:** {e}" if e else "", p.error), alert_type="danger",
-                              visible=pn.bind(bool, p.error), sizing_mode="stretch_width", css_classes=["beam-cal-error"])
-        return pn.Column(status, bar, alert, sizing_mode="stretch_width")
+        return run_status(beam.run, "cal-status", _STAGE_TEXT, error_css="beam-cal-error", data=data,
+                          text=lambda stage, result, *_: stage_text(stage, result),
+                          depends=(beam.param.result, beam.param.dataset, beam.run.param.shown_subject))
 
     def _readouts(self) -> pn.pane.HTML:
         """The read-outs, judged against the model (one HTML pane whose text changes: cheap in the browser)."""
@@ -382,50 +356,26 @@ class BeamCalibrationView(pn.viewable.Viewer):
                        sizing_mode="stretch_width")
 
     def _tab_opened(self, event) -> None:
-        if event.new == 1 and self._corner is None:
+        if event.new == 1 and self.corner is None:
             self._update_corner()
 
     def _update_corner(self, *_) -> None:
-        if self._tabs.active != 1 and self._corner is None:
+        if self.result_tabs.active != 1 and self.corner is None:
             return  # built when its tab is first opened (one figure per pair)
         beam = self._beam
         if beam.result is None:
             return
         names = tuple(bs.summary(beam.result))
-        if self._corner is None or self._corner.names != names:
-            self._corner = CornerPlot(names, labels={n: bs.short_label(n, bs.output_units(beam.result).si_unit) for n in names})
-            self._posterior_tab[:] = [self._posterior_tab[0], corner_grid(self._corner.grid, self._corner.size)]
+        if self.corner is None or self.corner.names != names:
+            self.corner = CornerPlot(names, labels={n: bs.short_label(n, bs.output_units(beam.result).si_unit) for n in names})
+            self._posterior_tab[:] = [self._posterior_tab[0], corner_grid(self.corner.grid, self.corner.size)]
         pinned = beam.pinned if beam.pinned is not None and tuple(bs.summary(beam.pinned)) == names else None
         answer = self.session.diagnosis.answer
-        self._corner.update(_Draws(beam.result, answer["parameters"] if answer else None),
+        self.corner.update(_Draws(beam.result, answer["parameters"] if answer else None),
                             _Draws(pinned) if pinned is not None else None)
 
     def _compare_buttons(self) -> pn.Card:
-        beam = self._beam
-        pin = pn.widgets.Button(label="Pin this result", color="primary", sizing_mode="stretch_width",
-                                disabled=pn.bind(lambda r: r is None, beam.param.result))
-        unpin = pn.widgets.Button(label="Unpin", sizing_mode="stretch_width",
-                                  disabled=pn.bind(lambda r: r is None, beam.param.pinned))
-        pin.on_click(lambda e: beam.pin())
-        unpin.on_click(lambda e: beam.unpin())
-        note = Markdown(pn.bind(lambda r: "Pinned result drawn in grey; see *Compare table*." if r is not None
-                                        else "Pin a result, then change an input to compare.", beam.param.pinned))
-        return pn.Card(pin, unpin, note, title="Compare", collapsible=False, sizing_mode="stretch_width")
+        return compare_card(self._beam, "grey")
 
     def _downloads(self) -> pn.Card:
-        beam = self._beam
-
-        def download(label, ext, make, enabled=lambda r: r is not None):
-            widget = pn.widgets.FileDownload(callback=lambda: make(beam.result), filename=f"beam.{ext}", label=label,
-                                             sizing_mode="stretch_width",
-                                             disabled=pn.bind(lambda r: not enabled(r), beam.param.result))
-            beam.param.watch(lambda e: setattr(widget, "filename", bs.filename(e.new, ext)) if e.new is not None else None,
-                             "result")
-            return widget
-
-        return pn.Card(
-            download("Summary for print (HTML)", "html", bs.summary_html),
-            download("Summary (JSON)", "json", bs.summary_json),
-            download("Predictive bands (CSV)", "csv", bs.bands_csv),
-            download("Posterior (netCDF)", "nc", bs.posterior_netcdf, lambda r: r is not None and r.posterior is not None),
-            title="Download", collapsible=False, sizing_mode="stretch_width")
+        return download_card(self._beam, bs, "beam")

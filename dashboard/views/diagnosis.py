@@ -9,11 +9,11 @@ the error ladder.
 
 from __future__ import annotations
 
+import html
 import math
 
 import pandas as pd
 import panel as pn
-import param
 
 from beam.discovery.judgement import ORDER_WORDS, STATUS_WORDS
 from beam.discovery.ranking import judgement_of
@@ -28,9 +28,8 @@ from dashboard.outputs.beam import (
     parameter_label,
 )
 from dashboard.plots.diagnosis import DiagnosisPlots
-from dashboard.runtime.staging import run_steps
 from dashboard.state.beam import NO_ANSWER
-from dashboard.state.session import SessionState
+from dashboard.state.run import BUSY
 from dashboard.views.panes import (
     BUTTON_WRAP,
     FLEX_ITEM_GUIDE,
@@ -38,9 +37,11 @@ from dashboard.views.panes import (
     HTML,
     DataFrame,
     Markdown,
+    alert_html,
     diagnosis_download,
-    status_html,
+    run_status,
 )
+from dashboard.views.tab import TabView
 from dashboard.views.texts import DIAGNOSIS_GUIDE
 
 __all__ = ["DiagnosisView", "ladder_table", "modes_table"]
@@ -87,67 +88,59 @@ def ladder_table(rungs: list[dict]) -> pd.DataFrame:
     } for r in rungs]).set_index("step")
 
 
-class DiagnosisView(pn.viewable.Viewer):
+class DiagnosisView(TabView):
     """Residual diagnostics, ranked missing-physics candidates with Add buttons, error ladder.
 
     Parameters
     ----------
     session : SessionState
         The browser session's state.
+
+    Built when its tab is first opened (as the beam view), or ahead by :meth:`prebuild`.
+    Attributes read by the tests: :attr:`plots` (the diagnosis figures) and :attr:`candidates`
+    (the column of candidate effects with their Add buttons).
     """
 
-    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+    opens_beam = True
+    placeholder = "Open this tab to diagnose the beam view's model."
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._diag = self.session.diagnosis
-        self._built = False  # built when the tab is first opened (as the beam view)
-        self._layout = pn.Column(Markdown("Open this tab to diagnose the beam view's model."),
-                                 sizing_mode="stretch_width")
-
-    @property
-    def layout(self):
-        """The view's root panel (what ``__panel__`` returns)."""
-        return getattr(self, "_layout", None)
-
-    @property
-    def plots(self):
-        """The diagnosis figures (None until the tab is built)."""
-        return getattr(self, "_plots", None)
-
-    @property
-    def candidates(self):
-        """The panel of candidate effects with their Add buttons."""
-        return getattr(self, "_candidates", None)
-
-    def __panel__(self):
-        return self._layout
+        self.plots: DiagnosisPlots | None = None
+        self.candidates: pn.Column | None = None
 
     def prebuild(self) -> None:
         """Build the page before the tab is opened, without diagnosing (the app calls it once the
         beam view's first calibration is final: the server is idle then)."""
         self.build()
 
-    def build(self) -> None:
-        """Build the widgets, plots and tables (once), in steps (see :mod:`dashboard.runtime.staging`)."""
-        if self._built:
-            return
-        self._built = True
-        self._layout[0].object = "**Diagnosing…** (the residuals come first)"
+    def frame(self) -> None:
+        self.layout[0].object = "**Diagnosing…** (the residuals come first)"
         self._main = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN,
                                css_classes=["diag-main"])
         self._side = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=["diag-guide"])
         self._page = pn.FlexBox(self._main, self._side, flex_wrap="wrap", align_items="flex-start",
                                 sizing_mode="stretch_width")
+
+    def steps(self) -> list:
         # The pieces are made in steps off the page and put on it at once, with the diagnosis's
         # first stage (its residual report, 2-4 s after the request) when it is on its way: each
         # piece added to the shown page, and each first drawing of the five plots and the
         # candidates' rows on a page already shown, made the browser lay out and repaint the
         # whole page and every plot there (0.3-1.7 s of chromium's CPU each; JavaScript profile
         # of a diagnosis of lab_run_1, on the two cores the diagnosis's worker processes need).
-        run_steps([self._build_figures, self._build_head,
-                   lambda: [step() for step in (self._build_ladder, self._build_residuals, self._build_side)],
-                   self._attach_when_ready])
+        return [self._build_figures, self._build_head,
+                lambda: [step() for step in (self._build_ladder, self._build_residuals, self._build_side)],
+                self._attach_when_ready]
+
+    def start(self) -> None:
+        """Diagnose the beam view's model when the tab is opened and the diagnosis shown is not of it
+        (the first time, and after the student moved on to another record or model), unless one is
+        on its way (running, or waiting for an effect being added)."""
+        d = self._diag
+        if d.requested == 0 or (not d.is_current() and not d.run.busy and not d.adding):
+            d.request()
 
     def _attach_when_ready(self) -> None:
         """Put the built page in place now if there is something to show, else when there is.
@@ -158,15 +151,17 @@ class DiagnosisView(pn.viewable.Viewer):
         main-thread CPU over a diagnosis of lab_run_1 2.7-2.9 -> 4.3 s)."""
         d = self._diag
         if self._ready():
-            self._layout[:] = [self._page]
+            self.layout[:] = [self._page]
             return
 
         def attach(*_events) -> None:
-            if self._layout.objects[0] is not self._page and self._ready():
+            if self.layout.objects[0] is not self._page and self._ready():
                 d.param.unwatch(watcher)
-                self._layout[:] = [self._page]
+                d.run.param.unwatch(run_watcher)
+                self.layout[:] = [self._page]
 
-        watcher = d.param.watch(attach, ["diagnosis", "stage"])
+        watcher = d.param.watch(attach, ["diagnosis"])
+        run_watcher = d.run.param.watch(attach, ["stage"])
 
     def _ready(self) -> bool:
         """Whether the page has something to show: a diagnosis, or its error, or the news that it was
@@ -177,28 +172,53 @@ class DiagnosisView(pn.viewable.Viewer):
     # -- the steps of the build ------------------------------------------------------------------
     def _build_figures(self) -> None:  # the plots alone (shown by the following steps)
         d = self._diag
-        self._plots = DiagnosisPlots()
-        self._plots.update(d.diagnosis)
-        self._plots.update_ladder(d.ladder)
-        d.param.watch(lambda e: self._plots.update(e.new), "diagnosis")
-        d.param.watch(lambda e: self._plots.update_ladder(e.new), "ladder")
+        self.plots = DiagnosisPlots()
+        self.plots.update(d.diagnosis)
+        self.plots.update_ladder(d.ladder)
+        d.param.watch(lambda e: self.plots.update(e.new), "diagnosis")
+        d.param.watch(lambda e: self.plots.update_ladder(e.new), "ladder")
         noise = lambda answer: None if answer is None else answer.get("noise_m")
-        self._plots.show_true_noise(noise(d.answer))
-        d.param.watch(lambda e: self._plots.show_true_noise(noise(e.new)), "answer")
+        self.plots.show_true_noise(noise(d.answer))
+        d.param.watch(lambda e: self.plots.show_true_noise(noise(e.new)), "answer")
 
     def _build_head(self) -> None:
         d, beam = self._diag, self.session.beam
-        self._candidates = pn.Column(sizing_mode="stretch_width", css_classes=["diag-candidates"])
+        self.candidates = pn.Column(sizing_mode="stretch_width", css_classes=["diag-candidates"])
         d.param.watch(self._show_candidates, ["diagnosis", "adding"])
         beam.param.watch(self._show_candidates, "effects")
+        beam.run.param.watch(self._show_candidates, "requested")  # another record or model: the Add buttons go grey
         run = pn.widgets.Button(label="Diagnose the current model", color="primary", css_classes=["diag-run"])
         run.on_click(lambda e: d.request())
-        stale = Markdown(pn.bind(self._stale, d.param.diagnosis, beam.param.result), margin=(0, 10))
-        verdict = Markdown(pn.bind(bs.verdict_text, d.param.diagnosis, d.param.ladder), css_classes=["diag-verdict"],
-                           sizing_mode="stretch_width", styles={"font-size": "13pt"})
+        depends = (d.param.diagnosis, d.run.param.shown_subject, beam.run.param.requested)
+        stale = HTML(pn.bind(self._stale, *depends, d.run.param.stage), sizing_mode="stretch_width", margin=(0, 10),
+                     css_classes=["diag-stale"])
+        verdict = Markdown(pn.bind(self._verdict, *depends, d.param.ladder), css_classes=["diag-verdict"], sizing_mode="stretch_width",
+                           styles={"font-size": "13pt"})
         self._show_candidates()
-        self._main.extend([self._status(), pn.Row(run, stale, sizing_mode="stretch_width"), verdict,
-                           Markdown(f"### Candidate effects (best first: {ORDER_WORDS})", margin=(0, 10)), self._candidates])
+        findings = pn.Column(verdict, Markdown(f"### Candidate effects (best first: {ORDER_WORDS})", margin=(0, 10)), self.candidates,
+                             sizing_mode="stretch_width", css_classes=["diag-findings"])
+        # another record's or model's findings are greyed (Add disabled: _show_candidates)
+        d.param.watch(lambda e: self._grey(findings), "diagnosis")
+        beam.run.param.watch(lambda e: self._grey(findings), "requested")
+        self._grey(findings)
+        self._main.extend([*self._status(), pn.Row(run, sizing_mode="stretch_width"), stale, findings])
+
+    def _grey(self, findings: pn.Column) -> None:
+        """The findings shown at full strength when they are the current record's and model's, greyed when not."""
+        current = self._diag.diagnosis is None or self._diag.is_current()
+        styles = {"opacity": "1" if current else "0.5"}  # (an emptied style is not taken off in the browser)
+        if findings.styles != styles:
+            findings.styles = styles
+
+    def _verdict(self, diagnosis, record: str, _requested, ladder=None) -> str:
+        """The verdict, under a line naming the record and model it is about (partial or final)."""
+        if diagnosis is None:
+            return ""
+        spec = diagnosis.key.spec
+        window = f"window {spec.window[0]:g}–{spec.window[1]:g} s" if spec.window else "default window"
+        model = ", ".join(effect_title(e) for e in spec.effects) or "the bare beam"
+        head = f"**Diagnosis of {record or 'this record'}** ({window}, {spec.modes} modes; model: {model})"
+        return f"{head}\n\n{bs.verdict_text(diagnosis, ladder)}"
 
     @staticmethod
     def _plot(dmap, **kw) -> pn.pane.HoloViews:
@@ -219,7 +239,7 @@ class DiagnosisView(pn.viewable.Viewer):
                                   sizing_mode="stretch_width", css_classes=["diag-ladder-table"])
         self._main.extend([
             Markdown("### Error ladder: one step per effect added", margin=(0, 10)),
-            self._pair(table, self._plot(self._plots.ladder))])
+            self._pair(table, self._plot(self.plots.ladder))])
 
     def _build_residuals(self) -> None:
         """Where the model fails: the residual over time, the spectra with the autocorrelation, and
@@ -229,7 +249,7 @@ class DiagnosisView(pn.viewable.Viewer):
         0.2-0.3 s of CPU while the diagnosis's fits ran on the same two cores (diagnosis of
         lab_run_1 at 7 modes, `/proc`, two runs each: complete 7.2-7.9 s with both pairs, 6.7-7.1 s
         without either one); a tab is drawn when it is opened."""
-        p, d = self._plots, self._diag
+        p, d = self.plots, self._diag
         whiteness = Markdown(pn.bind(_whiteness_text, d.param.diagnosis), margin=(0, 10), sizing_mode="stretch_width",
                              css_classes=["diag-whiteness"])
         spectra = self._pair(self._plot(p.spectrum), pn.Column(self._plot(p.acf), whiteness, sizing_mode="stretch_width"))
@@ -252,34 +272,36 @@ class DiagnosisView(pn.viewable.Viewer):
                                    collapsible=True, collapsed=False, sizing_mode="stretch_width",
                                    css_classes=["diag-class-guide"]), self._reveal(), diagnosis_download(self._diag)])
 
-    def activate(self) -> None:
-        """Build the view and diagnose the beam view's model (called when the tab is first opened)."""
-        self.build()
-        if self._diag.requested == 0:
-            self._diag.request()
-
-    def _stale(self, diagnosis, _result) -> str:
-        if diagnosis is None or self._diag.is_current():
-            return ""
-        return "*The beam view's dataset, window, modes or effects changed since this diagnosis.*"
-
-    def _status(self) -> pn.Column:
+    def _stale(self, diagnosis, record: str, _requested, stage: str) -> str:
+        """A notice over findings that are not of the beam view's record and model (empty when they are)."""
         d = self._diag
-        p = d.param
+        if diagnosis is None or d.is_current():
+            return ""
+        now = self.session.beam.record_name()
+        what = (f"not of <b>{html.escape(now)}</b>, the record the <i>Beam calibration</i> tab shows now"
+                if now != record else "not of the window, modes or effects the <i>Beam calibration</i> tab has now")
+        then = ("The diagnosis of the current model is on its way: its first results replace these."
+                if stage in BUSY else "Press <b>Diagnose the current model</b> (or open this tab again) to diagnose it.")
+        return alert_html("warning", f"This diagnosis is of <b>{html.escape(record)}</b>, {what}: its verdict and "
+                                     f"candidates are greyed and <i>Add</i> is off. {then}")
 
-        def html(stage, status, requested, shown, ladder, adding):
+    def _status(self) -> list:
+        d = self._diag
+
+        def data(ladder, adding, diagnosis, record, _requested):
             last = ladder[-1]["rmse_prediction"] if ladder else float("nan")
-            return status_html("diag-status", stage, status, requested, shown, _STAGE_TEXT.get(stage, stage),
-                               ladder_n=len(ladder), ladder_rmse=f"{last:.6g}",
-                               ladder_unit=ladder[-1]["unit"] if ladder else "", adding=adding)
+            return {"ladder_n": len(ladder), "ladder_rmse": f"{last:.6g}",
+                    "ladder_unit": ladder[-1]["unit"] if ladder else "", "adding": adding,
+                    "record": html.escape(record), "current": int(diagnosis is not None and d.is_current())}
 
-        status = HTML(pn.bind(html, p.stage, p.status, p.requested, p.shown, p.ladder, p.adding),
-                              sizing_mode="stretch_width", margin=(5, 10, 0, 10))
-        bar = pn.indicators.Progress(value=pn.bind(lambda s, f: 100 if s == "final" else round(100 * f), p.stage, p.progress),
-                                     max=100, sizing_mode="stretch_width", height=14, margin=(0, 10), bar_color="primary")
-        alert = pn.pane.Alert(pn.bind(lambda e: f"**Error:** {e}" if e else "", p.error), alert_type="danger",
-                              visible=pn.bind(bool, p.error), sizing_mode="stretch_width", css_classes=["diag-error"])
-        return pn.Column(status, bar, alert, sizing_mode="stretch_width")
+        def text(stage, ladder, adding, *_):
+            if adding and stage in BUSY:
+                return f"Adding {effect_title(adding)}: re-calibrating the model, then diagnosing it again…"
+            return _STAGE_TEXT.get(stage, stage)
+
+        return run_status(d.run, "diag-status", _STAGE_TEXT, error_css="diag-error", data=data, text=text,
+                          depends=(d.param.ladder, d.param.adding, d.param.diagnosis, d.run.param.shown_subject,
+                                   self.session.beam.run.param.requested))
 
     def _show_candidates(self, *_) -> None:
         """The candidates' rows: best first once every candidate is ranked; while they are being
@@ -295,13 +317,14 @@ class DiagnosisView(pn.viewable.Viewer):
         d, beam = self._diag, self.session.beam
         diagnosis = d.diagnosis
         if diagnosis is None:
-            if self._candidates.objects:  # no change sent for an empty list (the page may be prebuilt and hidden)
-                self._candidates[:] = []
+            if self.candidates.objects:  # no change sent for an empty list (the page may be prebuilt and hidden)
+                self.candidates[:] = []
             self._rows, self._rows_key = {}, None
             return
-        if _ and getattr(_[0], "name", "") in ("adding", "effects") and d.requested > d.shown:
+        if _ and getattr(_[0], "name", "") in ("adding", "effects", "requested") and d.requested > d.shown:
             return  # a diagnosis of the new model is on its way and replaces the rows: no repaint for this
         u = bs.output_units(diagnosis)
+        current = d.is_current()  # another record's or model's candidates cannot be added to this one
         ranked = {c.effect: c for c in diagnosis.candidates}
         names = [c.effect for c in diagnosis.candidates] + list(diagnosis.pending)
         done = not diagnosis.pending
@@ -313,7 +336,7 @@ class DiagnosisView(pn.viewable.Viewer):
             # the Add buttons are enabled when all are ranked (the rows are remade then): a
             # button's change re-renders it and lays out the whole page (~0.2 s of chromium each)
             states[effect] = (f"Add {title}" if not present else f"{title} is in the model",
-                              not done or present or bool(d.adding),
+                              not done or present or bool(d.adding) or not current,
                               self._candidate_text(c, diagnosis, u) if c is not None else f"**{title}**<br>*being ranked…*")
         rows = getattr(self, "_rows", {})
         # rank order and colours once all are ranked; a fixed order before
@@ -322,7 +345,7 @@ class DiagnosisView(pn.viewable.Viewer):
         if key != getattr(self, "_rows_key", None) or buttons_changed > 1:  # remade at once, not button by button
             rows = {e: self._candidate_row(e, ranked.get(e), done, *states[e]) for e in names}
             self._rows, self._rows_key = rows, key
-            self._candidates[:] = [row for row, _, _ in rows.values()]
+            self.candidates[:] = [row for row, _, _ in rows.values()]
             return
         for effect, (_, button, text) in rows.items():
             label, disabled, words = states[effect]

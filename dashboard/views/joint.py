@@ -19,22 +19,21 @@ import html
 import math
 
 import panel as pn
-import param
 
 from dashboard.jobs.joint import MATERIAL_LOG_EVIDENCE, MAX_RECORDS, SEPARATING_NATS
 from dashboard.outputs.beam import effect_title, output_units, parameter_label, short_label
 from dashboard.plots.joint import RecordPanel
-from dashboard.runtime.staging import run_steps
 from dashboard.state.joint import SAMPLING
-from dashboard.state.session import SessionState
+from dashboard.state.run import BUSY
 from dashboard.views.panes import (
     BUTTON_WRAP,
     HTML,
     Markdown,
     alert_html,
-    status_html,
+    run_status,
     three_columns,
 )
+from dashboard.views.tab import TabView
 
 __all__ = ["JOINT_GUIDE", "JointView", "diagnosis_table_html", "interval_text", "records_table_html", "suggestion_html",
            "shared_table_html"]
@@ -229,79 +228,46 @@ def diagnosis_table_html(diagnosis) -> str:
             "Decided by: the record with the largest share of the joint gain.</p>")
 
 
-class JointView(pn.viewable.Viewer):
+class JointView(TabView):
     """Calibrate one beam on several records at once, and rank the missing effects on all of them.
 
     Parameters
     ----------
     session : SessionState
         The browser session's state.
+
+    Built when its tab is opened; nothing runs before a button is pressed. :attr:`panels` holds
+    the per-record figures drawn so far (one per record of the result shown).
     """
 
-    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+    opens_beam = True
+    placeholder = "Open this tab to calibrate several records jointly."
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._joint = self.session.joint
-        self._built = False
-        self._panels: list[RecordPanel] = []
-        self._layout = pn.Column(Markdown("Open this tab to calibrate several records jointly."),
-                                 sizing_mode="stretch_width")
-        doc = pn.state.curdoc
-        if doc is not None and doc.session_context is not None:
-            pn.state.on_session_destroyed(lambda context: self._joint.close())
+        self.panels: list[RecordPanel] = []
 
-    @property
-    def layout(self):
-        """The view's root panel (what ``__panel__`` returns)."""
-        return self._layout
-
-    @property
-    def panels(self) -> list[RecordPanel]:
-        """The per-record figures drawn so far (one per record of the result shown)."""
-        return list(self._panels)
-
-    def __panel__(self):
-        return self._layout
-
-    def activate(self) -> None:
-        """Build the view (when its tab is opened); nothing runs before a button is pressed."""
-        self.build()
-
-    def build(self) -> None:
-        """Build the widgets (once), in steps (see :mod:`dashboard.runtime.staging`)."""
-        if self._built:
-            return
-        self._built = True
+    def frame(self) -> None:
         self._left, self._centre, self._right, row = three_columns("joint")
-        self._layout[:] = [row]
-        run_steps([self._build_status, self._build_results, self._build_inputs, self._build_side])
+        self.layout[:] = [row]
+
+    def steps(self) -> list:
+        return [self._build_status, self._build_results, self._build_inputs, self._build_side]
 
     # -- the steps of the build ------------------------------------------------------------------
-    def _status(self, css: str, texts: dict, prefix: str) -> pn.Column:
+    def _status(self, run, css: str, texts: dict) -> list:
         st = self._joint
-        p = st.param
-        stage, status, progress, error = (p[f"{prefix}{n}"] for n in ("stage", "status", "progress", "error"))
-        requested, shown = p[f"{prefix}requested"], p[f"{prefix}shown"]
 
-        def text(stage, status, requested, shown, result, diagnosis):
-            data = {"records": len(result.names) if result is not None else 0,
-                    "panels": len(self._panels), "preview": int(result is None or result.joint.is_preview),
+        def data(result, diagnosis):
+            return {"records": len(result.names) if result is not None else 0,
+                    "panels": len(self.panels), "preview": int(result is None or result.joint.is_preview),
                     "candidates": len(diagnosis.candidates) if diagnosis is not None else 0}
-            return status_html(css, stage, status, requested, shown, texts.get(stage, stage), **data)
 
-        line = HTML(pn.bind(text, stage, status, requested, shown, p.result, p.diagnosis), sizing_mode="stretch_width",
-                    margin=(5, 10, 0, 10))
-        bar = pn.indicators.Progress(
-            value=pn.bind(lambda s, f: 100 if s == "final" else round(100 * f) if s in ("preview", "sampling") else 0,
-                          stage, progress),
-            max=100, sizing_mode="stretch_width", height=14, margin=(0, 10), bar_color="primary")
-        alert = HTML(pn.bind(lambda e: alert_html("danger", f"<b>Error:</b> {html.escape(e)}") if e else "", error),
-                     sizing_mode="stretch_width", margin=(0, 10), css_classes=[f"{css}-error"])
-        return pn.Column(line, bar, alert, sizing_mode="stretch_width")
+        return run_status(run, css, texts, data=data, depends=(st.param.result, st.param.diagnosis))
 
     def _build_status(self) -> None:
-        self._centre.append(self._status("joint-status", _STAGE_TEXT, ""))
+        self._centre.extend(self._status(self._joint.run, "joint-status", _STAGE_TEXT))
 
     def _build_results(self) -> None:
         st = self._joint
@@ -324,19 +290,20 @@ class JointView(pn.viewable.Viewer):
         next_record = HTML(pn.bind(suggestion_html, p.diagnosis), sizing_mode="stretch_width", margin=(5, 10),
                            css_classes=["joint-suggestion"])
         self._centre.extend([Markdown("### Which effect is missing, judged on every record", margin=(10, 10, 0, 10)),
-                             self._status("joint-diag-status", _DIAG_TEXT, "diag_"), verdict, table, next_record])
+                             *self._status(st.diag_run, "joint-diag-status", _DIAG_TEXT), verdict, table,
+                             next_record])
 
     def _draw_panels(self, *_) -> None:
         outcome = self._joint.result
         if outcome is None:
             return
         views = outcome.views
-        while len(self._panels) < len(views):
-            self._panels.append(RecordPanel(len(self._panels)))
-        for k, (panel, view) in enumerate(zip(self._panels, views)):
+        while len(self.panels) < len(views):
+            self.panels.append(RecordPanel(len(self.panels)))
+        for k, (panel, view) in enumerate(zip(self.panels, views)):
             g = view.setup.measurement.geometry
             panel.show(view, f"{k + 1}. {view.setup.measurement.name}: L = {g.length_m:.3g} m")
-        panes = [pn.pane.Bokeh(panel.figure, sizing_mode="stretch_width", height=300) for panel in self._panels[:len(views)]]
+        panes = [pn.pane.Bokeh(panel.figure, sizing_mode="stretch_width", height=300) for panel in self.panels[:len(views)]]
         self._panel_column.objects = panes
 
     def _build_inputs(self) -> None:
@@ -379,10 +346,10 @@ class JointView(pn.viewable.Viewer):
         diagnose = pn.widgets.Button(label="Diagnose jointly", color="primary", sizing_mode="stretch_width",
                                      css_classes=["joint-diagnose"], stylesheets=BUTTON_WRAP,
                                      disabled=pn.bind(lambda r: not r, st.param.records))
-        busy = ("queued", "preview", "sampling")
+        busy = BUSY
         cancel = pn.widgets.Button(label="Cancel", sizing_mode="stretch_width", css_classes=["joint-cancel"],
                                    disabled=pn.bind(lambda a, b: a not in busy and b not in busy,
-                                                    st.param.stage, st.param.diag_stage))
+                                                    st.run.param.stage, st.diag_run.param.stage))
         calibrate.on_click(lambda e: st.calibrate())
         diagnose.on_click(lambda e: st.diagnose())
         cancel.on_click(lambda e: st.cancel())

@@ -20,10 +20,13 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
+from html import escape as html_escape
 
 import panel as pn
 
-__all__ = ["ALERT_COLOURS", "BASE_TEXT_PX", "BUTTON_WRAP", "ClassroomDesign", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "DataFrame",
+from dashboard.state.run import BUSY
+
+__all__ = ["ALERT_COLOURS", "WRAP", "bar_percent", "compare_card", "download_card", "run_status", "BASE_TEXT_PX", "BUTTON_WRAP", "ClassroomDesign", "FLEX_ITEM_GUIDE", "FLEX_ITEM_INPUTS", "FLEX_ITEM_MAIN", "DataFrame",
            "HTML", "MIN_TEXT_PX", "corner_grid", "diagnosis_download", "Markdown", "READABLE_CSS", "ROOT_CSS", "alert_html",
            "status_html", "three_columns"]
 
@@ -85,15 +88,101 @@ def alert_html(kind: str, html: str) -> str:
     ``data-kind`` carries the kind for tests."""
     background, colour, border = ALERT_COLOURS[kind]
     return (f'<div class="notice" data-kind="{kind}" style="background:{background};color:{colour};'
-            f'border:1px solid {border};border-radius:6px;padding:8px 12px;">{html}</div>')
+            f'border:1px solid {border};border-radius:6px;padding:8px 12px;overflow-wrap:anywhere;">{html}</div>')
 
 
 def status_html(css: str, stage: str, status: str, requested: int, shown: int, text: str, **data) -> str:
     """The status line, with the state in ``data-*`` attributes (read by the browser tests)."""
     attrs = " ".join(f'data-{k.replace("_", "-")}="{v}"' for k, v in data.items())
-    detail = f" <small>({status})</small>" if status else ""
+    detail = f" <small>({html_escape(status)})</small>" if status else ""
     return (f'<div class="{css}" data-stage="{stage}" data-requested="{requested}" data-shown="{shown}" {attrs}>'
             f"<b>{text}</b>{detail}</div>")
+
+
+#: An error's box keeps its text inside: a long word (a path, a quoted header) wraps.
+WRAP = {"overflow-wrap": "anywhere", "word-break": "break-word", "max-width": "100%"}
+
+
+def bar_percent(stage: str, fraction: float) -> int:
+    """A run's progress bar (%): full at the end, the fraction done while it works, else empty."""
+    if stage in ("final", "read"):
+        return 100
+    return round(100 * fraction) if stage in BUSY else 0
+
+
+def run_status(run, css: str, texts: dict, *, error_css: str | None = None, data=None, text=None, depends=(),
+               bar: bool = True, bar_label: str | None = None) -> list:
+    """A run's status line (:func:`status_html`: the state in ``data-*`` attributes for the tests)
+    with its progress bar, and its error (a red box, shown only when there is one), from the
+    run's parameters: two panes, for a page's column. (The session's one status line above the tabs,
+    :mod:`dashboard.views.status`, is the one that stays in view.)
+
+    Parameters
+    ----------
+    run : dashboard.state.run.Run
+        The run shown.
+    css, error_css : str
+        CSS classes of the status line and of the error box (default ``CSS-error``).
+    texts : dict
+        The status line's words in bold by stage.
+    data, text : callable, optional
+        ``data(*values)``: extra ``data-*`` attributes; ``text(stage, *values)``: the words instead
+        of ``texts``; ``values`` are those of ``depends`` (parameters of other objects).
+    bar, bar_label : bool, str
+        Whether there is a progress bar, and its label.
+    """
+    p = run.param
+
+    def line(stage, status, requested, shown, *values):
+        words = text(stage, *values) if text is not None else texts.get(stage, stage)
+        return status_html(css, stage, status, requested, shown, words, **(data(*values) if data is not None else {}))
+
+    head = [HTML(pn.bind(line, p.stage, p.status, p.requested, p.shown, *depends), sizing_mode="stretch_width",
+                 margin=(5, 10, 0, 10))]
+    if bar:
+        head.append(pn.indicators.Progress(value=pn.bind(bar_percent, p.stage, p.progress), max=100, height=14,
+                                           sizing_mode="stretch_width", margin=(0, 10), bar_color="primary",
+                                           **({"label": bar_label} if bar_label else {})))
+    alert = pn.pane.Alert(pn.bind(lambda e: f"**Error:** {e}" if e else "", p.error), alert_type="danger",
+                          visible=pn.bind(bool, p.error), sizing_mode="stretch_width", css_classes=[error_css or f"{css}-error"],
+                          styles=WRAP)
+    return [pn.Column(*head, sizing_mode="stretch_width", css_classes=[f"{css}-line"]), alert]
+
+
+def compare_card(state, colour: str) -> pn.Card:
+    """The "Compare" card of a result (``state.result``, ``state.pinned``): pin the shown result, unpin it;
+    ``colour`` names the pinned result's colour on the plot."""
+    pin = pn.widgets.Button(label="Pin this result", color="primary", sizing_mode="stretch_width",
+                            disabled=pn.bind(lambda r: r is None, state.param.result))
+    unpin = pn.widgets.Button(label="Unpin", color="default", sizing_mode="stretch_width",
+                              disabled=pn.bind(lambda r: r is None, state.param.pinned))
+    pin.on_click(lambda event: state.pin())
+    unpin.on_click(lambda event: state.unpin())
+    note = Markdown(pn.bind(lambda r: f"Pinned result drawn in {colour}; see *Compare table*." if r is not None
+                            else "Pin a result, then change an input to compare.", state.param.pinned))
+    return pn.Card(pin, unpin, note, title="Compare", collapsible=False, sizing_mode="stretch_width")
+
+
+def download_card(state, module, owner: str) -> pn.Card:
+    """The "Download" card of a result (``state.result``): the printable summary, the JSON summary, the
+    predictive bands and the MCMC posterior, each written by ``module``'s function of the same name
+    (``summary_html``, ``summary_json``, ``bands_csv``, ``posterior_netcdf``) and named by its
+    ``filename(result, extension)``; ``owner`` names the file before the first result."""
+
+    def download(label: str, ext: str, make, enabled=lambda r: r is not None) -> pn.widgets.FileDownload:
+        widget = pn.widgets.FileDownload(callback=lambda: make(state.result), filename=f"{owner}.{ext}", label=label,
+                                         color="default", sizing_mode="stretch_width",
+                                         disabled=pn.bind(lambda r: not enabled(r), state.param.result))
+        state.param.watch(lambda e: setattr(widget, "filename", module.filename(e.new, ext)) if e.new is not None
+                          else None, "result")
+        return widget
+
+    return pn.Card(
+        download("Summary for print (HTML)", "html", module.summary_html),
+        download("Summary (JSON)", "json", module.summary_json),
+        download("Predictive bands (CSV)", "csv", module.bands_csv),
+        download("Posterior (netCDF)", "nc", module.posterior_netcdf, lambda r: r is not None and r.posterior is not None),
+        title="Download", collapsible=False, sizing_mode="stretch_width")
 
 
 def three_columns(prefix: str) -> tuple[pn.Column, pn.Column, pn.Column, pn.FlexBox]:

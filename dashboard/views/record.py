@@ -18,17 +18,17 @@ from __future__ import annotations
 import html
 import io
 
+import numpy as np
+
 import panel as pn
-import param
 
 from beam.io.readers.units import display_unit
 from beam.physics.effects import sensor_mass
 from dashboard.jobs.beam import MAX_UPLOAD_BYTES, upload_size_text
 from dashboard.plots.record import BeamSketch, SpectrumPlot
-from dashboard.runtime.staging import run_steps
-from dashboard.state.session import SessionState
 from dashboard.views.beam import UPLOAD_CHUNK_BYTES
-from dashboard.views.panes import FLEX_ITEM_INPUTS, FLEX_ITEM_MAIN, HTML, Markdown, alert_html, status_html
+from dashboard.views.panes import FLEX_ITEM_INPUTS, FLEX_ITEM_MAIN, HTML, Markdown, alert_html, run_status
+from dashboard.views.tab import TabView
 
 __all__ = ["RecordView", "read_html"]
 
@@ -38,6 +38,10 @@ _STAGE_TEXT = {
     "read": "Record read.",
     "error": "Could not read that file.",
 }
+#: The tab a loaded record is calibrated in.
+BEAM_TAB = "Beam calibration"
+#: The tab a record's taps are calibrated together in.
+JOINT_TAB = "Several records"
 INTRO = ("**Your own record**: a phone taped to a ruler (phyphox, Physics Toolbox), a LabVIEW `.lvm`, an NI "
          "`.tdms`, a MATLAB `.mat`, a NumPy `.npy`/`.npz` or any CSV/text table. Drop the file, say what the beam "
          "is, check that the ideal beam's first mode sits near the record's first peak, then calibrate.")
@@ -122,12 +126,13 @@ def loaded_html(name: str, taps: list) -> str:
         return alert_html("success", f"<b>{len(taps)} taps</b> of one beam at {len(taps)} amplitudes: loaded into the "
                           "<b>Several records</b> tab and <b>calibrated together</b> there (shared physics; each tap its "
                           "own initial state, offset and noise; it is calibrating now). The strongest tap is in the "
-                          f"<b>Beam calibration</b> tab as <b>{html.escape(name)}</b>.")
-    return alert_html("success", f"Loaded into the beam calibration as <b>{html.escape(name)}</b>: open the "
-                      "<b>Beam calibration</b> tab to see it calibrated (it is calibrating now).")
+                          f"<b>Beam calibration</b> tab as <b>{html.escape(name)}</b> (the page went to Several records; come back "
+                          "here for the next record).")
+    return alert_html("success", f"Loaded into the beam calibration as <b>{html.escape(name)}</b>: the <b>Beam "
+                      "calibration</b> tab calibrates it now (the page went there; come back here for the next record).")
 
 
-class RecordView(pn.viewable.Viewer):
+class RecordView(TabView):
     """Bring your own record: read any file, describe the beam in a student's words, calibrate.
 
     Parameters
@@ -136,70 +141,50 @@ class RecordView(pn.viewable.Viewer):
         The browser session's state.
     """
 
-    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+    placeholder = "Open this tab to bring your own record."
+    css_classes = ("record-view",)
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._record = self.session.record
-        self._built = False
-        self._layout = pn.Column(Markdown("Open this tab to bring your own record."), sizing_mode="stretch_width",
-                                 css_classes=["record-view"])
-        self._layout.param.watch(self._shown, "visible")
 
-    def __panel__(self):
-        return self._layout
-
-    @property
-    def built(self) -> bool:
-        """Whether the view's pieces exist."""
-        return self._built
-
-    def _shown(self, event) -> None:
-        if event.new:
-            self.build()
-
-    def build(self) -> None:
-        """Build the widgets and plots (once), in steps (see :mod:`dashboard.runtime.staging`)."""
-        if self._built:
-            return
-        self._built = True
+    def frame(self) -> None:
         self._left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS, css_classes=["record-inputs"])
         self._main = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_MAIN, css_classes=["record-main"])
-        self._layout[:] = [pn.FlexBox(self._left, self._main, flex_wrap="wrap", align_items="flex-start",
-                                      sizing_mode="stretch_width")]
-        run_steps([self._build_status, self._build_file, self._build_form, self._build_plots, self._build_actions])
+        self.layout[:] = [pn.FlexBox(self._left, self._main, flex_wrap="wrap", align_items="flex-start",
+                                     sizing_mode="stretch_width")]
+
+    def steps(self) -> list:
+        return [self._build_status, self._build_file, self._build_form, self._build_plots, self._build_actions]
 
     # -- steps -------------------------------------------------------------------------------------
     def _build_status(self) -> None:
         r = self._record
-        p = r.param
 
-        def status(stage, text, requested, read, described, loaded, form_error):
-            return status_html("record-status", stage, text, requested, 0, _STAGE_TEXT[stage],
-                               file=html.escape(read.file_name) if read is not None else "",
-                               described=int(described is not None), modes=len(described.modes_Hz) if described else 0,
-                               loaded=html.escape(loaded))
+        def data(read, described, loaded):
+            record = read.record if read is not None else None
+            return {"file": html.escape(read.file_name) if read is not None else "",
+                    "described": int(described is not None), "modes": len(described.modes_Hz) if described else 0,
+                    "loaded": html.escape(loaded),
+                    # what was read, in SI units: the signal's largest magnitude, the rate (Hz), the duration (s)
+                    "peak": f"{float(np.max(np.abs(record.output))):.6g}" if record is not None else "",
+                    "rate": f"{record.rate_Hz:.6g}" if record is not None else "",
+                    "duration": f"{record.duration_s:.6g}" if record is not None else "",
+                    "signal": html.escape(record.output_column) if record is not None else ""}
 
         self._main.extend([
             Markdown(INTRO, sizing_mode="stretch_width", margin=(0, 10)),
-            HTML(pn.bind(status, p.stage, p.status, p.requested, p.read, p.described, p.loaded, p.form_error),
-                 sizing_mode="stretch_width", margin=(0, 10)),
-            HTML(pn.bind(lambda e: alert_html("danger", f"<span style='overflow-wrap:anywhere'><b>Error:</b> "
-                                                        f"{html.escape(e)}</span>") if e else "", p.error),
-                 sizing_mode="stretch_width", margin=(0, 10), css_classes=["record-error"]),
+            *run_status(r.run, "record-status", _STAGE_TEXT, error_css="record-error", data=data, bar=False,
+                        depends=(r.param.read, r.param.described, r.param.loaded)),
             pn.Card(HTML(pn.bind(lambda read, _stage: read_html(read.summary() if read is not None else None,
                                                                 r.dropped_name),
-                                 p.read, p.stage),
+                                 r.param.read, r.run.param.stage),
                          sizing_mode="stretch_width", css_classes=["record-what"]),
                     title="What was read", collapsible=False, sizing_mode="stretch_width"),
         ])
 
     def _build_file(self) -> None:
         r = self._record
-        dropper = pn.widgets.FileDropper(
-            multiple=False, max_file_size=str(MAX_UPLOAD_BYTES), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
-            layout="compact", width=None, sizing_mode="stretch_width", margin=(0, 10, 5, 10),
-            css_classes=["record-upload"])
         seen: dict[str, object] = {}
 
         def dropped(event) -> None:  # a file finished uploading (a removal triggers this too: ignored)
@@ -210,11 +195,28 @@ class RecordView(pn.viewable.Viewer):
                     r.upload(name, data)
                     return
 
-        dropper.param.watch(dropped, "value")
-        self._left.append(pn.Card(
+        def new_dropper() -> pn.widgets.FileDropper:
+            dropper = pn.widgets.FileDropper(
+                multiple=False, max_file_size=str(MAX_UPLOAD_BYTES), chunk_size=UPLOAD_CHUNK_BYTES, previews=[],
+                layout="compact", width=None, sizing_mode="stretch_width", margin=(0, 10, 5, 10),
+                css_classes=["record-upload"])
+            dropper.param.watch(dropped, "value")
+            return dropper
+
+        card = pn.Card(
             Markdown(f"Drop or browse **one record file** (at most {upload_size_text(MAX_UPLOAD_BYTES)}); no sidecar "
                      "needed: the form below describes the beam.", margin=(0, 10)),
-            dropper, title="1. Your record", collapsible=False, sizing_mode="stretch_width"))
+            new_dropper(), title="1. Your record", collapsible=False, sizing_mode="stretch_width")
+
+        def refused(event) -> None:
+            """The upload widget says "Upload complete" once a file has arrived, whatever the reading finds:
+            a file refused leaves a fresh widget (the message above says why)."""
+            if event.new:
+                seen.clear()
+                card[1] = new_dropper()
+
+        r.run.param.watch(refused, "error")
+        self._left.append(card)
         self._left.append(self._reading_options())
 
     def _reading_options(self) -> pn.Card:
@@ -266,7 +268,7 @@ class RecordView(pn.viewable.Viewer):
                 opened_here.clear()
                 card.collapsed = True
 
-        r.param.watch(opened, "error")
+        r.run.param.watch(opened, "error")
         r.param.watch(read, "read")
         return card
 
@@ -342,7 +344,11 @@ class RecordView(pn.viewable.Viewer):
                                                sensor_mass.MASS.name, "sensor_mass_approximate")))
         load = pn.widgets.Button(label="Load and calibrate", color="primary", sizing_mode="stretch_width",
                                  disabled=ready, css_classes=["record-load"])
-        load.on_click(lambda e: r.load())
+        def load_and_show(event) -> None:  # the calibration is shown where it runs: the page goes there
+            if r.load() is not None:
+                self.open_tab(JOINT_TAB if r.loaded_taps else BEAM_TAB)
+
+        load.on_click(load_and_show)
         sidecar = pn.widgets.FileDownload(
             callback=lambda: io.StringIO(r.sidecar_text()), filename="beam.toml",
             label="Download the sidecar (TOML) for the command line", sizing_mode="stretch_width",

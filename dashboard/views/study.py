@@ -13,24 +13,13 @@ from __future__ import annotations
 import html
 
 import panel as pn
-import param
 
 from beam.study.engine import scheduler_address
 from dashboard.outputs.beam import output_units, short_label
 from dashboard.plots.study import LIKELIHOOD_TITLES, QUANTITIES, StudyPlots, set_colours, window_label
-from dashboard.runtime.staging import run_steps
-from dashboard.state.session import SessionState
 from dashboard.state.study import LIKELIHOOD_LABELS
-from dashboard.views.panes import (
-    BUTTON_WRAP,
-    FLEX_ITEM_GUIDE,
-    FLEX_ITEM_INPUTS,
-    FLEX_ITEM_MAIN,
-    HTML,
-    Markdown,
-    alert_html,
-    status_html,
-)
+from dashboard.views.panes import BUTTON_WRAP, HTML, Markdown, alert_html, run_status, three_columns
+from dashboard.views.tab import TabView
 
 __all__ = ["StudyView"]
 
@@ -73,85 +62,53 @@ WINDOWS_HELP = ("List `0:0.5,0:1,1:2`, growing family `grow:START:STEP:END` (all
                 "calibration (7–9 s of one core for the default model).")
 
 
-class StudyView(pn.viewable.Viewer):
+class StudyView(TabView):
     """Calibrate the beam on many windows at once and watch the held-out error and coverage change.
 
     Parameters
     ----------
     session : SessionState
         The browser session's state.
+
+    Built when its tab is opened; no study starts before *Run*. :attr:`plots` holds the study's
+    figures once built (None before).
     """
 
-    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
-    goto = param.String("", doc="Title of a tab to open (set on a click on a point; the app opens it).")
+    opens_beam = True
+    placeholder = "Open this tab to set up a window study."
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
         self._study = self.session.study
-        self._built = False
-        self._layout = pn.Column(Markdown("Open this tab to set up a window study."), sizing_mode="stretch_width")
-        doc = pn.state.curdoc
-        if doc is not None and doc.session_context is not None:
-            pn.state.on_session_destroyed(lambda context: self._study.close())
+        self.plots: StudyPlots | None = None
 
-    @property
-    def layout(self):
-        """The view's root panel (what ``__panel__`` returns)."""
-        return self._layout
-
-    @property
-    def plots(self) -> StudyPlots | None:
-        """The study's figures (None until the tab is built)."""
-        return getattr(self, "_plots", None)
-
-    def __panel__(self):
-        return self._layout
-
-    def activate(self) -> None:
-        """Build the view (called when its tab is opened); no study starts before *Run*."""
-        self.build()
-
-    def build(self) -> None:
-        """Build the widgets and plots (once), in steps (see :mod:`dashboard.runtime.staging`)."""
-        if self._built:
-            return
-        self._built = True
-        self._left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS, css_classes=["study-inputs"])
-        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN,
-                                 css_classes=["study-main"])
-        self._right = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE, css_classes=["study-guide"])
+    def frame(self) -> None:
+        self._left, self._centre, self._right, row = three_columns("study")
         self._top = pn.Row(sizing_mode="stretch_width", css_classes=["study-top"])
-        self._layout[:] = [self._top, pn.FlexBox(self._left, self._centre, self._right, flex_wrap="wrap",
-                                                 align_items="flex-start", sizing_mode="stretch_width")]
-        run_steps([self._build_status, self._build_plots, self._build_inputs, self._build_side])
+        self.layout[:] = [self._top, row]
+
+    def steps(self) -> list:
+        return [self._build_status, self._build_plots, self._build_inputs, self._build_side]
 
     # -- the steps of the build ------------------------------------------------------------------
     def _build_status(self) -> None:
         st = self._study
-        p = st.param
 
-        def text(stage, status, requested, entries, total):
-            failed = sum(1 for e in entries if e["row"]["error"])
-            return status_html("study-status", stage, status, requested, requested, _STAGE_TEXT.get(stage, stage),
-                               done=len(entries), total=total, failed=failed)
+        def data(entries, total):
+            return {"done": len(entries), "total": total, "failed": sum(1 for e in entries if e["row"]["error"])}
 
-        status = HTML(pn.bind(text, p.stage, p.status, p.requested, p.entries, p.total), sizing_mode="stretch_width",
-                      margin=(5, 10, 0, 10))
-        bar = pn.indicators.Progress(value=pn.bind(lambda f: round(100 * f), p.progress), max=100,
-                                     sizing_mode="stretch_width", height=14, margin=(0, 10), bar_color="primary")
-        alert = HTML(pn.bind(lambda e: alert_html("danger", f"<b>Error:</b> {html.escape(e)}") if e else "", p.error),
-                     sizing_mode="stretch_width", margin=(0, 10), css_classes=["study-error"])
         self._legend = HTML("", sizing_mode="stretch_width", margin=(0, 10), css_classes=["study-legend"])
-        self._centre.extend([status, bar, alert, self._legend])
+        self._centre.extend([*run_status(st.run, "study-status", _STAGE_TEXT, error_css="study-error", data=data,
+                                         depends=(st.param.entries, st.param.total)), self._legend])
 
     def _build_plots(self) -> None:
         st = self._study
-        self._plots = StudyPlots()
-        self._plots.on_tap = self._open
+        self.plots = StudyPlots()
+        self.plots.on_tap = self._open
         self._parameter = pn.widgets.Select(name="Parameter of the credible intervals", options=[],
                                             sizing_mode="stretch_width", max_width=420,
                                             css_classes=["study-parameter"])
-        self._panes = {quantity: {lk: pn.pane.Bokeh(self._plots.figures[quantity][lk], sizing_mode="stretch_width",
+        self._panes = {quantity: {lk: pn.pane.Bokeh(self.plots.figures[quantity][lk], sizing_mode="stretch_width",
                                                     height=250) for lk in LIKELIHOOD_TITLES}
                        for quantity, _ in QUANTITIES}
         rows = {quantity: pn.Row(sizing_mode="stretch_width", css_classes=[f"study-row-{quantity}"])
@@ -196,8 +153,8 @@ class StudyView(pn.viewable.Viewer):
         run = pn.widgets.Button(label="Run the study", button_type="primary", sizing_mode="stretch_width",
                                 css_classes=["study-run"], stylesheets=BUTTON_WRAP)
         cancel = pn.widgets.Button(label="Cancel", sizing_mode="stretch_width", css_classes=["study-cancel"],
-                                   disabled=pn.bind(lambda s: s not in ("queued", "running"), st.param.stage))
-        run.on_click(lambda e: st.run())
+                                   disabled=pn.bind(lambda s: s not in ("queued", "running"), st.run.param.stage))
+        run.on_click(lambda e: st.start())
         cancel.on_click(lambda e: st.cancel())
         address = scheduler_address(None)
         where = (f"the Dask scheduler at `{address}`" if address else
@@ -239,7 +196,7 @@ class StudyView(pn.viewable.Viewer):
             self._parameter.value = keep if keep in names else (names[0] if names else None)
         parameter = self._parameter.value
         labels = self._set_labels()
-        self._plots.show(layout, entries, unit_scale=units.plot_scale, unit=units.plot_unit, parameter=parameter,
+        self.plots.show(layout, entries, unit_scale=units.plot_scale, unit=units.plot_unit, parameter=parameter,
                          parameter_label=short_label(parameter, units.si_unit) if parameter else "Parameter",
                          set_labels=labels)
         sets = list(dict.fromkeys(cell.effects for _, cell in layout))
@@ -260,5 +217,4 @@ class StudyView(pn.viewable.Viewer):
         if entry is None:
             return
         st.open_cell(entry)
-        self.goto = BEAM_TAB
-        self.goto = ""
+        self.open_tab(BEAM_TAB)

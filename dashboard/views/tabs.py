@@ -1,9 +1,11 @@
 """The views of the app, as :class:`pn.viewable.Viewer` classes over one session state.
 
 Each view takes the browser session's :class:`~dashboard.state.session.SessionState` as its only
-argument; :data:`VIEWS` lists them in tab order. To add a view, write a Viewer with a
-``session`` parameter (and, if it runs ``beam`` jobs, a sub-state on the session that uses
-``session.slot(name, on_update)``), and put it in :data:`VIEWS`.
+argument; :data:`VIEWS` lists them in tab order. To add a view, write a
+:class:`~dashboard.views.tab.TabView` (its page's steps, what it starts when opened) and, if it
+runs ``beam`` jobs, a sub-state on the session whose activities are
+:class:`~dashboard.state.run.Run` objects (the session gives each its slot:
+:meth:`~dashboard.state.session.SessionState.attach`), and put it in :data:`VIEWS`.
 """
 
 from __future__ import annotations

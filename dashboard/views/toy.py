@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 
 import panel as pn
-import param
 
 from dashboard.outputs import exports
 from dashboard.outputs.toy import compare_table, judge, readouts
@@ -20,9 +19,9 @@ from dashboard.plots.corner import CornerPlot
 from dashboard.plots.timeseries import TimeSeriesPlot
 from dashboard.plots.toy import SweepPlot
 from dashboard.runtime.staging import run_steps
-from dashboard.state.session import SessionState
-from dashboard.views import panes
-from dashboard.views.panes import FLEX_ITEM_GUIDE, FLEX_ITEM_INPUTS, FLEX_ITEM_MAIN, HTML, DataFrame, Markdown, alert_html
+from dashboard.views.panes import HTML, DataFrame, Markdown, alert_html, compare_card, corner_grid, download_card
+from dashboard.views.panes import run_status, three_columns
+from dashboard.views.tab import TabView
 from dashboard.views.texts import TOY_GLOSSARY, TOY_GUIDE, TOY_STEPS
 
 __all__ = ["ToyView"]
@@ -47,89 +46,56 @@ _NOISE_TIP = ("the noise sd the calibration estimates; compare it with the true 
               "far above it, the model is absorbing missing physics as noise")
 
 
-class ToyView(pn.viewable.Viewer):
+class ToyView(TabView):
     """Calibrate the toy periodic model interactively and see what discrepancy does.
 
     Parameters
     ----------
     session : SessionState
         The browser session's state.
-    """
 
-    session = param.ClassSelector(class_=SessionState, doc="State of the browser session.")
+    Built at once (the landing tab). Attributes read by the tests: :attr:`timeseries` (the
+    data-and-bands figure), :attr:`result_tabs` (the tabs beside the plot), :attr:`corner` (the
+    pair plot, built when its tab is first opened), :attr:`sweep_tab`, :attr:`sweep_plots` and
+    :attr:`sweep_built` (the window sweep's plots, built when the first sweep arrives).
+    """
 
     def __init__(self, **params) -> None:
         super().__init__(**params)
-        toy = self.session.toy
-        self._toy = toy
-        self._timeseries: TimeSeriesPlot | None = None
-        self._corner: CornerPlot | None = None  # built when its tab is first opened (10 figures, ~0.7 s)
-        self._tabs: pn.Tabs | None = None
-        self._sweep_plots: list[SweepPlot] = []
-        self._sweep_built = False
-        toy.param.watch(self._sweep_arrived, "sweep")
-        # A skeleton now; the pieces are built in steps (dashboard.runtime.staging: one at a time on the
-        # server's event loop, so that no session holds it for long), in page order.
+        self._toy = self.session.toy
+        self.timeseries: TimeSeriesPlot | None = None
+        self.corner: CornerPlot | None = None  # built when its tab is first opened (10 figures, ~0.7 s)
+        self.result_tabs: pn.Tabs | None = None
+        self.sweep_tab: pn.Column | None = None
+        self.sweep_plots: list[SweepPlot] = []
+        self.sweep_built = False
+        self._toy.param.watch(self._sweep_arrived, "sweep")
+        self.build()
+
+    def frame(self) -> None:
         # the beam view's columns: the class panel goes below the plot where the window is narrow
         # (in one row the plot was 374 px wide at 1024 px)
-        self._left = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_INPUTS)
-        self._centre = pn.Column(sizing_mode="stretch_width", min_height=600, styles=FLEX_ITEM_MAIN)
-        self._right = pn.Column(sizing_mode="stretch_width", styles=FLEX_ITEM_GUIDE)
-        self._layout = pn.FlexBox(self._left, self._centre, self._right, flex_wrap="wrap", align_items="flex-start",
-                                  sizing_mode="stretch_width")
-        run_steps([self._build_status, self._build_figure, self._build_plot, self._build_controls, self._build_side,
-                   self._build_guide, self._build_tabs])
+        self._left, self._centre, self._right, row = three_columns("toy")
+        self.layout[:] = [row]
 
-    @property
-    def layout(self):
-        """The view's root panel (what ``__panel__`` returns)."""
-        return getattr(self, "_layout", None)
-
-    @property
-    def corner(self):
-        """The pair plot of the posterior draws (None until the first result)."""
-        return getattr(self, "_corner", None)
-
-    @property
-    def sweep_built(self):
-        """Whether the window-sweep plots exist (built when the first sweep arrives)."""
-        return getattr(self, "_sweep_built", None)
-
-    @property
-    def sweep_tab(self):
-        """The panel holding the window-sweep plots."""
-        return getattr(self, "_sweep_tab", None)
-
-    @property
-    def timeseries(self):
-        """The data-and-bands figure."""
-        return getattr(self, "_timeseries", None)
-
-    @property
-    def result_tabs(self):
-        """The tabs beside the plot (pair plot, sweep, ...)."""
-        return getattr(self, "_tabs", None)
-
-    @property
-    def sweep_plots(self):
-        """The coverage and RMSE figures of the window sweep."""
-        return getattr(self, "_sweep_plots", None)
-
-    def __panel__(self):
-        return self._layout
+    def steps(self) -> list:
+        # one piece at a time on the server's event loop, so that no session holds it for long, in page order
+        return [self._build_status, self._build_figure, self._build_plot, self._build_controls, self._build_side,
+                self._build_guide, self._build_tabs]
 
     # -- the steps of the build ------------------------------------------------------------------
     def _build_status(self) -> None:
-        self._centre.extend([self._status(), self._readouts()])
+        self._centre.extend([*run_status(self._toy.run, "beam-status", _STAGE_TEXT, error_css="beam-error", bar_label="MCMC progress (%)"),
+                             self._readouts()])
 
     def _build_figure(self) -> None:  # the bokeh figure alone (not in the document yet)
         toy = self._toy
-        self._timeseries = TimeSeriesPlot()
-        self._timeseries.update(toy.result, toy.pinned)
-        toy.param.watch(lambda e: self._timeseries.update(toy.result, toy.pinned), ["result", "pinned"])
+        self.timeseries = TimeSeriesPlot()
+        self.timeseries.update(toy.result, toy.pinned)
+        toy.param.watch(lambda e: self.timeseries.update(toy.result, toy.pinned), ["result", "pinned"])
 
     def _build_plot(self) -> None:
-        self._centre.append(pn.pane.Bokeh(self._timeseries.figure, sizing_mode="stretch_width", height=420))
+        self._centre.append(pn.pane.Bokeh(self.timeseries.figure, sizing_mode="stretch_width", height=420))
 
     def _build_controls(self) -> None:
         self._left.extend([self._controls(), self._presets()])
@@ -148,61 +114,58 @@ class ToyView(pn.viewable.Viewer):
             Markdown("Posterior draws (blue; pinned result purple), truth in green.", margin=(0, 10)),
             sizing_mode="stretch_width")
         # the sweep plots are built when the first sweep arrives
-        self._sweep_tab = pn.Column(Markdown(pn.bind(self._sweep_text, toy.param.sweep_status), margin=(0, 10)),
-                                    sizing_mode="stretch_width")
-        self._tabs = pn.Tabs(
-            ("Window sweep", self._sweep_tab),
+        self.sweep_tab = pn.Column(Markdown(pn.bind(self._sweep_text, toy.sweep_run.param.status), margin=(0, 10)),
+                                   sizing_mode="stretch_width")
+        self.result_tabs = pn.Tabs(
+            ("Window sweep", self.sweep_tab),
             ("Posterior: marginals and pairs", self._posterior_tab),
             ("Compare table", DataFrame(pn.bind(compare_table, toy.param.result, toy.param.pinned),
                                                 sizing_mode="stretch_width", escape=True)),
             dynamic=True,
             sizing_mode="stretch_width",
         )
-        self._tabs.param.watch(self._tab_opened, "active")
-        self._centre.append(self._tabs)
+        self.result_tabs.param.watch(self._tab_opened, "active")
+        self._centre.append(self.result_tabs)
         if toy.sweep is not None:
             self._sweep_arrived()
 
     def _sweep_arrived(self, *_) -> None:
-        if self._toy.sweep is None or self._sweep_built or self._tabs is None:
+        if self._toy.sweep is None or self.sweep_built or self.result_tabs is None:
             return
-        self._sweep_built = True
+        self.sweep_built = True
         run_steps([self._build_sweep_figures, lambda: self._show_sweep(0), lambda: self._show_sweep(1)])
 
     def _build_sweep_figures(self) -> None:
         toy = self._toy
-        self._sweep_plots = [SweepPlot("coverage"), SweepPlot("rmse")]
+        self.sweep_plots = [SweepPlot("coverage"), SweepPlot("rmse")]
         self._update_sweep()
         # the marker follows the latest final result, not the slider (fewer redraws)
         toy.param.watch(self._update_sweep, ["sweep", "final"])
         # side by side where each has 320 px, one above the other where not
         self._sweep_row = pn.FlexBox(flex_wrap="wrap", align_items="flex-start", sizing_mode="stretch_width")
-        self._sweep_tab.append(self._sweep_row)
+        self.sweep_tab.append(self._sweep_row)
 
     def _show_sweep(self, index: int) -> None:
         # not linked: both plots' value axis is named "value" (coverage in %, RMSE in du), and
         # pn.pane.HoloViews links the axes of panes in one layout by dimension name
-        self._sweep_row.append(pn.pane.HoloViews(self._sweep_plots[index].figure, sizing_mode="stretch_width", height=290,
+        self._sweep_row.append(pn.pane.HoloViews(self.sweep_plots[index].figure, sizing_mode="stretch_width", height=290,
                                                  backend="bokeh", linked_axes=False,
                                                  styles={"flex": "1 1 320px", "min-width": "0"}))
 
     def _update_sweep(self, *_) -> None:
         toy = self._toy
         window = None if toy.final is None else toy.final.scenario.window_s
-        for plot in self._sweep_plots:
+        for plot in self.sweep_plots:
             plot.update(toy.sweep, window)
 
     # -- pieces ---------------------------------------------------------------------------------
     def _tab_opened(self, event) -> None:
-        if event.new == 1 and self._corner is None:
+        if event.new == 1 and self.corner is None:
             toy = self._toy
-            self._corner = CornerPlot()
-            self._corner.update(toy.result, toy.pinned)
-            toy.param.watch(lambda e: self._corner.update(toy.result, toy.pinned), ["result", "pinned"])
-            self._posterior_tab.append(self._corner_grid())
-
-    def _corner_grid(self) -> pn.Column:
-        return panes.corner_grid(self._corner.grid, self._corner.size)
+            self.corner = CornerPlot()
+            self.corner.update(toy.result, toy.pinned)
+            toy.param.watch(lambda e: self.corner.update(toy.result, toy.pinned), ["result", "pinned"])
+            self._posterior_tab.append(corner_grid(self.corner.grid, self.corner.size))
 
     def _controls(self) -> pn.Card:
         p = self._toy.param
@@ -219,31 +182,6 @@ class ToyView(pn.viewable.Viewer):
             w.sizing_mode = "stretch_width"
         widgets[0].css_classes = ["beam-window-slider"]
         return pn.Card(*widgets, title="Scenario", collapsible=False, sizing_mode="stretch_width")
-
-    def _status(self) -> pn.Column:
-        toy = self._toy
-
-        def status_html(stage, status, requested, shown):
-            text = _STAGE_TEXT.get(stage, stage)
-            detail = f" <small>({status})</small>" if status else ""
-            return (f'<div class="beam-status" data-stage="{stage}" data-requested="{requested}" data-shown="{shown}">'
-                    f"<b>{text}</b>{detail}</div>")
-
-        def bar_value(stage, fraction):
-            if stage == "final":
-                return 100
-            if stage in ("preview", "sampling"):
-                return round(100 * fraction)
-            return 0
-
-        status = HTML(pn.bind(status_html, toy.param.stage, toy.param.status, toy.param.requested,
-                                      toy.param.shown), sizing_mode="stretch_width", margin=(5, 10, 0, 10))
-        bar = pn.indicators.Progress(label="MCMC progress (%)", value=pn.bind(bar_value, toy.param.stage, toy.param.progress),
-                                     max=100, sizing_mode="stretch_width", height=14, margin=(0, 10),
-                                     bar_color="primary")
-        alert = pn.pane.Alert(pn.bind(lambda e: f"**Error:** {e}" if e else "", toy.param.error), alert_type="danger",
-                              visible=pn.bind(bool, toy.param.error), sizing_mode="stretch_width", css_classes=["beam-error"])
-        return pn.Column(status, bar, alert, sizing_mode="stretch_width")
 
     def _readouts(self) -> pn.Column:
         toy = self._toy
@@ -287,39 +225,10 @@ class ToyView(pn.viewable.Viewer):
         return pn.Card(*rows, title="Try this (steps of the guide)", collapsible=False, sizing_mode="stretch_width")
 
     def _compare_buttons(self) -> pn.Card:
-        toy = self._toy
-        pin = pn.widgets.Button(label="Pin this result", color="primary", sizing_mode="stretch_width",
-                                disabled=pn.bind(lambda r: r is None, toy.param.result))
-        unpin = pn.widgets.Button(label="Unpin", color="default", sizing_mode="stretch_width",
-                                  disabled=pn.bind(lambda r: r is None, toy.param.pinned))
-        pin.on_click(lambda event: toy.pin())
-        unpin.on_click(lambda event: toy.unpin())
-        note = Markdown(pn.bind(lambda r: "Pinned result drawn in purple; see *Compare table*." if r is not None
-                                        else "Pin a result, then change an input to compare.", toy.param.pinned))
-        return pn.Card(pin, unpin, note, title="Compare", collapsible=False, sizing_mode="stretch_width")
+        return compare_card(self._toy, "purple")
 
     def _downloads(self) -> pn.Card:
-        toy = self._toy
-
-        def download(label, ext, make, enabled=lambda r: r is not None):
-            widget = pn.widgets.FileDownload(callback=lambda: make(toy.result), filename=f"toy.{ext}", label=label,
-                                             color="default", sizing_mode="stretch_width",
-                                             disabled=pn.bind(lambda r: not enabled(r), toy.param.result))
-
-            def rename(event):
-                if event.new is not None:
-                    widget.filename = exports.filename(event.new, ext)
-
-            toy.param.watch(rename, "result")
-            return widget
-
-        return pn.Card(
-            download("Summary for print (HTML)", "html", exports.summary_html),
-            download("Summary (JSON)", "json", exports.summary_json),
-            download("Predictive bands (CSV)", "csv", exports.bands_csv),
-            download("Posterior (netCDF)", "nc", exports.posterior_netcdf, lambda r: r is not None and r.posterior is not None),
-            title="Download", collapsible=False, sizing_mode="stretch_width",
-        )
+        return download_card(self._toy, exports, "toy")
 
     @staticmethod
     def _sweep_text(status: str) -> str:

@@ -215,5 +215,27 @@ def wait_for_status(page, condition: str, css: str = "cal-status", timeout_ms: f
     return read_status(page, css)
 
 
+def wait_while_moving(page, done, moving, *, stall_ms: float = 60000, poll_ms: float = 500) -> dict:
+    """Wait until ``done()`` is true for as long as the page shows that it works: fail only when
+    ``moving()`` (what the page shows of the work: an upload's progress text, a status line) has not
+    changed for ``stall_ms``. On a loaded machine an upload or a read takes longer, and a fixed
+    deadline failed while the page was still progressing (issue #39). Returns ``{"seconds",
+    "changes"}`` (the wait and how many times what the page showed changed)."""
+    import time as _time
+
+    start = last_change = _time.monotonic()
+    seen, changes = None, 0
+    while True:
+        now = _time.monotonic()
+        if done():
+            return {"seconds": now - start, "changes": changes}
+        shown = moving()
+        if shown != seen:
+            seen, last_change, changes = shown, now, changes + 1
+        elif (now - last_change) * 1000 > stall_ms:
+            raise AssertionError(f"the page showed no progress for {stall_ms / 1000:g} s: {seen!r}")
+        page.wait_for_timeout(poll_ms)
+
+
 #: The beam view shows the final posterior of its latest request.
 BEAM_FINAL = "s.stage === 'final' && s.shown > 0 && s.shown === s.requested && s.preview === 0 && s.band_n > 0"

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from beam.calibration import suggest_modes
+from beam.calibration import CalibrationSpec, suggest_modes
 from dashboard.jobs import beam as beam_jobs
-from dashboard.jobs.beam import CalibrationKey, calibration_run, load_upload
+from dashboard.jobs.beam import CalibrationKey, calibration_run, load_upload, record_key
 from dashboard.outputs.beam import (
     bands_csv,
     compare_table,
@@ -82,10 +82,10 @@ def test_request_publishes_preview_then_final(session):
     from beam.calibration.engine import forget_maps
 
     forget_maps()
-    remember_maps(beam.measurement, window=beam.key().window, modes=beam.modes, maps=beam.known_maps())
-    recalled = calibration_preview(beam.measurement, window=beam.key().window, effects=beam.effects, modes=beam.modes)
+    remember_maps(beam.measurement, window=beam.key().spec.window, modes=beam.modes, maps=beam.known_maps())
+    recalled = calibration_preview(beam.measurement, window=beam.key().spec.window, effects=beam.effects, modes=beam.modes)
     forget_maps()
-    cold = calibration_preview(beam.measurement, window=beam.key().window, effects=beam.effects, modes=beam.modes)
+    cold = calibration_preview(beam.measurement, window=beam.key().spec.window, effects=beam.effects, modes=beam.modes)
     assert recalled.laplace.map.log_posterior == pytest.approx(cold.laplace.map.log_posterior, abs=1e-6)
 
 
@@ -104,7 +104,8 @@ def test_newer_request_cancels_the_older_and_wins(session):
 
 def test_leaving_the_job_early_stops_the_sampler():
     m = beam_jobs.load_bundled("lab_run_2")
-    key = CalibrationKey("lab_run_2", (0.0, 1.2), ("air_damping", "kelvin_voigt"), 2, "iid", 0, FAST)
+    key = CalibrationKey(record_key(m), CalibrationSpec(window=(0.0, 1.2), effects=("air_damping", "kelvin_voigt"), modes=2,
+                                                   likelihood="iid", seed=0, target_ess=FAST))
     job = calibration_run(key, m, use_cache=False)
     first = next(job)
     assert first.kind == "preview" and first.value.is_preview
@@ -212,7 +213,7 @@ def test_add_appends_a_ladder_rung_and_the_error_falls(pool):
         assert answer["effects"] == ["air_damping", "kelvin_voigt", "tip_mass"]
         assert answer["noise_m"] == pytest.approx(2e-5)  # the truth file of lab_run_2
         # after Add the whole diagnosis re-runs for the new model, and the ladder is kept
-        assert diag.is_current() and "tip_mass" in diag.diagnosis.key.effects
+        assert diag.is_current() and "tip_mass" in diag.diagnosis.key.spec.effects
         assert len(diag.ladder) == 2 and diag.ladder[1]["added"] == "tip_mass"
         assert "tip_mass" not in [c.effect for c in diag.diagnosis.candidates]
     finally:

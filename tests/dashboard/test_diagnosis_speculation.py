@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 import recorder
 
-from beam.calibration import calibration_preview
+from beam.calibration import CalibrationSpec, calibration_preview
 from beam.discovery import FitRequest
 from dashboard.jobs import diagnosis as jobs
-from dashboard.jobs.beam import CalibrationKey, load_bundled
+from dashboard.jobs.beam import CalibrationKey, load_bundled, record_key
 from dashboard.runtime import scheduler as sch
 
 BASE = ("air_damping", "kelvin_voigt")
@@ -49,7 +49,7 @@ def test_the_climb_starts_before_the_ranking_ends_and_keeps_its_answer(proc_pool
     monkeypatch.setattr(jobs.DiagnosisFits, "submit", recording_submit)
     monkeypatch.setattr(jobs.DiagnosisFits, "next", recording_next)
     measurement = load_bundled("lab_run_1")
-    key = CalibrationKey("lab_run_1", (0.0, 1.05), BASE, 7, "iid")
+    key = CalibrationKey(record_key(measurement), CalibrationSpec(window=(0.0, 1.05), effects=BASE, modes=7, likelihood="iid"))
     slot, rec = recorder.make_slot(proc_pool, debounce_s=0.0, progress_interval_s=0.0)
     rid = slot.request(lambda: jobs.diagnosis_run(key, measurement, use_cache=False))
     assert slot.wait(300)
@@ -70,7 +70,7 @@ def test_the_climb_starts_before_the_ranking_ends_and_keeps_its_answer(proc_pool
     # the rung the climb reports is the preview of that model, computed here from nothing
     rung = (*BASE, "patch_stiffening", "patch_damping")
     maps = {tuple(effects): found for effects, found in diagnosis.known_maps}
-    direct = calibration_preview(measurement, window=key.window, effects=rung, modes=key.modes)
+    direct = calibration_preview(measurement, window=key.spec.window, effects=rung, modes=key.spec.modes)
     assert np.isclose(maps[rung].log_posterior, direct.laplace.map.log_posterior, rtol=0, atol=1e-6)
     for name, value in direct.laplace.map.values.items():
         assert np.isclose(maps[rung].values[name], value, rtol=1e-6, atol=0.0), name

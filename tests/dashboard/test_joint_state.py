@@ -107,8 +107,8 @@ def test_joint_diagnosis_merges_the_candidates_as_the_library_ranks_them(session
     candidates = ("sensor_mass", "tip_mass")
     rid = joint.diagnose(candidates)  # one candidate per call on the worker processes, merged
     assert session.wait(600)
-    assert joint.diag_stage == "final", (joint.diag_status, joint.diag_error)
-    assert joint.diag_requested == rid
+    assert joint.diag_run.stage == "final", (joint.diag_run.status, joint.diag_run.error)
+    assert joint.diag_run.requested == rid
     merged = joint.diagnosis
     # the library's joint diagnosis of both candidates in one call: the reference
     reference = joint_diagnose(joint.measurements(), window=(0.0, 1.0), modes=2, base=("modal_damping",),
