@@ -142,6 +142,20 @@ def test_spikes_are_flagged_exactly_and_interpolated():
     assert not find_spikes(t, y)[0].any() and not rail_samples(t, y).any()
 
 
+@pytest.mark.parametrize("rate_Hz", [400.0, 1000.0, 4000.0])  # >= 10 samples a cycle of the fast mode
+def test_a_noiseless_record_has_no_spike_and_a_small_glitch_on_it_is_one(rate_Hz):
+    """A simulation without noise: the fourth difference's scale is then the signal's own curvature,
+    which turns sharply where a fast mode rides on a slow one (1e-5 of the swing, no spike: the
+    decimated record of tests/test_reliability_limits.py read back bit-exact); a glitch of 1 % of
+    the swing on the same record is one."""
+    t = np.arange(0.0, 4.0, 1 / rate_Hz)
+    y = np.exp(-0.4 * t) * np.sin(2 * np.pi * 6.05 * t) + 0.3 * np.exp(-2 * t) * np.sin(2 * np.pi * 37.9 * t)
+    assert not find_spikes(t, y)[0].any()
+    glitched = y.copy()
+    glitched[y.size // 2] += 1e-2 * np.max(np.abs(y))
+    assert np.flatnonzero(find_spikes(t, glitched)[0]).tolist() == [y.size // 2]
+
+
 def test_a_saturated_converter_is_flagged_at_its_rail():
     """A 12-bit converter of range ±15 m/s² on a swing of 20 m/s²: the samples at the rail exactly."""
     t, y, _ = plucked_strip(duration_s=4.0, rate_Hz=1000.0)

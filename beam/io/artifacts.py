@@ -84,6 +84,11 @@ MAX_HARMONIC = 40
 
 #: A sample this many robust scales away from the cubic through its neighbours is a spike.
 SPIKE_SIGMAS = 8.0
+#: A spike smaller than this fraction of the record's largest |value| is left alone: it changes no fit
+#: (-80 dB of the swing, below any sensor's noise), while on a noiseless record (a simulation, a
+#: decimated one) the fourth difference's own scale is the signal's curvature, and a filter's
+#: edge or a sharp turn would otherwise stand 8 scales out.
+SMALLEST_SPIKE = 1e-4
 #: A spike is at most this many samples long (more is an event: a release, a tap).
 MAX_SPIKE_SAMPLES = 3
 #: Samples of a block of the robust scale.
@@ -325,7 +330,8 @@ def _robust_scale(residual: np.ndarray, judged: np.ndarray, values: np.ndarray) 
     wide = np.maximum(scale, np.maximum(np.r_[scale[:1], scale[:-1]], np.r_[scale[1:], scale[-1:]]))
     levels = np.unique(values)
     quantum = float(np.min(np.diff(levels))) if levels.size > 1 else 0.0
-    floor = max(quantum / 6.0, 1e-12 * float(np.max(np.abs(values))) if values.size else 0.0, np.finfo(float).tiny)
+    peak = float(np.max(np.abs(values))) if values.size else 0.0
+    floor = max(quantum / 6.0, SMALLEST_SPIKE * peak / SPIKE_SIGMAS, np.finfo(float).tiny)
     return np.repeat(np.maximum(wide, floor), np.diff(edges))
 
 
