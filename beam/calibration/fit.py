@@ -49,6 +49,7 @@ from scipy import optimize
 from beam.inference import AR1_COEFFICIENT, NOISE_SD, MapResult, Problem
 from beam.inference.likelihood import log_likelihood, whiten
 from beam.inference.optimize import newton_iterations, steps_from_hessian
+from beam.inference.progress import report
 
 __all__ = ["LmResult", "fast_map", "internal_starts", "levenberg_marquardt", "newton_polish"]
 
@@ -423,6 +424,7 @@ def levenberg_marquardt(
         if not np.any(active):
             break
         index = np.flatnonzero(active)
+        report(f"MAP search: iteration {iterations}, {index.size} of {m} starts going")
         scaling[index] = np.maximum(scaling[index], np.sum(jac[index] ** 2, axis=1))  # Moré: running maximum
         steps, step_gain, clipped, predicted[index] = _lm_steps(r[index], jac[index], lam[index], x[index], lo, hi,
                                                                 scaling[index], radius[index, None] * unit)
@@ -456,6 +458,7 @@ def levenberg_marquardt(
     # posterior is already reached, whatever its own continuation adds
     _drop_worse_basins(lp, predicted, converged, dropped, settled=np.inf, reference=float(np.max(lp)))
     for i in np.flatnonzero(~converged & ~dropped & np.isfinite(lp) & continuation):  # still improving: trust region
+        report(f"MAP search: start {i + 1} of {m} continues alone")
         x[i], z[i], lp[i], jac[i], converged[i] = _trust_region(objective, x[i], z[i], lo + margin, hi - margin)
     return LmResult(z=z, log_posterior=lp, converged=converged & ~dropped, dropped=dropped, iterations=iterations,
                     fd_steps=objective.fisher_steps(jac))

@@ -51,6 +51,7 @@ import numpy as np
 from beam.calibration.free import ProjectedFreeModel
 from beam.errors import BeamInputError
 from beam.inference import AR1_COEFFICIENT, NOISE_SD, MapResult, PredictiveBands, Problem
+from beam.inference.progress import report
 from beam.physics.effects import EFFECTS, effect_of_parameter
 
 __all__ = ["INNER_ITERATIONS", "NonlinearFreeModel", "nonlinear_parameters"]
@@ -276,6 +277,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         if derived:
             starts = np.vstack([starts, internal_starts(problem, derived)])
             values = problem.from_internal(starts)
+        report(f"nonlinear MAP search: screening {len(starts)} starts")
         linear = ProjectedFreeModel.fit(self, values)
         amplitudes = linear["amplitudes"].copy()
         m2 = 2 * self.modes
@@ -320,7 +322,11 @@ class NonlinearFreeModel(ProjectedFreeModel):
         lower = np.concatenate([lo[:d] + margin[:d], np.full(k, -np.inf)])
         upper = np.concatenate([hi[:d] - margin[:d], np.full(k, np.inf)])
 
+        integrations = [0]
+
         def residuals(x):
+            integrations[0] += 1
+            report(f"nonlinear MAP search from the best start: integration {integrations[0]}")
             f = self._record_response(problem, x[None, :], d, self.fit_time_s)[0]
             data = self.whitened((y - f)[None, :], rho)[0] / sd
             return np.concatenate([data, self.prior_residuals(x[:d], quadratic)])
@@ -328,6 +334,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         last: dict[str, np.ndarray] = {}
 
         def jacobian(x):
+            report(f"nonlinear MAP search from the best start: Jacobian after {integrations[0]} integrations")
             data = -self.whitened(self._joint_columns(problem, x, d, self.fit_time_s)[1], rho) / sd
             prior = np.zeros((d, x.size))
             for j, (_, _, sigma) in enumerate(quadratic):
@@ -362,6 +369,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         scores = [float(problem.log_posterior(z)[0]) for z in candidates]
         chosen = int(np.argmax(scores))
         best_z, best_lp = candidates[chosen], scores[chosen]
+        report("the Laplace approximation's Hessian at the MAP")
         hessian = self._laplace_hessian(problem, best_z, d, quadratic)
         values = {n: float(v[0]) for n, v in problem.from_internal(best_z).items()}
         scale = np.array([p.prior.internal_scale for p in problem.parameters])

@@ -62,6 +62,7 @@ from beam.calibration.starts import kept_nested, null_starts
 from beam.calibration.starts.search import has_second_stage
 from beam.errors import BeamInputError
 from beam.inference import EnsembleRun, LaplaceResult, MapResult, PosteriorResult, PredictiveBands, Problem, Progress, laplace
+from beam.inference.progress import reporting
 from beam.inference.sampling import ENSEMBLES
 from beam.io.limits import MAX_CALIBRATION_SAMPLES
 from beam.io.measurement import Measurement, true_unit_problem
@@ -74,7 +75,7 @@ __all__ = ["BAND_DRAWS", "KEPT_GUESSES", "LAPLACE", "LAPLACE_ONLY", "MCMC", "Ave
            "FirstLook", "ForceDriven", "FreeLinear", "FreeNonlinear", "PatchDriven", "averaged_drag_preview",
            "best_guesses", "calibration_model_for", "checked_start", "clip_to_prior", "default_walkers", "first_stage",
            "kept_nested_laplace", "laplace_at", "lead_nan", "linear_sub_map", "make_setup", "prepare", "preview_fit",
-           "preview_map", "recalled_laplace", "record_bands", "remember", "sample_posterior"]
+           "preview_map", "recalled_laplace", "record_bands", "remember", "sample_posterior", "second_stage"]
 
 #: The calibration's logger (one for the pipeline and its front doors, :mod:`beam.calibration.run`).
 LOGGER = logging.getLogger("beam.calibration.run")
@@ -516,7 +517,7 @@ def preview_map(measurement: Measurement, spec: CalibrationSpec, *, extra_guesse
             laplace_result, screened = quick, setup.calibration.has_second_stage(setup)  # else it is the engine's MAP
             remember(engine, setup, quick.map, cold, FIRST_STAGE if screened else MAP)
         else:
-            laplace_result = setup.calibration.second_stage(problem, setup, engine, quick)
+            laplace_result = second_stage(engine, problem, setup, quick)
             remember(engine, setup, laplace_result.map, cold)
     return setup, problem, laplace_result, screened
 
@@ -631,7 +632,18 @@ def first_stage(engine: Engine, problem: Problem, setup: BeamCalibrationSetup, c
     found = engine.recall(setup, FIRST_STAGE) if cold else None
     if found is not None:
         return laplace_at(problem, found)
-    return kept_nested_laplace(engine, problem, setup, preview_fit(problem, setup.calibration.search))
+    with reporting(None, "first stage"):  # what the search reports, under the caller's label
+        return kept_nested_laplace(engine, problem, setup, preview_fit(problem, setup.calibration.search))
+
+
+def second_stage(engine: Engine, problem: Problem, setup: BeamCalibrationSetup, quick: LaplaceResult) -> LaplaceResult:
+    """The calibration model's second stage from the first stage's ``quick`` result
+    (:meth:`CalibrationModel.second_stage`), its search's reports under "second stage" when the
+    model has one (:mod:`beam.inference.progress`)."""
+    if not setup.calibration.has_second_stage(setup):
+        return setup.calibration.second_stage(problem, setup, engine, quick)
+    with reporting(None, "second stage"):
+        return setup.calibration.second_stage(problem, setup, engine, quick)
 
 
 def remember(engine: Engine, setup: BeamCalibrationSetup, found: MapResult, cold: bool, kind: str = MAP) -> None:

@@ -54,6 +54,7 @@ from beam.calibration.pipeline import (  # noqa: F401 - the pipeline's stages, r
     record_bands,
     remember,
     sample_posterior,
+    second_stage,
 )
 from beam.calibration.records import decimate_measurement
 from beam.calibration.setup import BeamCalibrationSetup
@@ -478,7 +479,7 @@ def calibration_stream(
     if recalled is None:
         # ... then the second stage (the searched design, 0.5-1.5 s with a mode-changing effect), from
         # which the MAP search continues together with the preview's MAP: the sampler starts in the best basin found
-        laplace_result = kind.second_stage(problem, setup, engine, laplace_result)
+        laplace_result = second_stage(engine, problem, setup, laplace_result)
         remember(engine, setup, laplace_result.map, cold=start is None)
     if kind.posterior == LAPLACE:  # the Laplace approximation is the posterior (a nonlinear free decay's)
         laplace_result.warnings.append(kind.note)

@@ -106,8 +106,21 @@ def run(args: argparse.Namespace) -> int:
     check_joint_arguments(args, taps)
     if taps > 1:
         return run_taps(args, measurement)
-    from beam.calibration import calibrate
-    result = calibrate(measurement, spec_of(args))
+    from beam.cli.progress_line import TerminalProgress, wants_progress
+
+    progress = TerminalProgress(sys.stderr) if wants_progress(args) else None
+    try:
+        if progress is not None:
+            progress(f"loading the calibration engine ({measurement.name})")
+        from beam.calibration import calibrate
+        from beam.inference.progress import reporting
+
+        spec = spec_of(args)
+        with reporting(progress, f"calibrating {' + '.join(spec.effects)} on {measurement.name}"):
+            result = calibrate(measurement, spec)
+    finally:
+        if progress is not None:
+            progress.close()
     summary = result.to_json()
     if args.save:
         summary["saved"] = [str(p) for p in result.save(args.save)]

@@ -12,6 +12,7 @@ import sys
 
 from beam.cli.arguments import HelpFormatter, effect_list, effects_epilog, non_negative_int
 from beam.calibration.spec import CalibrationSpec
+from beam.cli.progress_line import TerminalProgress, wants_progress  # noqa: F401 - wants_progress: the rule, re-exported
 from beam.cli.calibrate_command import (
     add_joint_arguments,
     add_model_arguments,
@@ -87,39 +88,6 @@ def suggestion_of(args: argparse.Namespace, ranked: list[tuple[str, float]], fit
     from beam.discovery.suggest import next_record
 
     return next_record(ranked, fits_of, length_range=args.length_range, position_range=args.position_range)
-
-
-class TerminalProgress:
-    """One status line on a terminal, rewritten in place: the elapsed time and the step.
-
-    Called from the fitting threads too (a lock keeps the lines whole); :meth:`close` erases it.
-    """
-
-    def __init__(self, stream) -> None:
-        import threading
-        import time
-
-        self._stream, self._lock, self._clock = stream, threading.Lock(), time.perf_counter
-        self._t0 = self._clock()
-
-    def __call__(self, text: str) -> None:
-        import shutil
-
-        line = f"[{self._clock() - self._t0:4.0f} s] {text}"[: max(shutil.get_terminal_size().columns - 1, 20)]
-        with self._lock:
-            self._stream.write(f"\r\x1b[K{line}")
-            self._stream.flush()
-
-    def close(self) -> None:
-        with self._lock:
-            self._stream.write("\r\x1b[K")
-            self._stream.flush()
-
-
-def wants_progress(args: argparse.Namespace) -> bool:
-    """A progress line only for a person at a terminal: not with ``--json``, not when stdout or
-    stderr is redirected (a pipe, a file, a test's capture)."""
-    return not args.json and sys.stdout.isatty() and sys.stderr.isatty()
 
 
 def run(args: argparse.Namespace) -> int:

@@ -101,8 +101,12 @@ def diagnose(
     seed; the keywords ``window``, ``modes``, ``base`` (its effects), ``likelihood`` and ``seed``
     replace its values when given. ``modes`` defaults to ``"auto"``: chosen from the record's
     excited band (:func:`beam.calibration.modes.suggest_modes`), as the command line and the
-    dashboard do. ``progress(text)``, if given, is told each step as it starts and each
-    candidate's fit as it ends, with how many are left. ``screen``: see
+    dashboard do. ``progress(text)``, if given, is told each step as it starts, each
+    candidate's fit as it ends, with how many are left, and, from inside every fit, what it fits
+    and what it is doing ("fitting tip_mass on the base (candidate 3 of 7), first stage, MAP
+    search: iteration 4, 6 of 9 starts going"; "error ladder rung 2: + clamp_compliance, MCMC 250
+    of 600 steps"), at least once per lock-step iteration, integration or sampler chunk
+    (:func:`~beam.discovery.stream.run_request`); it is called from the fitting threads. ``screen``: see
     :func:`~beam.discovery.stream.diagnosis_stream`.
     """
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
@@ -130,7 +134,7 @@ def diagnose(
                     continue
                 if isinstance(event, (BaseRequest, FitRequest, CheckRequest)) and event not in asked:
                     asked.add(event)
-                    running[pool.submit(run_request, event, measurement, engine)] = event
+                    running[pool.submit(run_request, event, measurement, engine, progress)] = event
                 elif isinstance(event, Step):
                     say(event.text)
                 elif isinstance(event, DiagnosisReport):

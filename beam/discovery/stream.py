@@ -65,6 +65,7 @@ from beam.discovery.ranking import (
 )
 from beam.discovery.held_out import remember_held_out
 from beam.errors import BeamInputError
+from beam.inference.progress import reporting
 from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS
 from beam.residuals import effect_scores
@@ -104,6 +105,11 @@ class BaseRequest:
 
     spec: CalibrationSpec
 
+    @property
+    def label(self) -> str:
+        """What the request fits, in words (the label of its progress reports)."""
+        return "calibrating the current model (preview)"
+
     def run(self, measurement: Measurement, engine: Engine | None = None) -> tuple:
         """``(CalibrationResult, ResidualReport)``; a bad record or spec raises :class:`~beam.errors.BeamInputError`."""
         base = calibration_preview(measurement, self.spec, engine=engine)
@@ -124,15 +130,26 @@ class FitRequest:
         False: a screening fit (the engine's first stage only; see :func:`beam.calibration.calibration_preview`).
     mcmc : bool
         A full calibration (:func:`beam.calibration.calibrate`) instead of a preview.
+    what : str
+        What the fit is for, in words ("fitting tip_mass on the base (candidate 3 of 7)"): the
+        label of its progress reports (:attr:`label`). Not part of the request's identity: equal
+        requests are the same computation, whoever asked first names it.
     """
 
     spec: CalibrationSpec
     search: bool = True
     mcmc: bool = False
+    what: str = field(default="", compare=False)
 
     @property
     def effects(self) -> tuple[str, ...]:
         return self.spec.effects
+
+    @property
+    def label(self) -> str:
+        """``what``, else the model fitted and how ("fitting modal_damping + tip_mass, MCMC")."""
+        how = "MCMC" if self.mcmc else ("both stages" if self.search else "screening fit")
+        return self.what or f"fitting {' + '.join(self.effects) or 'the ideal beam'} ({how})"
 
     def run(self, measurement: Measurement, engine: Engine | None = None) -> CalibrationResult | Exception:
         """The calibration, or the exception of a failed fit (:data:`~beam.discovery.ranking.FIT_ERRORS`:
@@ -161,6 +178,11 @@ class CheckRequest:
     @classmethod
     def of(cls, result: CalibrationResult, floor) -> CheckRequest:
         return cls(tuple(result.setup.effects), result, floor)
+
+    @property
+    def label(self) -> str:
+        """What the request computes, in words."""
+        return f"measuring {' + '.join(self.effects)} against the noise floor"
 
     def run(self, measurement: Measurement | None = None, engine: Engine | None = None):
         """The :class:`~beam.discovery.findings.Remaining` of the rung."""
@@ -199,13 +221,20 @@ class Step:
     report: Any = None
 
 
-def run_request(request: Request, measurement: Measurement, engine: Engine | None = None) -> Done:
+def run_request(request: Request, measurement: Measurement, engine: Engine | None = None,
+                progress: Callable[[str], None] | None = None) -> Done:
     """Run ``request`` here (on ``engine``, default the process's) and time its process CPU; a fit's
     MAP natural frequencies are computed here too (what the verdict compares). An exception is the
-    value: the stream raises it where the diagnosis cannot go on without it."""
+    value: the stream raises it where the diagnosis cannot go on without it.
+
+    ``progress(text)``, if given, is told the request's :attr:`label` as it starts and then what
+    its fit is doing, under that label, from inside the fit (every lock-step iteration of a MAP
+    search, every start that continues alone, every integration of a nonlinear search, every
+    sampler chunk: :mod:`beam.inference.progress`), on the thread that runs it."""
     t0 = time.process_time()
     try:
-        value = request.run(measurement, engine)
+        with reporting(progress, request.label):
+            value = request.run(measurement, engine)
     except Exception as exc:  # noqa: BLE001 - handed to the stream (a failed fit is ranked last)
         value = exc
     frequencies = None
@@ -229,11 +258,12 @@ class _Fits:
         self.cpu_s: dict[str, float] = {}
         self.base_effects: tuple[str, ...] = ()
 
-    def model(self, effects: Iterable[str], *, search: bool = True, mcmc: bool = False) -> FitRequest:
+    def model(self, effects: Iterable[str], *, search: bool = True, mcmc: bool = False, what: str = "") -> FitRequest:
         """The request of ``effects`` on the diagnosis's resolved window, modes and likelihood
-        (a preview with the spec's default seed; an MCMC fit with the diagnosis's seed)."""
+        (a preview with the spec's default seed; an MCMC fit with the diagnosis's seed); ``what``
+        it is for, in words (:attr:`FitRequest.what`)."""
         spec = self.spec.for_model(effects)
-        return FitRequest(replace(spec, seed=self.seed) if mcmc else spec, search=search, mcmc=mcmc)
+        return FitRequest(replace(spec, seed=self.seed) if mcmc else spec, search=search, mcmc=mcmc, what=what)
 
     def receive(self, done: Done) -> None:
         if not isinstance(done, Done):
@@ -290,7 +320,7 @@ def _rungs(fits: _Fits, ranking: Ranking, max_steps: int = 3) -> Generator[Any, 
     improving candidates one at a time, best first, while each improves on the rung below."""
     base = ranking.base
     if fits.mcmc:
-        (first,) = yield from fits.wait([fits.model(base.setup.effects, mcmc=True)])
+        (first,) = yield from fits.wait([fits.model(base.setup.effects, mcmc=True, what="error ladder rung 1: the base")])
         steps = [ladder_step(_raised(first), None, True)]
     else:
         steps = [ladder_step(base, None, False)]
@@ -298,12 +328,13 @@ def _rungs(fits: _Fits, ranking: Ranking, max_steps: int = 3) -> Generator[Any, 
     previous = base
     for candidate in [c for c in ranking.candidates if c.material][:max_steps]:
         chosen = tuple(e for e in EFFECTS if e in set(effects) | {candidate.effect})
+        what = f"error ladder rung {len(steps) + 1}: + {candidate.effect}"
         if fits.mcmc:
-            (result,) = yield from fits.wait([fits.model(chosen, mcmc=True)])
+            (result,) = yield from fits.wait([fits.model(chosen, mcmc=True, what=what)])
         elif len(effects) == len(base.setup.effects):
             result = ranking.results[candidate.effect]
         else:
-            (result,) = yield from fits.wait([fits.model(chosen)])
+            (result,) = yield from fits.wait([fits.model(chosen, what=what)])
         result = _raised(result)
         if len(effects) > len(base.setup.effects) and not improves(previous, result):
             break  # on top of the rungs below, this effect no longer helps: the climb ends here
@@ -366,8 +397,11 @@ def _climb(fits: _Fits, result: CalibrationResult, remaining, floor) -> Generato
     last = result
     while remaining.outside_catalogue and len(climbed) < MAX_CLIMB:
         names = candidate_effects(last.setup.effects, fits.measurement)
-        requests = [fits.model(with_effect(last.setup.effects, e), search=not fits.screen) for e in names]
         label = "screening on top of the ladder:" if fits.screen else "on top of the ladder:"
+        on = " + ".join(e for e in last.setup.effects if e not in set(fits.base_effects)) or "the base"
+        requests = [fits.model(with_effect(last.setup.effects, e), search=not fits.screen,
+                               what=f"{label} fitting {e} on top of {on} (candidate {i} of {len(names)})")
+                    for i, e in enumerate(names, 1)]
         values = yield from fits.wait(requests, label, last.setup.effects)
         ranking = rank_fits(last, names, dict(zip(names, values)))
         best = next((c for c in ranking.candidates if c.material), None)
@@ -375,14 +409,16 @@ def _climb(fits: _Fits, result: CalibrationResult, remaining, floor) -> Generato
             break
         step = ranking.results[best.effect]
         if step.screened:  # the rung itself: both stages of the engine
-            (step,) = yield from fits.wait([fits.model(with_effect(last.setup.effects, best.effect))],
+            (step,) = yield from fits.wait([fits.model(with_effect(last.setup.effects, best.effect),
+                                                       what=f"on top of the ladder: + {best.effect}, both stages")],
                                            "on top of the ladder:", last.setup.effects)
             if isinstance(step, Exception):
                 break
         if not improves(last, step):
             break
         if fits.mcmc:
-            (step,) = yield from fits.wait([fits.model(step.setup.effects, mcmc=True)])
+            (step,) = yield from fits.wait([fits.model(step.setup.effects, mcmc=True,
+                                                       what=f"on top of the ladder: + {best.effect}")])
             step = _raised(step)
         climbed.append((best.effect, step))
         (remaining,) = yield from fits.wait([CheckRequest.of(step, floor)])
@@ -448,7 +484,9 @@ def diagnosis_stream(engine: Engine | None, measurement: Measurement, spec: Cali
 
     ranking = Ranking(base, [])
     yield Step(f"fitting the candidate effects: ranking {len(names)}", 0.25, report(ranking, names))
-    requests = {e: fits.model(with_effect(base.setup.effects, e)) for e in names}
+    requests = {e: fits.model(with_effect(base.setup.effects, e),
+                              what=f"fitting {e} on the base (candidate {i} of {len(names)})")
+                for i, e in enumerate(names, 1)}
     scores = effect_scores(residuals.fingerprints)
     for e in sorted(names, key=lambda e: (not EFFECTS[e].nonlinear, -scores.get(e, 0.0))):
         yield requests[e]  # the slowest fit first, then the likeliest leader (its fingerprint)
@@ -480,7 +518,10 @@ def diagnosis_stream(engine: Engine | None, measurement: Measurement, spec: Cali
             top = tuple(leader.setup.effects)
             ready = [with_effect(top, e) for e in candidate_effects(top, measurement) if e not in names or e in ended]
             yield Speculation(CheckRequest.of(leader, floor),
-                              tuple(fits.model(s, search=not screen) for s in sorted(ready, key=lambda s: -fits.cost(s))))
+                              tuple(fits.model(s, search=not screen,
+                                               what=f"ahead: fitting {' + '.join(e for e in s if e not in top)} "
+                                                    f"on top of {ranking.missing}")
+                                    for s in sorted(ready, key=lambda s: -fits.cost(s))))
 
     yield Step("error ladder" + (" (MCMC at every rung)" if ladder_mcmc else ""), 0.85)
     ladder = yield from _rungs(fits, ranking)

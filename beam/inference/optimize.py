@@ -32,6 +32,7 @@ import numpy as np
 from scipy import optimize
 
 from beam.inference.problem import Problem
+from beam.inference.progress import report
 
 __all__ = ["MapResult", "NewtonOutcome", "default_initial_guesses", "fd_derivatives", "find_map", "newton_iterations",
            "newton_step", "steps_from_hessian"]
@@ -374,6 +375,7 @@ def newton_iterations(
     converged, message, iteration = False, "Newton iteration limit reached", 0
     grad = hess = zc = None
     for iteration in range(1, max_iterations + 1):
+        report(f"Newton polish of the MAP: iteration {iteration}")
         converged = False
         f0, grad, hess, zc = fd_derivatives(problem, z, h)
         if not (np.isfinite(f0) and np.all(np.isfinite(grad)) and np.all(np.isfinite(hess))):
@@ -452,7 +454,8 @@ def find_map(
         raise ValueError("find_map needs at least one initial guess")
     starts, start_lp = [], []
     two_pass = problem.likelihood != "iid"
-    for guess in guesses:
+    for i, guess in enumerate(guesses, 1):
+        report(f"MAP search: start {i} of {len(guesses)}")
         z = _complete_guess(problem, guess)
         z = _update_noise(problem, _least_squares_stage(problem, z, max_nfev))
         if two_pass:  # the whitening depends on the noise parameters: fit once more

@@ -75,6 +75,7 @@ from beam.inference.convergence import (
 )
 from beam.inference.laplace import LaplaceResult, preview
 from beam.inference.problem import Problem
+from beam.inference.progress import report
 from beam.inference.results import PosteriorResult
 
 __all__ = [
@@ -367,6 +368,7 @@ class EnsembleRun:
                 self._state = state
                 if i % every == 0 or i == n_steps:
                     acc = float(np.mean(self.sampler.backend.accepted) / max(self.n_steps, 1))
+                    report(f"MCMC {start + i} of {total} steps")
                     yield Progress(step=start + i, total=total, acceptance_fraction=acc, elapsed_s=time.perf_counter() - t0)
         finally:
             self.seconds += time.perf_counter() - t0

@@ -40,7 +40,11 @@ from dashboard.jobs.beam import DIAGNOSES, CalibrationKey
 from dashboard.jobs.warm import warm_up
 from dashboard.runtime import scheduler as sch
 
-__all__ = ["Diagnosis", "DiagnosisFits", "diagnosis_key", "diagnosis_run", "diagnosis_stages", "request_stages"]
+__all__ = ["REPORT_S", "Diagnosis", "DiagnosisFits", "diagnosis_key", "diagnosis_run", "diagnosis_stages",
+           "request_stages"]
+
+#: Seconds between two progress reports of one fit sent from its worker process (the latest of them).
+REPORT_S = 0.5
 
 
 @dataclass
@@ -104,12 +108,37 @@ def diagnosis_run(key: CalibrationKey, measurement: Measurement, *, use_cache: b
 
 def request_stages(request, measurement: Measurement, memory: tuple) -> Iterator[sch.Stage[Done]]:
     """One request of the diagnosis stream in a worker process, on the process's engine told the
-    optima the diagnosis has found so far (``memory``: :meth:`beam.calibration.Engine.export`)."""
+    optima the diagnosis has found so far (``memory``: :meth:`beam.calibration.Engine.export`).
+
+    Yields ``progress`` stages (fraction 0: the driver knows the diagnosis's) with what the fit
+    says from inside (:func:`beam.discovery.run_request`'s ``progress``), at most one per
+    :data:`REPORT_S`, the latest, then the ``final`` :class:`~beam.discovery.Done`. The fit runs on
+    a thread of this process while this generator waits for its reports; closed early (the
+    diagnosis was cancelled), it waits for the fit to end, as before (a fit is not stopped midway).
+    """
+    import queue
+    import threading
+
     engine = default_engine()
     engine.merge(memory)
     if isinstance(request, BaseRequest):
         warm_up()  # no half-imported ArviZ under the diagnostics (see dashboard.jobs.toy.warm_up)
-    yield sch.final(run_request(request, measurement, engine))
+    told: queue.SimpleQueue = queue.SimpleQueue()
+    out: list = []
+    fit = threading.Thread(target=lambda: out.append(run_request(request, measurement, engine, told.put)),
+                           name="diagnosis-fit", daemon=True)
+    fit.start()
+    try:
+        while fit.is_alive():
+            fit.join(REPORT_S)
+            latest = None
+            while not told.empty():
+                latest = told.get()
+            if latest is not None and fit.is_alive():
+                yield sch.progress(0.0, latest)
+    finally:
+        fit.join()
+    yield sch.final(out[0])
 
 
 class DiagnosisFits:
@@ -145,6 +174,15 @@ class DiagnosisFits:
         for request in [r for r in speculation.fits if not self.asked(r)][:free]:
             self.submit(request)
 
+    def ended(self) -> bool:
+        """Whether :meth:`next` returns without waiting for a process (a request has ended)."""
+        return self.queue.ended()
+
+    def reports(self) -> list[str]:
+        """What the running requests said since the last call (each message under its request's
+        label), waiting a moment for one unless a request has ended."""
+        return [stage.message for _, stage in self.queue.reports()]
+
     def next(self) -> tuple:
         """``(request, Done)`` of the next request to end (a process that failed: its exception as the
         value, which the stream ranks last for a fit and raises for anything else)."""
@@ -173,10 +211,21 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement, known: tuple
         event = next(stream)
         while True:
             if event is WAIT:
+                while not ready and not fits.ended():  # what the running fits say, while they run
+                    said = fits.reports()
+                    if said:
+                        yield sch.progress(last_fraction, said[-1])
                 event = stream.send(ready.pop(0) if ready else fits.next()[1])
                 continue
             if isinstance(event, BaseRequest):  # a run of its own, as a calibration's: not in the background
-                ready.append(sch.final_value(sch.offload(request_stages, event, measurement, engine.export())))
+                stages = list(ready)
+                for stage in sch.offload(request_stages, event, measurement, engine.export()):
+                    if stage.kind == "final":
+                        ready.append(stage.value)
+                    elif stage.kind == "progress":
+                        yield sch.progress(last_fraction, stage.message)
+                if len(ready) == len(stages):
+                    raise sch.Cancelled()  # no final stage: the run was cancelled
             elif isinstance(event, CheckRequest):
                 fits.submit(event, first=True)
             elif isinstance(event, FitRequest):

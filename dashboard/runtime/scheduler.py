@@ -415,7 +415,9 @@ class OffloadQueue:
 
     Use it inside a job, as :func:`offload`: ``submit`` a call under a key, ``next()`` waits for
     the next call to finish and returns ``(key, final value)`` (an exception raised by a call as
-    its value; the stages other than ``final`` are dropped). As many calls run at once as the
+    its value). The calls' ``progress`` stages are kept for :meth:`reports` (what the running
+    calls say, for the job to pass on while it waits: :meth:`ended` tells when to stop waiting);
+    the other stages are dropped. As many calls run at once as the
     pool has processes; the others wait in submission order (``first=True`` jumps the queue). A
     call waits for a free process and gives way to any other run waiting for one
     (:meth:`~dashboard.runtime.workers.WorkerProcesses.acquire`, ``background``). :meth:`idle`
@@ -440,6 +442,8 @@ class OffloadQueue:
         self._lock = threading.Lock()
         self._done: queue.Queue = queue.Queue()
         self._unread = 0
+        self._told: list[tuple[Any, Stage]] = []
+        self._stirred = threading.Event()  # a report or an ended call since the last wait
 
     @property
     def capacity(self) -> int:
@@ -480,12 +484,50 @@ class OffloadQueue:
                 key, fn, args, kwargs = self._waiting.pop(0)
                 self._running += 1
             try:
-                value = final_value(self._workers.run(fn, args, kwargs, cancelled=self._cancelled, background=True))
+                value = self._final(key, self._workers.run(fn, args, kwargs, cancelled=self._cancelled, background=True))
             except BaseException as exc:  # noqa: BLE001 - handed to the caller as the call's value
                 value = exc
             with self._lock:
                 self._running -= 1
             self._done.put((key, value))
+            self._stirred.set()
+
+    def _final(self, key: Any, stages: Iterator[Stage]) -> Any:
+        """:func:`final_value` of a call's stages, its ``progress`` stages kept for :meth:`reports`."""
+        value, seen = None, False
+        for stage in stages:
+            if stage.kind == "final":
+                value, seen = stage.value, True
+            elif stage.kind == "progress" and self._workers is not None:  # inline: told after the fact, dropped
+                with self._lock:
+                    self._told.append((key, stage))
+                self._stirred.set()
+        if not seen:
+            raise Cancelled()
+        return value
+
+    def ended(self) -> bool:
+        """Whether :meth:`next` would return without waiting for a process: a call has ended (or
+        the calls run on the calling thread, in :meth:`next` itself), or none is outstanding."""
+        return self._workers is None or not self._done.empty() or self.outstanding() == 0
+
+    def reports(self, timeout: float | None = None) -> list[tuple[Any, Stage]]:
+        """``(key, progress stage)`` of the running calls since the last call, oldest first; waits
+        up to ``timeout`` seconds (default :data:`POLL_S`) for one unless a call has ended.
+
+        Raises
+        ------
+        Cancelled
+            The job was cancelled.
+        """
+        if not self.ended():
+            self._stirred.wait(POLL_S if timeout is None else timeout)
+        if self._cancelled is not None and self._cancelled.is_set():
+            raise Cancelled()
+        with self._lock:
+            told, self._told = self._told, []
+            self._stirred.clear()
+        return told
 
     def next(self) -> tuple[Any, Any]:
         """``(key, final value)`` of the next call to finish (waits for it).
@@ -507,7 +549,7 @@ class OffloadQueue:
                 with self._lock:
                     key, fn, args, kwargs = self._waiting.pop(0)
                 try:
-                    self._done.put((key, final_value(fn(*args, **kwargs))))
+                    self._done.put((key, self._final(key, fn(*args, **kwargs))))
                 except Cancelled:
                     raise
                 except BaseException as exc:  # noqa: BLE001 - as on a worker process

@@ -29,6 +29,7 @@ attributes (``state.stage`` is ``state.run.stage``).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -104,6 +105,9 @@ class Run(param.Parameterized):
         self.words = words
         self._show = show
         self.slot: sch.RunSlot | None = None
+        #: :func:`time.monotonic` (s) when the run last became busy (its latest request, or a
+        #: :meth:`note` that it waits); None before. The session's status line counts from it.
+        self.since: float | None = None
         self._timings: dict[int, dict[str, float]] = {}
         self._subjects: dict[int, str] = {}
 
@@ -126,6 +130,7 @@ class Run(param.Parameterized):
         slot's debounce).
         """
         rid = self.slot.request(job, debounce_s=debounce_s)
+        self.since = time.monotonic()
         values = {"requested": rid, "stage": stage, "progress": 0.0, "status": status, "error": ""}
         if subject is not None:
             values["subject"] = subject
@@ -140,6 +145,8 @@ class Run(param.Parameterized):
         """Say what the activity waits for or did without a request of its own (e.g. a diagnosis
         waiting for the calibration it will diagnose)."""
         values = {k: v for k, v in (("stage", stage), ("status", status), ("error", error)) if v is not None}
+        if stage in BUSY and not self.busy:
+            self.since = time.monotonic()
         with editing(self):
             self.param.update(**values)
 

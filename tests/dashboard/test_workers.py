@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import recorder
-from worker_jobs import counting, dying, failing, mapped, offloaded, queued
+from worker_jobs import counting, dying, failing, mapped, offloaded, queued, told_while_waiting
 
 from beam.toy import ToyScenario
 from dashboard.jobs.toy import toy_run, toy_stages
@@ -236,3 +236,16 @@ def test_offload_queue_takes_calls_while_others_run_and_close_drops_the_waiting(
     assert order[:3] == ["short", "urgent", "waits"], order  # "urgent" took the process "short" freed
     assert sorted(order[3:]) == ["blocker", "long"], order
     assert not os.path.exists(marker + ".closed")  # "dropped" never started
+
+
+def test_offload_queue_passes_on_what_a_running_call_reports(proc_pool):
+    """What a call on a worker process reports while it runs reaches the job that waits for it
+    (the diagnosis's fits tell the status line what they fit)."""
+    slot, rec = make_slot(proc_pool)
+    rid = slot.request(told_while_waiting())
+    assert slot.wait(60)
+    out = rec.of(rid)[-1].value
+    assert out["key"] == "told" and out["tag"] == "told" and out["after"] == []
+    messages = [m for key, kind, m in out["told"] if key == "told" and kind == "progress"]
+    assert len(messages) == len(out["told"])
+    assert messages == ["1 of 4", "2 of 4", "3 of 4", "4 of 4"]  # every report, in the order the call said them

@@ -92,3 +92,19 @@ def queued(marker: str):
             order.append(q.next()[0])
         yield sch.final({"order": order, "idle": idle, "capacity": q.capacity})
     return job
+
+
+def told_while_waiting():
+    """A job on an :class:`~dashboard.runtime.scheduler.OffloadQueue`: one call that reports four
+    counts, its reports gathered while it runs (:meth:`~dashboard.runtime.scheduler.OffloadQueue.reports`
+    until :meth:`~dashboard.runtime.scheduler.OffloadQueue.ended`). Finishes with the reports and the value."""
+    def job():
+        q = sch.OffloadQueue()
+        q.submit("told", counting, 4, "told", pause_s=0.3)
+        told = []
+        while not q.ended():
+            told += [(key, stage.kind, stage.message) for key, stage in q.reports()]
+        told += [(key, stage.kind, stage.message) for key, stage in q.reports(0.0)]  # said just before it ended
+        key, value = q.next()
+        yield sch.final({"told": told, "key": key, "tag": value["tag"], "after": q.reports(0.0)})
+    return job
