@@ -33,6 +33,7 @@ from beam.discovery.ranking import (
 )
 from beam.discovery.window_hint import window_hint_notes
 from beam.errors import BeamInputError
+from beam.inference.progress import report
 from beam.io.measurement import Measurement
 from beam.physics.effects import clamp_friction, effective_length
 
@@ -677,6 +678,7 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
     if not measurement.uniform:
         notes.append(f"irregular time stamps: residual spectra and modal identification on the record interpolated "
                      f"to its median step ({measurement.median_interval_s:.3g} s)")
+    report("residual diagnostics: band and spectrum")
     band = dx.band_residuals(time_s, data, mean, lower, upper)
     map_values = {k: float(v) for k, v in result.laplace.map.values.items() if k in result.setup.physical_names}
     frequencies, ratios = result.setup.model.natural_modes(map_values, result.setup.modes)
@@ -686,6 +688,7 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
                                       sample_interval_s=1.0 / measurement.rate_Hz,
                                       fitted_parameters=result.problem.ndim)
     identified, comparison, mode1 = None, [], None
+    report("residual diagnostics: modal identification of the record")
     try:
         identified = dx.identify_modes(time_s, data, voltage, start_s=float(time_s[0]) if measurement.is_free else None)
         comparison = dx.compare_modes(identified, frequencies, ratios)
@@ -696,6 +699,7 @@ def residual_report(result: CalibrationResult) -> ResidualReport:
         comparison = unresolved_marked(comparison, identified, dx.resolution_reasons(time_s, data, identified))
     first = next((row for row in comparison if row.mode == 1 and row.matched), None)
     if first is not None:  # the identified mode matched to the model's mode 1, not merely the lowest pole
+        report("residual diagnostics: mode 1's envelope and backbone")
         try:
             mode1 = dx.analyse_mode(time_s, data, float(first.frequency_data_Hz), voltage,
                                     **({"start_s": float(time_s[0])} if measurement.is_free else {}))

@@ -65,7 +65,7 @@ from beam.discovery.ranking import (
 )
 from beam.discovery.held_out import remember_held_out
 from beam.errors import BeamInputError
-from beam.inference.progress import reporting
+from beam.inference.progress import report, reporting
 from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS
 from beam.residuals import effect_scores
@@ -113,6 +113,7 @@ class BaseRequest:
     def run(self, measurement: Measurement, engine: Engine | None = None) -> tuple:
         """``(CalibrationResult, ResidualReport)``; a bad record or spec raises :class:`~beam.errors.BeamInputError`."""
         base = calibration_preview(measurement, self.spec, engine=engine)
+        report("the MAP's prediction over the record and its held-out error")
         base.map_prediction()  # computed where the fit runs, carried with the result
         remember_held_out(base)  # the amplitude-aware held-out error of a free decay, likewise
         return base, residual_report(base)
@@ -161,6 +162,7 @@ class FitRequest:
                 result = calibration_preview(measurement, self.spec, search=self.search, engine=engine)
         except FIT_ERRORS as exc:
             return exc
+        report("the MAP's prediction over the record and its held-out error")
         result.map_prediction()  # computed where the fit runs, carried with the result
         remember_held_out(result)  # the amplitude-aware held-out error of a free decay, likewise
         return result
