@@ -49,7 +49,7 @@ from scipy import optimize
 from beam.inference import AR1_COEFFICIENT, NOISE_SD, MapResult, Problem
 from beam.inference.likelihood import log_likelihood, whiten
 from beam.inference.optimize import newton_iterations, steps_from_hessian
-from beam.inference.progress import report
+from beam.inference.progress import report, reporting
 
 __all__ = ["LmResult", "fast_map", "internal_starts", "levenberg_marquardt", "newton_polish"]
 
@@ -458,8 +458,8 @@ def levenberg_marquardt(
     # posterior is already reached, whatever its own continuation adds
     _drop_worse_basins(lp, predicted, converged, dropped, settled=np.inf, reference=float(np.max(lp)))
     for i in np.flatnonzero(~converged & ~dropped & np.isfinite(lp) & continuation):  # still improving: trust region
-        report(f"MAP search: start {i + 1} of {m} continues alone")
-        x[i], z[i], lp[i], jac[i], converged[i] = _trust_region(objective, x[i], z[i], lo + margin, hi - margin)
+        with reporting(None, f"MAP search: start {i + 1} of {m} continues alone"):
+            x[i], z[i], lp[i], jac[i], converged[i] = _trust_region(objective, x[i], z[i], lo + margin, hi - margin)
     return LmResult(z=z, log_posterior=lp, converged=converged & ~dropped, dropped=dropped, iterations=iterations,
                     fd_steps=objective.fisher_steps(jac))
 
@@ -471,11 +471,14 @@ def _trust_region(objective: _Objective, x: np.ndarray, z: np.ndarray, lo: np.nd
     :func:`beam.inference.find_map`, for a start that is still improving after the lock-step
     iterations (a long, curved valley, e.g. stiffness against a tip mass)."""
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    evaluations = [0]
 
     def residuals_and_jacobian(point: np.ndarray):
         key = point.tobytes()
         if key not in cache:
             cache.clear()
+            evaluations[0] += 1
+            report(f"evaluation {evaluations[0]} of at most {max_nfev}")
             _, _, r, jac = objective.evaluate(point[None, :], z[None, :], profile=False)
             r, jac = r[0], jac[0]
             if not np.all(np.isfinite(r)):
