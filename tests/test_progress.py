@@ -203,3 +203,15 @@ def test_the_mcmc_ladder_names_each_rung_while_it_samples(record):
         assert all(s <= total for s, total in steps) and steps[-1][0] == steps[-1][1]  # its last chunk ends the run
         total_steps = steps[-1][0]
         assert len(steps) >= total_steps // 50  # at least one message per 50 steps sampled
+
+
+def test_a_long_line_keeps_what_is_fitted_and_what_it_does():
+    from beam.cli.progress_line import fitted
+
+    line = ("[  12 s] joint diagnosis of 3 records, fitting tip_mass on the base of every record together "
+            "(candidate 2 of 5), record 1 of 3 (ruler_30cm) alone, first stage, MAP search: iteration 4, 6 of 9 starts going")
+    short = fitted(line, 79)
+    head, tail = short.split("…")
+    assert len(short) == 79 and line.startswith(head) and line.endswith(tail)  # its start and its end
+    assert len(head) > len(tail) > 25 and short.endswith("6 of 9 starts going")
+    assert fitted("[   1 s] error ladder", 79) == "[   1 s] error ladder"

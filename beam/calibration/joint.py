@@ -50,6 +50,7 @@ from beam.calibration.spec import CalibrationSpec
 from beam.errors import BeamInputError
 from beam.inference import LIKELIHOODS, LaplaceResult, MapResult, Parameter, PosteriorResult, Problem, laplace
 from beam.inference.likelihood import log_likelihood
+from beam.inference.progress import report, reporting
 from beam.io.artifacts import record_warnings
 from beam.physics import modal
 from beam.physics.effects import EFFECTS
@@ -548,7 +549,11 @@ def joint_preview(
     t0 = time.perf_counter()
     measurements, spec = _records_and_spec(measurements, spec, options)
     engine = default_engine() if engine is None else engine
-    singles = tuple(RecordFit(*preview_map(m, spec, engine=engine)[:3]) for m in measurements)
+    singles = []
+    for k, m in enumerate(measurements, 1):
+        with reporting(None, f"record {k} of {len(measurements)} ({m.name}) alone"):
+            singles.append(RecordFit(*preview_map(m, spec, engine=engine)[:3]))
+    singles = tuple(singles)
     physical: list[str] = []
     for single in singles:
         physical += [n for n in single.setup.physical_names if n not in physical]
@@ -668,11 +673,17 @@ def joint_map(problem: JointProblem, singles: Sequence[LaplaceResult],
     from beam.calibration.fit import newton_polish
 
     starts = joint_starts(problem, singles)
+    report(f"joint MAP: modal match from {len(starts)} starts")
     matched = _distinct(problem, np.array([modal_match(problem, singles, z) for z in starts]))
     matched = matched[np.argsort(-problem.log_posterior(matched))[:JOINT_POLISHED_STARTS]]
     if extra:
         matched = np.vstack([matched, _extra_starts(problem, starts[0], extra)])
-    fitted, steps = zip(*(_least_squares(problem, singles, z) for z in matched))
+    fitted, steps = [], []
+    for k, z in enumerate(matched, 1):
+        report(f"joint MAP: least squares from start {k} of {len(matched)}")
+        found_z, step = _least_squares(problem, singles, z)
+        fitted.append(found_z)
+        steps.append(step)
     fitted = np.array(fitted)
     start_lp = problem.log_posterior(fitted)
     if not np.any(np.isfinite(start_lp)):
@@ -681,7 +692,8 @@ def joint_map(problem: JointProblem, singles: Sequence[LaplaceResult],
     for i in np.argsort(-start_lp)[:JOINT_POLISHED_STARTS]:
         if not np.isfinite(start_lp[i]):
             continue
-        found = newton_polish(problem, fitted[i], steps[i], max_iterations=JOINT_NEWTON_ITERATIONS)
+        with reporting(None, "joint MAP"):
+            found = newton_polish(problem, fitted[i], steps[i], max_iterations=JOINT_NEWTON_ITERATIONS)
         if best is None or found.log_posterior > best.log_posterior:
             best = found
     return replace(best, n_starts=len(fitted), start_log_posteriors=[float(v) for v in start_lp])

@@ -106,21 +106,13 @@ def run(args: argparse.Namespace) -> int:
     check_joint_arguments(args, taps)
     if taps > 1:
         return run_taps(args, measurement)
-    from beam.cli.progress_line import TerminalProgress, wants_progress
+    from beam.cli.progress_line import progress_line
 
-    progress = TerminalProgress(sys.stderr) if wants_progress(args) else None
-    try:
-        if progress is not None:
-            progress(f"loading the calibration engine ({measurement.name})")
+    spec = spec_of(args)
+    with progress_line(args, f"calibrating {' + '.join(spec.effects)} on {measurement.name}"):
         from beam.calibration import calibrate
-        from beam.inference.progress import reporting
 
-        spec = spec_of(args)
-        with reporting(progress, f"calibrating {' + '.join(spec.effects)} on {measurement.name}"):
-            result = calibrate(measurement, spec)
-    finally:
-        if progress is not None:
-            progress.close()
+        result = calibrate(measurement, spec)
     summary = result.to_json()
     if args.save:
         summary["saved"] = [str(p) for p in result.save(args.save)]
@@ -149,7 +141,10 @@ def run_joint(args: argparse.Namespace) -> int:
 
     if getattr(args, "segment", None) is None:  # a file of several taps brings every tap
         measurements = [tap for m in measurements for tap in tap_measurements(m)]
-    result = joint_calibrate(measurements, spec_of(args), per_record=args.per_record, shared=args.shared)
+    from beam.cli.progress_line import progress_line
+
+    with progress_line(args, f"calibrating {len(measurements)} records together"):
+        result = joint_calibrate(measurements, spec_of(args), per_record=args.per_record, shared=args.shared)
     return print_joint(args, result.to_json(), format_joint_summary)
 
 

@@ -146,8 +146,11 @@ def run_joint(args: argparse.Namespace) -> int:
     measurements = measurements_from_args(args, effects=args.base)  # bad files fail before the heavy imports
     from beam.discovery.joint import joint_diagnose
 
-    report = joint_diagnose(measurements, window=args.window, modes=args.modes, base=args.base,
-                            per_record=args.per_record, shared=args.shared)
+    from beam.cli.progress_line import progress_line
+
+    with progress_line(args, f"joint diagnosis ({len(measurements)} records)"):
+        report = joint_diagnose(measurements, window=args.window, modes=args.modes, base=args.base,
+                                per_record=args.per_record, shared=args.shared)
     summary = report.to_json()
     if args.suggest:
         summary["suggestion"] = suggestion_of(args, [(c.effect, c.delta_log_evidence) for c in report.candidates],

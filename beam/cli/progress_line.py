@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 
-__all__ = ["TerminalProgress", "wants_progress"]
+__all__ = ["TerminalProgress", "fitted", "progress_line", "wants_progress"]
 
 
 class TerminalProgress:
     """One status line on a terminal, rewritten in place: ``[  12 s] <the step>``.
 
-    Calling it with a text draws the line anew (cut to the terminal's width). A ticker thread
+    Calling it with a text draws the line anew (cut to the terminal's width by :func:`fitted`). A ticker thread
     redraws the elapsed time every ``tick_s`` seconds while the step stays the same (only the time
     field: the step's text is left on the screen, so a long step still counts its seconds), until
     :meth:`close` stops the thread (joined) and erases the line. Called from the fitting threads
@@ -52,7 +54,7 @@ class TerminalProgress:
         with self._lock:
             self._text = text
             self._prefix = self._time()
-            line = f"{self._prefix} {text}"[: max(shutil.get_terminal_size().columns - 1, 20)]
+            line = fitted(f"{self._prefix} {text}", max(shutil.get_terminal_size().columns - 1, 20))
             self._stream.write(f"\r\x1b[K{line}")
             self._stream.flush()
 
@@ -87,7 +89,32 @@ class TerminalProgress:
             self._stream.flush()
 
 
+def fitted(line: str, width: int) -> str:
+    """``line`` in ``width`` characters: a longer one keeps its start (what is fitted) and its end
+    (what the fit is doing), joined by "…"."""
+    if len(line) <= width:
+        return line
+    head = (width - 1) * 3 // 5
+    return line[:head] + "…" + line[len(line) - (width - 1 - head):]
+
+
 def wants_progress(args: argparse.Namespace) -> bool:
     """A progress line only for a person at a terminal: not with ``--json``, not when stdout or
     stderr is redirected (a pipe, a file, a test's capture)."""
     return not args.json and sys.stdout.isatty() and sys.stderr.isatty()
+
+
+@contextmanager
+def progress_line(args: argparse.Namespace, label: str) -> Iterator[TerminalProgress | None]:
+    """A :class:`TerminalProgress` on stderr when :func:`wants_progress` (else None), told
+    ``label`` and then what the fits inside the block say under it
+    (:func:`beam.inference.progress.reporting`); closed (erased) when the block ends."""
+    from beam.inference.progress import reporting
+
+    line = TerminalProgress(sys.stderr) if wants_progress(args) else None
+    try:
+        with reporting(line, label):
+            yield line
+    finally:
+        if line is not None:
+            line.close()

@@ -60,6 +60,7 @@ from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE, candidate_effects, wit
 from beam.calibration.defaults import DEFAULT_EFFECTS
 from beam.errors import BeamInputError
 from beam.inference import LaplaceResult, MapResult
+from beam.inference.progress import reporting
 from beam.physics.effects import BASE_PARAMETERS, EFFECTS, sensor_mass, tip_mass
 
 __all__ = ["JointCandidate", "JointDiagnosis", "JointRung", "MAX_JOINT_RUNGS", "SEPARATING_NATS", "TIED_NATS",
@@ -652,7 +653,8 @@ def joint_diagnose(
         candidates = joint_candidates(measurements, spec.effects, per_record)
     candidates = tuple(candidates)
     fit = _fitter(measurements, spec, per_record, shared, engine)
-    base_fit = fit(spec.effects)
+    with reporting(None, "fitting the base, all records"):
+        base_fit = fit(spec.effects)
     if isinstance(base_fit, Exception):
         raise base_fit
     ranked, fits = _judged(fit, base_fit, spec.effects, candidates, 0)
@@ -706,8 +708,10 @@ def _judged(fit, current: JointCalibrationResult, effects: tuple[str, ...], name
     fits: dict[str, JointCalibrationResult] = {}
     ranked: list[JointCandidate] = []
     current_ll = _record_log_likelihoods(current)
-    for effect in names:
-        result = fit(with_effect(effects, effect), [nested_start(current, effect)])
+    on = f"the joint ladder's step {rung}" if rung else "the base"
+    for i, effect in enumerate(names, 1):
+        with reporting(None, f"fitting {effect} on {on}, all records (candidate {i} of {len(names)})"):
+            result = fit(with_effect(effects, effect), [nested_start(current, effect)])
         if isinstance(result, Exception):
             ranked.append(JointCandidate(effect, None, error=str(result).splitlines()[0],
                                          judgement=judge_joint(effect, current, result), rung=rung))

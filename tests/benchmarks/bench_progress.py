@@ -1,5 +1,5 @@
 """How long the progress shown stands still during a diagnosis (#40 item 5; run on demand:
-``python tests/benchmarks/bench_progress.py [--browser]``).
+``python tests/benchmarks/bench_progress.py [--browser | --browser-only]``).
 
 The record: a shared 50 cm run (``../shared/real-data``, else the bundled one) recorded as a
 phone at 400 Hz would (jittered stamps, its sensor's low-pass: ``tests/record_families.py``),
@@ -12,8 +12,8 @@ written as a CSV with the run's sidecar. Three figures, in wall seconds:
   the session's status line (:func:`~dashboard.views.status.status_text`) read at each update
   and every second (its periodic redraw): the largest gap between two changes of the line, and
   of the step it shows.
-* **Browser** (``--browser``): the served app in chromium, the bundled real run chosen in the
-  beam view and diagnosed; the line sampled every 0.5 s; the longest it showed the same words
+* **Browser** (``--browser``): the served app in chromium, the bundled real run (the same strip
+  as recorded, ~2.9 kHz) chosen in the beam view and diagnosed; the line sampled every 0.5 s; the longest it showed the same words
   while busy, and the same step (its seconds left out).
 """
 
@@ -135,7 +135,7 @@ def dashboard_job(record: Path, warm_s: float = 60.0) -> None:
     print("  largest gap between new steps:           %.2f s (after %r)" % largest_gap(steps))
 
 
-def browser(dataset: str = "adxl_50cm_114759") -> None:
+def browser(dataset: str = "adxl_50cm_114655") -> None:
     import harness
     from playwright.sync_api import sync_playwright
     from test_progress_browser import SAMPLE_JS, longest_still
@@ -166,6 +166,9 @@ def browser(dataset: str = "adxl_50cm_114759") -> None:
 
 
 def main() -> None:
+    if "--browser-only" in sys.argv:
+        browser()
+        return
     with tempfile.TemporaryDirectory() as tmp:
         record = phone_record(Path(tmp))
         print(f"record: {record.name} from {shared_runs()[0].name}, {RATE_HZ:g} Hz phone stamps")
