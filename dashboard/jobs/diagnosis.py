@@ -37,14 +37,11 @@ from beam.discovery import (
 from beam.io.measurement import Measurement
 from beam.physics.effects import EFFECTS  # noqa: F401 - the catalogue the diagnosis ranks (tests read it here)
 from dashboard.jobs.beam import DIAGNOSES, CalibrationKey
+from dashboard.jobs.told import told_stages
 from dashboard.jobs.warm import warm_up
 from dashboard.runtime import scheduler as sch
 
-__all__ = ["REPORT_S", "Diagnosis", "DiagnosisFits", "diagnosis_key", "diagnosis_run", "diagnosis_stages",
-           "request_stages"]
-
-#: Seconds between two progress reports of one fit sent from its worker process (the latest of them).
-REPORT_S = 0.5
+__all__ = ["Diagnosis", "DiagnosisFits", "diagnosis_key", "diagnosis_run", "diagnosis_stages", "request_stages"]
 
 
 @dataclass
@@ -111,34 +108,15 @@ def request_stages(request, measurement: Measurement, memory: tuple) -> Iterator
     optima the diagnosis has found so far (``memory``: :meth:`beam.calibration.Engine.export`).
 
     Yields ``progress`` stages (fraction 0: the driver knows the diagnosis's) with what the fit
-    says from inside (:func:`beam.discovery.run_request`'s ``progress``), at most one per
-    :data:`REPORT_S`, the latest, then the ``final`` :class:`~beam.discovery.Done`. The fit runs on
-    a thread of this process while this generator waits for its reports; closed early (the
-    diagnosis was cancelled), it waits for the fit to end, as before (a fit is not stopped midway).
+    says from inside (:func:`beam.discovery.run_request`'s ``progress``; :func:`~dashboard.jobs.told.told_stages`),
+    then the ``final`` :class:`~beam.discovery.Done`. Closed early (the diagnosis was cancelled), it
+    waits for the fit to end, as before (a fit is not stopped midway).
     """
-    import queue
-    import threading
-
     engine = default_engine()
     engine.merge(memory)
     if isinstance(request, BaseRequest):
         warm_up()  # no half-imported ArviZ under the diagnostics (see dashboard.jobs.toy.warm_up)
-    told: queue.SimpleQueue = queue.SimpleQueue()
-    out: list = []
-    fit = threading.Thread(target=lambda: out.append(run_request(request, measurement, engine, told.put)),
-                           name="diagnosis-fit", daemon=True)
-    fit.start()
-    try:
-        while fit.is_alive():
-            fit.join(REPORT_S)
-            latest = None
-            while not told.empty():
-                latest = told.get()
-            if latest is not None and fit.is_alive():
-                yield sch.progress(0.0, latest)
-    finally:
-        fit.join()
-    yield sch.final(out[0])
+    yield from told_stages(lambda progress: run_request(request, measurement, engine, progress))
 
 
 class DiagnosisFits:

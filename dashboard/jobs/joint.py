@@ -41,8 +41,10 @@ from beam.discovery.ranking import MATERIAL_LOG_EVIDENCE
 from beam.discovery.suggest import next_record
 from beam.errors import BeamInputError
 from beam.inference import EnsembleRun
+from beam.inference.progress import reporting
 from beam.io.measurement import Measurement, read_measurement
 from dashboard.jobs.beam import ASSETS, bundled_datasets, load_bundled
+from dashboard.jobs.told import told_stages
 from dashboard.runtime import scheduler as sch
 
 __all__ = [
@@ -260,12 +262,17 @@ def joint_run(key: JointKey, measurements: Sequence[Measurement]) -> Iterator[sc
 
 # -- diagnosis ------------------------------------------------------------------------------------
 def diagnosis_stages(key: JointKey, measurements: Sequence[Measurement], effect: str) -> Iterator[sch.Stage]:
-    """The joint diagnosis of the base model and one candidate ``effect`` (in a worker process)."""
+    """The joint diagnosis of the base model and one candidate ``effect`` (in a worker process):
+    ``progress`` with what its fits say (:func:`~dashboard.jobs.told.told_stages`), ``final``."""
     spec = key.spec
-    diagnosis = joint_diagnose(measurements, window=spec.window, modes=spec.modes, base=spec.effects,
-                               candidates=[effect], per_record=key.per_record or None, engine=default_engine(),
-                               climb=False)
-    yield sch.final(diagnosis, f"{effect} judged")
+
+    def judged(progress) -> JointDiagnosis:
+        with reporting(progress, f"judging {effect} on {len(measurements)} records together"):
+            return joint_diagnose(measurements, window=spec.window, modes=spec.modes, base=spec.effects,
+                                  candidates=[effect], per_record=key.per_record or None, engine=default_engine(),
+                                  climb=False)
+
+    yield from told_stages(judged, message=f"{effect} judged")
 
 
 def joint_candidates(key: JointKey, measurements: Sequence[Measurement]) -> list[str]:
@@ -299,8 +306,16 @@ def joint_diagnosis_run(key: JointKey, measurements: Sequence[Measurement]) -> I
     yield sch.progress(0.02, f"judging {len(candidates)} candidate effects on {len(measurements)} records together")
     parts: list[JointDiagnosis] = []
     failed: list[BaseException] = []
+    calls = sch.OffloadQueue()
+    for i, e in enumerate(candidates):
+        calls.submit(i, diagnosis_stages, key, measurements, e)
     try:
-        for _, value in sch.offload_map(diagnosis_stages, [((key, measurements, e), {}) for e in candidates]):
+        for _ in candidates:
+            while not calls.ended():  # what the running fits say, while they run
+                said = calls.reports()
+                if said:
+                    yield sch.progress((len(parts) + len(failed)) / len(candidates), said[-1][1].message)
+            _, value = calls.next()
             if isinstance(value, BaseException):
                 failed.append(value)
                 continue
@@ -311,6 +326,8 @@ def joint_diagnosis_run(key: JointKey, measurements: Sequence[Measurement]) -> I
                                   f"{done} of {len(candidates)} candidates judged")
     except sch.Cancelled:
         return
+    finally:
+        calls.close()
     if not parts:
         raise failed[0]
     diagnosis = merged(parts, time.perf_counter() - t0)
