@@ -175,12 +175,17 @@ class CalibrationResult:
 
     @property
     def rmse_calibration(self) -> float:
-        """RMSE of the band's mean in the calibration window (output's unit; clipped samples left out)."""
-        return self.bands.rmse(self.setup.measurement.output, self.setup.fit_mask)
+        """RMSE of the MAP prediction in the calibration window (output's unit; clipped samples left
+        out): the one figure of the model's error in the window that the JSON, the diagnosis's
+        header, ladder and verdict and the dashboard quote (:attr:`rmse_calibration_map`)."""
+        return self.rmse_calibration_map
 
     @property
     def rmse_prediction(self) -> float:
-        return self.bands.rmse(self.setup.measurement.output, self.held_out_mask) if self.held_out_mask.any() else math.nan
+        """Held-out RMSE of the MAP prediction (output's unit; NaN without a held-out part): the one
+        figure of the model's error after the window everything quotes (:attr:`rmse_prediction_map`;
+        the band gives the coverage, :attr:`coverage95_prediction`)."""
+        return self.rmse_prediction_map
 
     @property
     def coverage95_prediction(self) -> float:

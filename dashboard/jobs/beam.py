@@ -281,10 +281,12 @@ def calibration_stages(key: CalibrationKey, measurement: Measurement, *, every: 
                 done = max(done, min(event.step / max(event.total, 1), 0.99))
                 yield sch.progress(done, f"sampling: {event.step} of {event.total} ensemble steps")
             elif not event.final:  # the averaged drag preview (if any), then the model's preview
+                event.map_prediction()  # its errors' point prediction, computed here and carried with it
                 yield sch.preview(event, stage_message(event))
                 if event.approximation is None:
                     warm_up()  # the sampler's libraries, before the stream goes on to sample
             else:  # the posterior, or a nonlinear free decay's Laplace result (not sampled)
+                event.map_prediction()
                 yield sch.final(event, stage_message(event))
     finally:
         stream.close()  # leaving the loop stops emcee
