@@ -26,7 +26,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "browser"))
 
-from harness import BEAM_FINAL, REPO, free_port, launch, wait_for_status  # noqa: E402
+from harness import BEAM_FINAL, POLL_MS, READ_STATE_JS, REPO, free_port, launch, wait_for_status  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -55,7 +55,9 @@ def main(argv: list[str] | None = None) -> int:
             page.goto(f"http://127.0.0.1:{port}/app")
             page.locator(".bk-tab", has_text="Toy periodic model").first.wait_for(timeout=300000)
             tabs = time.monotonic() - t0
-            wait_for_status(page, "s.stage === 'final' && s.band_n > 0", css="beam-status", timeout_ms=300000)
+            # the toy's own band (READ_STATE_JS; wait_for_status reads the beam view's)
+            page.wait_for_function(f"() => {{ const s = ({READ_STATE_JS})(); return s.stage === 'final' && s.band_n > 0; }}",
+                                   timeout=300000, polling=POLL_MS)
             toy = time.monotonic() - t0
             page.locator(".bk-tab", has_text="Beam calibration").first.click()
             wait_for_status(page, BEAM_FINAL, timeout_ms=300000)
