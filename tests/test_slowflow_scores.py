@@ -91,3 +91,31 @@ def test_the_scores_refuse_what_they_cannot_judge():
         score_candidates(record.measurement, ["modal_damping"], ["no_such_effect"])
     scores = score_candidates(record.measurement, ["modal_damping"], [], window=(0.0, 5.0))
     assert len(scores) == 1 and scores[0].candidate is None and np.isfinite(scores[0].log_evidence)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family,effect,seed", [("accelerometer", "clamp_friction", 3), ("phone", "quadratic_drag", 4),
+                                                ("strain", "sensor_mass", 3)])
+def test_nested_fits_are_monotone_from_every_remembered_sub_model(family, effect, seed):
+    """#38 item 2 on the curves: strips of 0.39, 0.44 and 0.60 m (steel, aluminium; accelerometer,
+    phone, strain gauge at the root). From each sub-model a ranking remembers (the base + sensor
+    mass, the base + drag), every further candidate's window likelihood is never below the
+    sub-model's (measured: 0 to +45 nats), and its log posterior never below the sub-model's plus
+    the candidate's prior density at its null."""
+    record = make_record(family, effect, seed)
+    measurement = record.measurement
+    blocks = curve_blocks(record_backbone(measurement, frequencies_Hz=record.frequencies_Hz()))
+    base = score_model(measurement, ["modal_damping"], blocks, (0.0, 5.0))
+    for remembered in ("sensor_mass", "quadratic_drag"):
+        sub = score_model(measurement, ("modal_damping", remembered), blocks, (0.0, 5.0), base=base,
+                          candidate=remembered)
+        assert sub.log_likelihood >= base.log_likelihood - 1e-6
+        for candidate in (c for c in CANDIDATES if c != remembered):
+            effects = ("modal_damping", remembered, candidate)
+            score = score_model(measurement, effects, blocks, (0.0, 5.0), base=sub, candidate=candidate)
+            curve = CurveModel(measurement, effects, int(blocks.mode.max()), blocks)
+            problem = type("P", (), {"parameter": lambda self, n: type("Q", (), {"prior": curve.priors[n]})()})()
+            extra = sum(curve.priors[n].log_density_internal(curve.priors[n].to_internal(null_value(problem, n)))
+                        for n in curve.names if n not in sub.values)
+            assert score.log_likelihood >= sub.log_likelihood - 1e-6, (record.name, remembered, candidate)
+            assert score.log_posterior >= sub.log_posterior + extra - 1e-6, (record.name, remembered, candidate)
