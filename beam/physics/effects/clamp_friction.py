@@ -38,10 +38,10 @@ coordinate, mode 1 of a released strip) sets X = |r_p| A_p; then, to first order
 
 In microslip the slow flow is the drag's: dA_p/dt = -c_p A_p - b A_p², b = (2 / 3 pi) alpha
 |r_p|³ / omega_p, alpha = k_f / 2 theta_s = k_f² / 4 M_s, so A_p(tau) = a_p e^(-c_p tau) /
-(1 + b a_p tau phi(c_p tau)) and the phases are -(alpha |r_p| r_k² / 2 omega_k) ∫ A_p dt =
--(alpha |r_p| r_k² / 2 omega_k) ln(1 + b a_p tau phi) / b, closed forms; a start beyond the
-slip integrates the dominant mode's one-dimensional flow by quadrature in ln A
-(:meth:`AveragedFriction.dominant_flow`).
+(1 + b a_p tau phi(c_p tau)), a closed form (the check of the envelope in the tests). The
+envelope integrates the dominant mode's one-dimensional flow by quadrature in ln A
+(:meth:`AveragedFriction.dominant_flow`), in microslip and beyond, and the phases along it
+(a faster mode's share of the cycle stuck to the joint changes as the amplitudes fall).
 Limits: first order in the softening (the frequency's shift, not sqrt(omega² - r² k_f s)); the
 dominant mode's joint only (two modes of comparable root rotation share one loop, which the
 full integrator follows); no loss of the other modes from the dominant one's reversals
@@ -147,10 +147,8 @@ class AveragedFriction:
         if not (stiffness > 0.0 and moment > 0.0):
             raise BeamInputError("clamp_friction's averaged form needs a positive k_f and M_s")
         root = root_row(model)[0] @ shapes  # (m,) rad per unit modal coordinate
-        x = -np.asarray(sigma, dtype=float)[None, :] * np.asarray(tau, dtype=float)[:, None]
-        phi = np.where(x > 1e-12, -np.expm1(-x) / np.where(x > 1e-12, x, 1.0), 1.0)
         return {"k": stiffness, "theta_s": 2.0 * moment / stiffness, "root": root, "omega": np.asarray(omega, float),
-                "sigma": np.asarray(sigma, float), "tau": np.asarray(tau, float), "slow": np.asarray(tau)[:, None] * phi}
+                "sigma": np.asarray(sigma, float), "tau": np.asarray(tau, float)}
 
     def describing(self, prepared, amplitudes):
         import numpy as np
@@ -179,21 +177,11 @@ class AveragedFriction:
         import numpy as np
 
         a = np.asarray(amplitudes, dtype=float)
-        root, omega = prepared["root"], prepared["omega"]
+        root = prepared["root"]
         p = int(np.argmax(np.abs(root) * a))
-        x0 = abs(root[p]) * a[p] / prepared["theta_s"]
-        if x0 > 1.0:  # the joint slips wholly at the start: no closed form
-            return self.dominant_flow(prepared, a, p)
-        alpha = prepared["k"] / (2.0 * prepared["theta_s"])
-        b = (2.0 / (3.0 * np.pi)) * alpha * abs(root[p]) ** 3 / omega[p]
-        growth = b * a[p] * prepared["slow"][:, p]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            area = np.where(growth > 1e-12, np.log1p(growth) / np.where(b > 0.0, b, 1.0), a[p] * prepared["slow"][:, p])
-        ratio = np.ones((growth.size, a.size))
-        ratio[:, p] = 1.0 / (1.0 + growth)
-        phase = -(alpha * abs(root[p]) * root**2 / (2.0 * omega))[None, :] * area[:, None]
-        return ratio, phase
-
+        # microslip has closed forms (module notes) for the dominant mode, but the other modes'
+        # share of the cycle stuck to the joint changes as their amplitudes fall: one quadrature for all
+        return self.dominant_flow(prepared, a, p)
 
     def dominant_flow(self, prepared, amplitudes, p):
         """(ratio, phase) (N, m) of the slow flow from modal envelopes ``amplitudes`` (m,), mode
