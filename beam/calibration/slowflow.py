@@ -15,7 +15,8 @@ each fit by
 * the log predictive density of the blocks after the window at the MAP (held-out, nats), and
   their rms z-score,
 
-in a fraction of a second per candidate: no integration, one eigenproblem per parameter set.
+in about a second of CPU per candidate (0.3-1.6 s on the stand-in families): no integration,
+one eigenproblem per parameter set.
 
 The likelihood: each block's frequency and damping ratio is Gaussian about the prediction with
 its identification's standard error times a scale s_g per mode and quantity, profiled:
