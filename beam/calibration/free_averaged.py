@@ -1,10 +1,11 @@
 """The averaged (slow-flow) model of a free decay with one nonlinear effect: a closed-form preview
 of its calibration and the start of the full one.
 
-The effect's averaged form (:attr:`beam.physics.effects.effect.Effect.averaged`, the contract
-of :mod:`beam.physics.effects.averaged`; the quadratic drag's is in
-:mod:`beam.physics.effects.quadratic_drag`) says how each retained mode's envelope and phase
-depart from the linear model's. Here the calibration around it: the response is the linear
+The effects' averaged forms (:attr:`beam.physics.effects.effect.Effect.averaged`, the contract
+of :mod:`beam.physics.effects.averaged`; the drag's, the clamp friction's and the tip spring's
+are in their modules) say how each retained mode's envelope and phase depart from the linear
+model's (one effect: its closed form; several: the slow flow of their summed describing
+functions). Here the calibration around it: the response is the linear
 free-response basis of :class:`~beam.calibration.free.ProjectedFreeModel` with each mode's two
 columns scaled (and turned) by the form, so at the effect's null value it *is* the linear model;
 its amplitudes (two per mode: cosine and sine at the window's start) and offset are the
@@ -22,7 +23,7 @@ the preview cheaper than the ETDRK4 integration it stands for (no integration at
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,9 +31,18 @@ import numpy as np
 from beam.errors import BeamInputError
 from beam.inference import AR1_COEFFICIENT, LaplaceResult, MapResult, PredictiveBands, Problem
 from beam.physics.effects import EFFECTS
+from beam.physics.effects.averaged import slow_flow
+
+#: Orders of the time derivative of the displacement each output kind is.
+OUTPUT_ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2, "strain": 0}
 from beam.physics.effects.quadratic_drag import AVERAGED_NOTE  # noqa: F401 - the drag's label, re-exported
 
-__all__ = ["AVERAGED_NOTE", "AveragedDragFit", "AveragedDragModel", "averaged_laplace"]
+__all__ = ["AVERAGED_NOTE", "AveragedDragFit", "AveragedDragModel", "AveragedModel", "MIXED_NOTE", "averaged_laplace"]
+
+#: The label of the averaged model of several nonlinear effects.
+MIXED_NOTE = ("averaged (slow-flow) approximation of {}: the effects' describing functions summed and the slow "
+              "flow of each mode's envelope and phase integrated (cycle-averaged, first order); a preview, not the "
+              "full integration")
 
 
 #: The averaged model's search stops once its Gauss–Newton step is shorter than this (posterior
@@ -86,7 +96,9 @@ class AveragedDragModel:
     Parameters
     ----------
     free : NonlinearFreeModel
-        A free decay whose only nonlinear effect has an averaged form (``quadratic_drag``).
+        A free decay whose nonlinear effects all have averaged forms (``quadratic_drag``,
+        ``clamp_friction``, ``tip_cubic_spring``; one: its closed form; several: their summed
+        describing functions integrated).
     time_s : ndarray, optional
         Times (s, none before the window's first sample) the response is evaluated at: the
         window's (``free.fit_time_s``) by default, the record's after the window to predict it.
@@ -94,11 +106,14 @@ class AveragedDragModel:
 
     def __init__(self, free, time_s: np.ndarray | None = None) -> None:
         nonlinear = [e for e in free.model.effects if EFFECTS[e].nonlinear]
-        if len(nonlinear) != 1 or EFFECTS[nonlinear[0]].averaged is None:
+        if not nonlinear or any(EFFECTS[e].averaged is None for e in nonlinear):
             forms = ", ".join(e for e in EFFECTS if EFFECTS[e].averaged is not None)
-            raise BeamInputError(f"the averaged model covers one nonlinear effect that has an averaged form ({forms})")
-        self.effect = EFFECTS[nonlinear[0]]
-        self.form = self.effect.averaged
+            raise BeamInputError(f"the averaged model covers nonlinear effects that have an averaged form ({forms})")
+        self.effects = tuple(EFFECTS[e] for e in nonlinear)
+        self.effect = self.effects[0]
+        self.forms = tuple(e.averaged for e in self.effects)
+        self.form = self.forms[0]
+        self.note = self.form.note if len(self.forms) == 1 else MIXED_NOTE.format(", ".join(nonlinear))
         self.free = free
         self.time_s = free.fit_time_s if time_s is None else np.asarray(time_s, dtype=float)
         self.tau = self.time_s - free.reference_s
@@ -124,7 +139,8 @@ class AveragedDragModel:
         omega2, shapes = free.model.mode_shapes(one, m)
         omega = np.sqrt(np.maximum(omega2, 0.0))
         entry = {"basis": basis, "sigma": sigma, "omega_d": omega_d, "T": free.state_matrix(one),
-                 "form": self.form.prepare(free.model, one, shapes, omega, sigma, self.tau)}
+                 "forms": [form.prepare(free.model, one, shapes, omega, sigma, self.tau, output=free.output_kind)
+                           for form in self.forms]}
         if len(self._cache) > 64:
             self._cache.clear()
         self._cache[key] = entry
@@ -140,7 +156,13 @@ class AveragedDragModel:
     def response(self, one: Mapping[str, float], amplitudes: np.ndarray) -> np.ndarray:
         """The averaged response (n,) on the window, the offset included (output units)."""
         entry, m = self._theta(one), self.free.modes
-        ratio, phase = self.form.envelope(entry["form"], self.modal_amplitudes(one, amplitudes))
+        modal = self.modal_amplitudes(one, amplitudes)
+        ratio, phase = self.envelope(entry, modal)
+        order = OUTPUT_ORDERS.get(self.free.output_kind, 0)
+        if phase is not None and order:  # a velocity or acceleration: omega(A)^order times the displacement's
+            envelopes = modal[None, :] * np.exp(entry["sigma"][None, :] * self.tau[:, None]) * ratio
+            shift = sum(form.describing(prepared, envelopes)[0] for form, prepared in zip(self.forms, entry["forms"]))
+            ratio = ratio * (1.0 + shift / entry["omega_d"][None, :]) ** order
         basis = entry["basis"]
         out = np.zeros(self.tau.size)
         for k in range(m):
@@ -150,6 +172,19 @@ class AveragedDragModel:
                 cosine, sine = c * cosine - s * sine, s * cosine + c * sine
             out += ratio[:, k] * (cosine * amplitudes[2 * k] + sine * amplitudes[2 * k + 1])
         return out + (amplitudes[-1] if self.free.offset else 0.0)
+
+    def envelope(self, entry: dict, modal: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """(ratio, phase) (N, m) of the model's forms from initial modal envelopes ``modal`` (m,):
+        one form's own envelope (its closed form); several forms' summed describing functions
+        integrated (:func:`beam.physics.effects.averaged.slow_flow`: at first order the effects add)."""
+        if len(self.forms) == 1:
+            return self.forms[0].envelope(entry["forms"][0], modal)
+
+        def describing(amplitudes):
+            parts = [form.describing(prepared, amplitudes) for form, prepared in zip(self.forms, entry["forms"])]
+            return sum(p[0] for p in parts), sum(p[1] for p in parts)
+
+        return slow_flow(describing, modal, entry["sigma"], self.tau)
 
     def bands(self, fit: AveragedDragFit, problem: Problem, time_s: np.ndarray, level: float = 0.95) -> PredictiveBands:
         """Predictive bands of the averaged model at ``time_s`` (s, from the window's first sample
@@ -185,12 +220,15 @@ class AveragedDragModel:
                                prediction_upper=mean + quantile * spread, level=float(level), n_draws=0)
 
     # ------------------------------------------------------------------ MAP + Laplace
-    def fit(self, problem: Problem, start: Mapping[str, float], amplitudes: np.ndarray) -> AveragedDragFit:
+    def fit(self, problem: Problem, start: Mapping[str, float], amplitudes: np.ndarray,
+            also: Sequence[Mapping[str, float]] = ()) -> AveragedDragFit:
         """MAP of the averaged model (trust-region least squares over the internal physical
         parameters, the amplitudes and the offset, from ``start`` and its ``amplitudes``) and its
         Laplace covariance (Gauss–Newton, the amplitudes and offset eliminated with their
         N(0, A²) prior, as :meth:`NonlinearFreeModel._laplace_hessian`). White noise at the
-        start's residual sd (the AR(1) coefficient of ``start`` whitens, if the likelihood has it)."""
+        start's residual sd (the AR(1) coefficient of ``start`` whitens, if the likelihood has it).
+        The search runs from the best of ``start``, its equivalent starts and the starts ``also``
+        (natural values; each given ``start``'s initial modal state, its amplitudes refined)."""
         from beam.calibration.fit import internal_starts
 
         free = self.free
@@ -219,7 +257,9 @@ class AveragedDragModel:
         state = self._theta(dict(start))["T"] @ a[:m2]
         best = (float(np.sum(data_residual(np.concatenate([z0, a])) ** 2)), z0, a)
         keep = [*free.names, *([AR1_COEFFICIENT] if AR1_COEFFICIENT in start else [])]  # the AR(1) whitens the linear fit
-        for other in free.equivalent_starts({n: start[n] for n in keep}, (self.effect.id,)):
+        equivalent = free.equivalent_starts({n: start[n] for n in keep}, tuple(e.id for e in self.effects))
+        best_also = None
+        for i, other in enumerate([*equivalent, *also]):
             z = internal_starts(problem, [other])[0][:d]
             b = np.concatenate([np.linalg.solve(self._theta(natural(z))["T"], state), a[m2:]])
             scale0 = max(math.sqrt(float(np.mean(data_residual(np.concatenate([z, b])) ** 2))), 1e-300)
@@ -234,13 +274,16 @@ class AveragedDragModel:
             b, _ = _levenberg_marquardt(amplitude_residuals, amplitude_jacobian, b, np.full(b.size, -np.inf),
                                         np.full(b.size, np.inf), iterations=8)
             rss = float(np.sum(data_residual(np.concatenate([z, b])) ** 2))
-            if np.isfinite(rss) and rss < best[0]:
+            if not np.isfinite(rss):
+                continue
+            if rss < best[0]:
                 best = (rss, z, b)
-        _, z0, a = best
-        sd = max(math.sqrt(float(np.mean(data_residual(np.concatenate([z0, a])) ** 2))), 1e-300)
+            if i >= len(equivalent) and (best_also is None or rss < best_also[0]):
+                best_also = (rss, z, b)
+        scale = {"sd": 1.0}
 
         def residuals(x):
-            return np.concatenate([data_residual(x) / sd, free.prior_residuals(x[:d], quadratic)])
+            return np.concatenate([data_residual(x) / scale["sd"], free.prior_residuals(x[:d], quadratic)])
 
         def jacobian(x):
             steps = np.concatenate([np.full(d, 1e-6), np.full(x.size - d, 1e-6 * max(float(np.max(np.abs(x[d:]))),
@@ -250,12 +293,30 @@ class AveragedDragModel:
             for j, (_, _, sigma) in enumerate(quadratic):
                 if math.isfinite(sigma):
                     prior[j, j] = 1.0 / sigma
-            return np.vstack([columns.T / sd, prior])
+            return np.vstack([columns.T / scale["sd"], prior])
 
         lower = np.concatenate([lo[:d] + margin[:d], np.full(a.size, -np.inf)])
         upper = np.concatenate([hi[:d] - margin[:d], np.full(a.size, np.inf)])
-        x, evaluations = _levenberg_marquardt(residuals, jacobian, np.clip(np.concatenate([z0, a]), lower, upper),
-                                              lower, upper, stop=PREVIEW_STOP_SD)
+
+        def search(z0, a):
+            # the search from one start, at the noise sd of its residual; its end's profiled
+            # objective (n ln rss + the priors' squared residuals) ranks it against the other's
+            scale["sd"] = max(math.sqrt(float(np.mean(data_residual(np.concatenate([z0, a])) ** 2))), 1e-300)
+            x, evaluations = _levenberg_marquardt(residuals, jacobian, np.clip(np.concatenate([z0, a]), lower, upper),
+                                                  lower, upper, stop=PREVIEW_STOP_SD)
+            rss = float(np.sum(data_residual(x) ** 2))
+            objective = y.size * math.log(max(rss, 1e-300)) + float(np.sum(free.prior_residuals(x[:d], quadratic) ** 2))
+            return objective if math.isfinite(objective) else math.inf, x, evaluations, scale["sd"]
+
+        # the best screened start, and the best of ``also`` when it is another (a start of the
+        # curves: its frequencies are the backbone's, which the waveform's phase, screened at the
+        # start, resolves far more finely, so it is searched before it is judged)
+        ends = [search(best[1], best[2])]
+        if best_also is not None and best_also[1] is not best[1]:
+            ends.append(search(best_also[1], best_also[2]))
+        _, x, evaluations, sd = min(ends, key=lambda end: end[0])
+        scale["sd"] = sd
+        evaluations = sum(end[2] for end in ends)
         noise = math.sqrt(float(np.mean(data_residual(x) ** 2)))
         info = (jacobian(x)[: y.size] * sd / noise).T @ (jacobian(x)[: y.size] * sd / noise)
         for j, (_, _, sigma) in enumerate(quadratic):
@@ -270,7 +331,7 @@ class AveragedDragModel:
                      for i, n in enumerate(physical)}
         return AveragedDragFit(values=natural(x[:d]), internal=x[:d].copy(), covariance=cov, intervals=intervals,
                                amplitudes=x[d:].copy(), noise_sd=noise, n_evaluations=evaluations, ar1_coefficient=rho,
-                               note=self.form.note)
+                               note=self.note)
 
     def fit_nested(self, problem: Problem, sub_values: Mapping[str, float]) -> AveragedDragFit:
         """:meth:`fit` from the optimum ``sub_values`` (natural units) of the model without the
@@ -282,7 +343,7 @@ class AveragedDragModel:
 
         physical = [n for n in problem.names if n not in problem.noise_names]
         one = {n: float(v) for n, v in sub_values.items() if n in physical or n == AR1_COEFFICIENT}
-        for name in self.effect.parameter_names:
+        for name in (n for e in self.effects for n in e.parameter_names):
             if name in physical:
                 one[name] = null_value(problem, name)
         one = {n: float(problem.from_internal(internal_starts(problem, [one]))[n][0]) for n in one}  # in the priors
@@ -393,3 +454,8 @@ def jacobian_of(function, x: np.ndarray, steps: np.ndarray) -> np.ndarray:
         point[j] += steps[j]
         columns[:, j] = (function(point) - base) / steps[j]
     return columns
+
+
+#: The averaged model of any free decay whose nonlinear effects all have averaged forms (the
+#: drag's name kept for its callers).
+AveragedModel = AveragedDragModel

@@ -108,6 +108,10 @@ class NonlinearFreeModel(ProjectedFreeModel):
         self._nl_cache: tuple | None = None
         self._seeds: dict[bytes, np.ndarray] = {}
         self.averaged = None  # the averaged model's fit of the last map_search (a drag preview), if any
+        #: Starts (natural values) from the record's own backbone and damping curves
+        #: (:func:`beam.calibration.slowflow.curve_starts`), set by the calibration before its
+        #: search: the averaged model searches from the best of them before judging it.
+        self.curve_starts: list[dict[str, float]] = []
 
     # ------------------------------------------------------------------ the response
     def _one(self, values: Mapping[str, np.ndarray], i: int) -> dict[str, float]:
@@ -250,8 +254,6 @@ class NonlinearFreeModel(ProjectedFreeModel):
         MapResult
             With the Laplace Hessian over the problem's internal coordinates (see the module notes).
         """
-        from scipy import optimize
-
         from beam.calibration.fit import internal_starts
         from beam.calibration.nulls import null_value
 
@@ -300,10 +302,14 @@ class NonlinearFreeModel(ProjectedFreeModel):
         averaged = self._averaged_start(problem, starts, amplitudes, rss, nulls)
         derived_rows = np.arange(len(starts) - len(sources), len(starts))
         derived_rows = derived_rows[np.argsort(rss[derived_rows], kind="stable")][:REFINED_STARTS]
-        for row in derived_rows if averaged is None else ():
+        # the averaged model's MAP replaces the equivalent starts only where it beats the nested
+        # start on the full response (a first-order form can end where it does not hold: a joint
+        # wholly slipping, whose softening is no longer small)
+        useful = averaged is not None and averaged[2] < float(np.min(rss[list(nulls)]))
+        for row in () if useful else derived_rows:
             # an equivalent start's amplitudes refined on its own response (its swing is the
             # sub-model's, its decay is not): screened by its profile, as the nested start is
-            # (not needed with the averaged model's MAP, a start of the same kind, refined further)
+            # (not needed with a useful averaged MAP, a start of the same kind, refined further)
             refined = self._inner(self._one(values, row), amplitudes[row], float(values[AR1_COEFFICIENT][row]) if ar1
                                   else (0.0 if self.likelihood == "ar1" else None))
             amplitudes[row] = refined["amplitudes"]
@@ -314,19 +320,53 @@ class NonlinearFreeModel(ProjectedFreeModel):
             values = problem.from_internal(starts)
         best = int(np.argmin(rss))
         quadratic = [problem.parameter(n).prior.internal_quadratic() for n in physical]
+        lower = np.concatenate([lo[:d] + margin[:d], np.full(k, -np.inf)])
+        upper = np.concatenate([hi[:d] - margin[:d], np.full(k, np.inf)])
+        # the joint least squares from the best-screened start, and from the averaged model's MAP
+        # when that is another: a start in the effect's basin can screen worse than the nested
+        # one (its first-order frequencies a few 1e-5 off, which the waveform's phase over a
+        # window of hundreds of cycles punishes), and only the search tells (module notes)
+        rows = [best] + ([len(starts) - 1] if averaged is not None and best != len(starts) - 1 else [])
+        ends = [self._joint_search(problem, starts, amplitudes, rss, values, row, d, k, quadratic, lower, upper, lo, hi)
+                for row in rows]
+        found, solution, settled_at = max(ends, key=lambda end: end[3])[:3]
+        self._seed(problem.from_internal(found), solution.x[d:])  # the inner solve starts where the search ended
+        candidates = [self._noise_at(problem, found)] + [self._noise_at(problem, starts[i]) for i in nulls]
+        scores = [float(problem.log_posterior(z)[0]) for z in candidates]
+        chosen = int(np.argmax(scores))
+        best_z, best_lp = candidates[chosen], scores[chosen]
+        report("the Laplace approximation's Hessian at the MAP")
+        hessian = self._laplace_hessian(problem, best_z, d, quadratic)
+        values = {n: float(v[0]) for n, v in problem.from_internal(best_z).items()}
+        scale = np.array([p.prior.internal_scale for p in problem.parameters])
+        at_bound = tuple(n for i, n in enumerate(problem.names)
+                         if best_z[i] <= lo[i] + 1e-6 * scale[i] or best_z[i] >= hi[i] - 1e-6 * scale[i])
+        message = ("joint least squares of the nonlinear free decay" if chosen == 0 else
+                   "the nested start (a sub-model's optimum) kept: the joint least squares ended lower")
+        return MapResult(z=best_z, values=values, log_posterior=best_lp, gradient=np.zeros(problem.ndim),
+                         hessian=hessian, hessian_point=best_z.copy(), converged=bool(solution.status > 0 or settled_at),
+                         message=message, n_starts=len(starts), start_log_posteriors=scores,
+                         at_bound=at_bound, n_iterations=int(solution.nfev))
+
+    def _joint_search(self, problem: Problem, starts: np.ndarray, amplitudes: np.ndarray, rss: np.ndarray, values,
+                      best: int, d: int, k: int, quadratic, lower: np.ndarray, upper: np.ndarray, lo: np.ndarray,
+                      hi: np.ndarray):
+        """The joint least squares of :meth:`map_search` from row ``best`` of ``starts``: (its end
+        as an internal point, scipy's solution, whether it stopped settled, its log posterior)."""
+        from scipy import optimize
+
+        ar1 = AR1_COEFFICIENT in values
         rho = (float(values[AR1_COEFFICIENT][best]) if ar1 and np.isfinite(values[AR1_COEFFICIENT][best])
                else (0.0 if self.likelihood == "ar1" else None))
         y = self.fit_data
         sd = max(math.sqrt(rss[best] / y.size), 1e-300) if np.isfinite(rss[best]) else 1.0
         x0 = np.concatenate([starts[best, :d], amplitudes[best]])
-        lower = np.concatenate([lo[:d] + margin[:d], np.full(k, -np.inf)])
-        upper = np.concatenate([hi[:d] - margin[:d], np.full(k, np.inf)])
 
         integrations = [0]
 
         def residuals(x):
             integrations[0] += 1
-            report(f"nonlinear MAP search from the best start: integration {integrations[0]}")
+            report(f"nonlinear MAP search from start {best}: integration {integrations[0]}")
             f = self._record_response(problem, x[None, :], d, self.fit_time_s)[0]
             data = self.whitened((y - f)[None, :], rho)[0] / sd
             return np.concatenate([data, self.prior_residuals(x[:d], quadratic)])
@@ -334,7 +374,7 @@ class NonlinearFreeModel(ProjectedFreeModel):
         last: dict[str, np.ndarray] = {}
 
         def jacobian(x):
-            report(f"nonlinear MAP search from the best start: Jacobian after {integrations[0]} integrations")
+            report(f"nonlinear MAP search from start {best}: Jacobian after {integrations[0]} integrations")
             data = -self.whitened(self._joint_columns(problem, x, d, self.fit_time_s)[1], rho) / sd
             prior = np.zeros((d, x.size))
             for j, (_, _, sigma) in enumerate(quadratic):
@@ -364,43 +404,29 @@ class NonlinearFreeModel(ProjectedFreeModel):
                                           x_scale="jac", method="trf", callback=stop_when_settled,
                                           max_nfev=JOINT_MAX_NFEV_PER_UNKNOWN * x0.size)
         found = np.concatenate([solution.x[:d], starts[best, d:]])
-        self._seed(problem.from_internal(found), solution.x[d:])  # the inner solve starts where the search ended
-        candidates = [self._noise_at(problem, found)] + [self._noise_at(problem, starts[i]) for i in nulls]
-        scores = [float(problem.log_posterior(z)[0]) for z in candidates]
-        chosen = int(np.argmax(scores))
-        best_z, best_lp = candidates[chosen], scores[chosen]
-        report("the Laplace approximation's Hessian at the MAP")
-        hessian = self._laplace_hessian(problem, best_z, d, quadratic)
-        values = {n: float(v[0]) for n, v in problem.from_internal(best_z).items()}
-        scale = np.array([p.prior.internal_scale for p in problem.parameters])
-        at_bound = tuple(n for i, n in enumerate(problem.names)
-                         if best_z[i] <= lo[i] + 1e-6 * scale[i] or best_z[i] >= hi[i] - 1e-6 * scale[i])
-        message = ("joint least squares of the nonlinear free decay" if chosen == 0 else
-                   "the nested start (a sub-model's optimum) kept: the joint least squares ended lower")
-        return MapResult(z=best_z, values=values, log_posterior=best_lp, gradient=np.zeros(problem.ndim),
-                         hessian=hessian, hessian_point=best_z.copy(), converged=bool(solution.status > 0 or settled["at"]),
-                         message=message, n_starts=len(starts), start_log_posteriors=scores,
-                         at_bound=at_bound, n_iterations=int(solution.nfev))
+        self._seed(problem.from_internal(found), solution.x[d:])
+        return found, solution, settled["at"], float(problem.log_posterior(self._noise_at(problem, found))[0])
 
     def _averaged_start(self, problem: Problem, starts: np.ndarray, amplitudes: np.ndarray, rss: np.ndarray,
                         nulls: Sequence[int]) -> tuple[np.ndarray, np.ndarray, float] | None:
         """The start from the averaged model (:class:`beam.calibration.free_averaged.AveragedDragModel`):
-        its MAP from the best-screened nested start, as an internal point (ndim,), its amplitudes
-        refined by the inner solve on the full response (k,) and their residual sum of squares;
-        None without a nested start or with a nonlinear effect other than the drag. Kept as
+        its MAP from the best-screened nested start (and from the best of :attr:`curve_starts`,
+        the better end kept), as an internal point (ndim,), its amplitudes refined by the
+        inner solve on the full response (k,) and their residual sum of squares; None without a
+        nested start or with a nonlinear effect that has no averaged form. Kept as
         :attr:`averaged` (the preview of the averaged model)."""
         from beam.calibration.fit import internal_starts
         from beam.calibration.free_averaged import AveragedDragModel
 
         self.averaged = None
         nonlinear = [e for e in self.model.effects if EFFECTS[e].nonlinear]
-        if not nulls or len(nonlinear) != 1 or EFFECTS[nonlinear[0]].averaged is None:
+        if not nulls or any(EFFECTS[e].averaged is None for e in nonlinear):
             return None
         source = min(nulls, key=lambda i: rss[i])
         values = problem.from_internal(starts[source : source + 1])
         one = {n: float(v[0]) for n, v in values.items()}
         try:
-            fit = AveragedDragModel(self).fit(problem, one, amplitudes[source])
+            fit = AveragedDragModel(self).fit(problem, one, amplitudes[source], also=self.curve_starts)
         except (BeamInputError, np.linalg.LinAlgError):
             return None
         self.averaged = fit

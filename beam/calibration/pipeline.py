@@ -331,10 +331,18 @@ class FreeNonlinear(FreeLinear):
             )
 
     def starts(self, problem, setup, engine, warm, search):
-        chosen = nonlinear_free_starts(problem, setup, linear_sub_map(setup, engine), warm)
+        from beam.calibration.slowflow import curve_starts
+
+        linear = linear_sub_map(setup, engine)
+        chosen = nonlinear_free_starts(problem, setup, linear, warm)
         if sum(EFFECTS[e].nonlinear for e in setup.effects) > 1:  # a sub-model with a nonlinear effect of its own
             chosen += null_starts(problem, setup, engine)  # remembered (the drag's before the friction): nested too
-        return chosen
+        # the averaged MAP on the record's own backbone and damping curves: where the averaged
+        # time-domain model, started at the nested optimum, cannot leave the null (a joint that
+        # never slips moves nothing, so its gradient there vanishes)
+        curves = curve_starts(setup.measurement, setup.effects, setup.window, linear, setup.physical_names)
+        problem.model.curve_starts = curves
+        return chosen + curves
 
     def search(self, problem, guesses):
         return problem.model.map_search(problem, guesses)
@@ -350,7 +358,7 @@ class FreeNonlinear(FreeLinear):
 
 
 class Averaged(CalibrationModel):
-    """The averaged (slow-flow) calibration of a free decay whose one nonlinear effect has an
+    """The averaged (slow-flow) calibration of a free decay whose nonlinear effects all have an
     averaged form (:attr:`~beam.physics.effects.effect.Effect.averaged`, :mod:`beam.calibration.free_averaged`):
     no integration; started from the linear sub-model's optimum; its Laplace approximation and
     linearised bands are the averaged model's (they do not include its approximation error).
@@ -360,19 +368,20 @@ class Averaged(CalibrationModel):
     free = True
     posterior = LAPLACE
 
-    def __init__(self, effect: str) -> None:
+    def __init__(self, effect: str, *more: str) -> None:
         self.effect = effect
+        self.effects = (effect, *more)
 
     def __repr__(self) -> str:
-        return f"Averaged({self.effect!r})"
+        return f"Averaged({', '.join(repr(e) for e in self.effects)})"
 
     @classmethod
     def of(cls, setup: BeamCalibrationSetup) -> Averaged | None:
-        """The averaged calibration of a free decay whose only nonlinear effect has an averaged form, else None."""
+        """The averaged calibration of a free decay whose nonlinear effects all have averaged forms, else None."""
         nonlinear = [e for e in setup.effects if EFFECTS[e].nonlinear]
-        if not setup.calibration.free or len(nonlinear) != 1 or EFFECTS[nonlinear[0]].averaged is None:
+        if not setup.calibration.free or not nonlinear or any(EFFECTS[e].averaged is None for e in nonlinear):
             return None
-        return cls(nonlinear[0])
+        return cls(*nonlinear)
 
     def fit(self, setup: BeamCalibrationSetup, problem: Problem, engine: Engine):
         """The averaged model's MAP and Laplace covariance (:class:`~beam.calibration.free_averaged.AveragedDragFit`)

@@ -7,7 +7,8 @@ bundled record's, 4 s at 1 kHz, every Galerkin mode), then calibrated on its fir
 the default effects + ``tip_cubic_spring`` and the record's own choice of modes, as
 ``beam calibrate X.csv --effects air_damping,kelvin_voigt,tip_cubic_spring --window 0:1`` does;
 ``lab_run_4`` itself is run first, in the same process, as the baseline. Reported: wall and CPU
-time of each calibration, its modes, and the relative error of the MAP's EI and k3.
+time of each calibration, its modes, the relative error of the MAP's EI and k3, and whether the
+sampler reached the spec's ESS target (with the smallest ESS).
 
 The first call of a process compiles the numba kernels unless their on-disk cache is valid
 (it is invalidated when their source file changes): run the script twice and read the second.
@@ -62,6 +63,12 @@ def run(path: Path, preview: bool) -> tuple[float, float, object]:
     return time.perf_counter() - wall, time.process_time() - cpu, result
 
 
+def sampled(result) -> str:
+    """Whether the sampler reached its ESS target, and its smallest ESS ("preview" without one)."""
+    diagnostics = result.posterior.diagnostics if result.posterior is not None else None
+    return "preview" if diagnostics is None else f"{bool(diagnostics.converged)}  {diagnostics.ess_min:.0f}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("count", nargs="?", type=int, default=3)
@@ -70,9 +77,9 @@ def main() -> None:
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     text = CONFIG.read_text()
-    print("record          wall_s  cpu_s  modes  EI_err   k3_err")
+    print("record          wall_s  cpu_s  modes  EI_err   k3_err   converged  ess_min")
     wall, cpu, result = run(ROOT / "assets" / "measurements" / "lab_run_4.csv", args.preview)
-    print(f"lab_run_4       {wall:6.1f}  {cpu:5.1f}  {result.setup.modes:5d}")
+    print(f"lab_run_4       {wall:6.1f}  {cpu:5.1f}  {result.setup.modes:5d}                     {sampled(result)}")
     with tempfile.TemporaryDirectory() as folder:
         for i in range(args.count):
             config_text, drawn = fresh_config(text, rng)
@@ -83,7 +90,8 @@ def main() -> None:
             fitted = result.laplace.map.values
             ei = fitted["bending_stiffness_Nm2"] / drawn["bending_stiffness_Nm2"] - 1
             k3 = fitted["tip_cubic_stiffness_N_m3"] / drawn["tip_cubic_stiffness_N_m3"] - 1
-            print(f"unseen_{i}        {wall:6.1f}  {cpu:5.1f}  {result.setup.modes:5d}  {ei:+.1e}  {k3:+.1e}", flush=True)
+            print(f"unseen_{i}        {wall:6.1f}  {cpu:5.1f}  {result.setup.modes:5d}  {ei:+.1e}  {k3:+.1e}  "
+                  f"{sampled(result)}", flush=True)
 
 
 if __name__ == "__main__":

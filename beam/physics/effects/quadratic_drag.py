@@ -129,7 +129,7 @@ class AveragedDrag:
 
     note = AVERAGED_NOTE
 
-    def prepare(self, model, values, shapes, omega, sigma, tau):
+    def prepare(self, model, values, shapes, omega, sigma, tau, output="displacement"):
         import numpy as np
 
         if not model.geometry.width_m:
@@ -151,6 +151,18 @@ class AveragedDrag:
         ratio = np.exp(-np.log1p(growth)[:, None] * prepared["cross"][p][None, :])  # A(tau) / (a e^(-c tau)) (n, m)
         ratio[:, p] = 1.0 / (1.0 + growth)
         return ratio, None
+
+    def describing(self, prepared, amplitudes):
+        """No frequency shift; mode p's own cycle-averaged drag b_p A_p and its damping of every
+        other mode beta_k A_p (module notes), p the mode of the largest velocity in each row."""
+        import numpy as np
+
+        a = np.atleast_2d(np.asarray(amplitudes, dtype=float))
+        p = np.argmax(a * prepared["omega"][None, :], axis=1)  # (N,)
+        b_p, a_p = prepared["b"][p], a[np.arange(a.shape[0]), p]
+        rate = (b_p * a_p)[:, None] * prepared["cross"][p]  # beta_k A_p = (beta_k / b_p) b_p A_p
+        rate[np.arange(a.shape[0]), p] = b_p * a_p
+        return np.zeros_like(a), rate
 
 
 def equivalent_starts(model, one, state, duration_s):
