@@ -26,6 +26,19 @@ def test_default_window_is_the_first_30_percent_and_bad_windows_are_refused():
         make_setup(record, window=(1.5, 2.5))
     with pytest.raises(BeamInputError, match="shorter than one period"):
         make_setup(record, window=(0.0, 0.1))
+
+
+def test_a_window_from_zero_fits_a_record_whose_first_stamp_is_later_by_less_than_a_step():
+    """A phone's first stamp is a fraction of a sample after 0: ``0:1`` is its first second; a
+    window starting two steps before the record still lies outside it."""
+    from dataclasses import replace
+
+    record = simulated_measurement(TRUE_BASE, duration_s=2.0)
+    step = float(np.median(np.diff(record.time_s)))
+    late = replace(record, time_s=record.time_s + 0.6 * step)
+    assert make_setup(late, window=(0.0, 1.0)).window == (0.0, 1.0)
+    with pytest.raises(BeamInputError, match="outside the record"):
+        make_setup(late, window=(-2 * step, 1.0))
     with pytest.raises(BeamInputError, match="unknown effect"):
         make_setup(record, effects="air_damping,tip_masss")
     with pytest.raises(BeamInputError, match="modes must be between 1 and 43"):  # 40 elements, patch knots

@@ -103,3 +103,24 @@ def test_the_engine_exports_and_merges_its_memory():
     assert again.laplace.map is fit.laplace.map  # recalled, not searched again
     assert one.submodels(calibration_preview(record, spec, effects=(*BASE, "tip_mass"), engine=one).setup) == [
         (BASE, fit.laplace.map)]
+
+
+#: Stand-ins for other labs' records (tests/record_families.py: strips of 0.25-0.58 m, an
+#: accelerometer at 4 and 2 kHz, a phone at 263 Hz on jittered stamps, a strain gauge near the root).
+OTHER_STRIPS = [("accelerometer", 1), ("accelerometer", 0), ("phone", 1), ("strain", 0)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family, seed", OTHER_STRIPS)
+def test_nested_fits_are_monotone_on_strips_of_other_lengths_and_sensors(family, seed):
+    """#38 item 2: on every length and sensor, from every remembered sub-model (the base, then the
+    base with the sensor's mass), a larger model never fits the window worse than the model it
+    contains (the record holds a sensor mass the base lacks)."""
+    from tests.record_families import make_record
+
+    record = make_record(family, "sensor_mass", seed).measurement
+    engine = Engine()
+    spec = CalibrationSpec(window=(0.0, 2.0), effects=("modal_damping",), modes=3)
+    assert_monotone(record, spec, "sensor_mass", engine)
+    assert_monotone(record, CalibrationSpec(window=(0.0, 2.0), effects=("modal_damping", "sensor_mass"), modes=3),
+                    "clamp_compliance", engine)

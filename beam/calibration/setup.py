@@ -117,7 +117,9 @@ def resolve_window(measurement: Measurement, window: tuple[float, float] | None)
     """The calibration window [start, end] (s), default the first
     :data:`~beam.calibration.defaults.DEFAULT_WINDOW_FRACTION` of the record.
 
-    Raises BeamInputError when it lies outside the record or holds too few samples.
+    A window may start up to one sample step before the first stamp (``0:2`` on a phone record
+    whose first stamp is 0.8 ms): the record is sampled from there. Raises BeamInputError when
+    it lies outside the record or holds too few samples.
     """
     t = measurement.time_s
     if window is None:  # the default's value when asked (beam.calibration.defaults)
@@ -126,7 +128,8 @@ def resolve_window(measurement: Measurement, window: tuple[float, float] | None)
         start, end = (float(v) for v in window)
     if not (math.isfinite(start) and math.isfinite(end)) or not start < end:
         raise BeamInputError(f"calibration window must have start < end, got {start}:{end}")
-    if start < t[0] - 1e-9 or end > t[0] + measurement.duration_s + 1e-9:  # the record covers n dt
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    if start < t[0] - step - 1e-9 or end > t[0] + measurement.duration_s + 1e-9:  # the record covers n dt
         raise BeamInputError(
             f"calibration window {start:g}:{end:g} s lies outside the record ({t[0]:g} to {t[-1]:g} s)"
         )
