@@ -110,6 +110,7 @@ class Run(param.Parameterized):
         self.since: float | None = None
         self._timings: dict[int, dict[str, float]] = {}
         self._subjects: dict[int, str] = {}
+        self._ended = 0  # the latest request whose final or error was shown
 
     def attach(self, slot: sch.RunSlot) -> None:
         """Give the run its scheduler slot (done by :meth:`dashboard.state.session.SessionState.run`)."""
@@ -175,7 +176,14 @@ class Run(param.Parameterized):
 
     # -- updates from the scheduler ------------------------------------------------------------
     def on_update(self, update: sch.Update) -> None:
-        """The slot's callback: the owner's part of ``update``, then the run's (module table)."""
+        """The slot's callback: the owner's part of ``update``, then the run's (module table).
+
+        Nothing of a request changes the run after its final or its error: an update of it that
+        arrives later (a throttled progress, a preview delivered behind the final) is dropped."""
+        if update.request <= self._ended:
+            return
+        if update.kind in ("final", "error"):
+            self._ended = update.request
         self._timings.setdefault(update.request, {}).setdefault(update.kind, update.elapsed_s)
         if len(self._timings) > TIMINGS_KEPT:
             self._timings.pop(min(self._timings))
