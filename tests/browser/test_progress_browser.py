@@ -56,7 +56,7 @@ def test_the_status_line_changes_every_few_seconds_and_names_what_is_fitted(page
     # cache): lab_run_1 with the window's end 0.2 s earlier, calibrated, then diagnosed
     page.locator(".bk-tab", has_text="Beam calibration").first.click()
     wait_for_status(page, BEAM_FINAL, timeout_ms=300000)
-    end = page.locator(".beam-window-slider .noUi-handle").last
+    end = page.locator(".beam-cal-window .noUi-handle").nth(1)  # the window's end
     end.focus()
     for _ in range(4):
         page.keyboard.press("ArrowLeft")
