@@ -239,3 +239,19 @@ def wait_while_moving(page, done, moving, *, stall_ms: float = 60000, poll_ms: f
 
 #: The beam view shows the final posterior of its latest request.
 BEAM_FINAL = "s.stage === 'final' && s.shown > 0 && s.shown === s.requested && s.preview === 0 && s.band_n > 0"
+
+
+#: The files of the FilePond upload widget under ``element`` as [status, name] (FilePond's status
+#: codes: 3 processing, 5 processing complete), for a failure's message.
+FILEPOND_FILES_JS = """el => { const p = window.FilePond && FilePond.find(el);
+  return p ? p.getFiles().map(f => [f.status, f.filename]) : 'no FilePond here' }"""
+
+
+def upload_state(page, css: str) -> str:
+    """What the upload widget with class ``css`` holds and what the page logged (a failure's message)."""
+    try:
+        root = page.locator(f".{css} .filepond--root").first
+        files = root.evaluate(FILEPOND_FILES_JS) if root.count() else "no widget"
+    except Exception as exc:  # noqa: BLE001 - only a failure's message: say why it could not be read
+        files = f"unreadable ({exc})"
+    return f"FilePond files (status, name): {files}; page errors: {getattr(page, 'errors', None)}"

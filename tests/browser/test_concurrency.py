@@ -8,6 +8,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
+from conftest import IGNORED
 from harness import read_state, settle, wait_for_result, window_handle
 
 pytestmark = pytest.mark.browser
@@ -127,6 +128,8 @@ def test_eight_sessions_at_once_each_see_their_own_result_and_the_server_stays_r
             page = browser_context.new_page()
             page.errors = []
             page.on("pageerror", lambda e, p=page: p.errors.append(str(e)))
+            page.on("console", lambda m, p=page: p.errors.append(f"console.{m.type}: {m.text}")
+                    if m.type == "error" and not any(s in m.text for s in IGNORED) else None)
             opened.append(time.monotonic())
             page.goto(app_url)
             pages.append(page)
@@ -143,10 +146,11 @@ def test_eight_sessions_at_once_each_see_their_own_result_and_the_server_stays_r
             settled.append(time.monotonic())
     finally:
         prober.stop()
+    logged = [page.errors for page in pages]  # said with any failure below: a message the page refused
     for steps, state in enumerate(shown):
-        assert state["window"] == pytest.approx(5.0 + 0.5 * steps)  # no cross-talk of state
-        assert state["stage"] == "final" and state["shown"] == state["requested"]
-    assert len({round(s["band_sum"], 9) for s in shown}) == 8  # eight different results
+        assert state["window"] == pytest.approx(5.0 + 0.5 * steps), logged  # no cross-talk of state
+        assert state["stage"] == "final" and state["shown"] == state["requested"], logged
+    assert len({round(s["band_sum"], 9) for s in shown}) == 8, (shown, logged)  # eight different results
     assert not prober.failures, prober.failures[:3]
     # Responsiveness, as events (the answer times are a benchmark's: bench_dashboard.py --sessions 8):
     # the event loop answered the probe while each session was opening and calibrating, and while

@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 
 import pytest
-from harness import BEAM_FINAL, read_status, wait_for_status
+from harness import BEAM_FINAL, read_status, upload_state, wait_for_status
 from playwright.sync_api import expect
 
 from beam.io.config import load_config
@@ -51,7 +51,11 @@ def test_a_record_larger_than_a_websocket_message_loads(page, long_record):
     page.locator(".beam-upload-toml input[type=file]").set_input_files(toml)
     # both files arrived on the server (piece by piece for the CSV): the button is enabled
     expect(load).to_be_enabled(timeout=60000)
-    expect(page.locator(".beam-upload-csv .filepond--file-status-main")).to_have_text("Upload complete", timeout=30000)
+    try:
+        expect(page.locator(".beam-upload-csv .filepond--file-status-main")).to_have_text("Upload complete",
+                                                                                     timeout=30000)
+    except AssertionError as failure:  # say what the widget holds and what the page logged
+        raise AssertionError(f"{failure}\n{upload_state(page, 'beam-upload-csv')}") from None
     load.click()
     state = wait_for_status(page, "s.dataset.startsWith('upload-1-long_lab_run') && s.shown === s.requested "
                                   "&& s.band_n > 0", timeout_ms=180000)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from harness import read_status, wait_for_status, wait_while_moving
+from harness import read_status, upload_state, wait_for_status, wait_while_moving
 from playwright.sync_api import expect
 
 from beam.io.anchor import closed_form_mode1_Hz
@@ -165,7 +165,10 @@ def test_a_50_MB_phone_record_uploads_and_is_read(page, tmp_path):
 
     waited = wait_while_moving(page, read, shown, stall_ms=60000)
     print(f"50 MB record uploaded and read in {waited['seconds']:.1f} s ({waited['changes']} changes shown)")
-    expect(upload).to_have_text("Upload complete")
+    try:
+        expect(upload).to_have_text("Upload complete")
+    except AssertionError as failure:  # say what the widget holds and what the page logged
+        raise AssertionError(f"{failure}\n{upload_state(page, 'record-upload')}") from None
     what = page.locator(".record-what")
     expect(what).to_contain_text(f"{t.size:,} samples")
     expect(what).to_contain_text("Linear Acceleration z (m/s^2)")
