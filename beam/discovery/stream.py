@@ -9,7 +9,7 @@ runs them on threads, the dashboard on its worker processes, a study could run t
 
 **The protocol.** The generator yields, in order of need:
 
-a request (:class:`BaseRequest`, :class:`FitRequest`, :class:`CheckRequest`)
+a request (:class:`BaseRequest`, :class:`CurveRequest`, :class:`FitRequest`, :class:`CheckRequest`)
     A computation to start. The driver starts it (unless it started it already: a request is
     hashable and equal requests are the same computation) and resumes the generator with
     ``send(None)``. Every request computes :meth:`run`; :func:`run_request` runs one and wraps its
@@ -25,6 +25,15 @@ a request (:class:`BaseRequest`, :class:`FitRequest`, :class:`CheckRequest`)
     :class:`~beam.discovery.findings.DiagnosisReport` so far (``pending`` candidates not ranked yet).
 :class:`~beam.discovery.findings.DiagnosisReport`
     The last item: the complete report.
+
+**A free decay is ranked on the averaged forms first** (:mod:`beam.discovery.averaged`): after
+the base, one :class:`CurveRequest` scores every applicable candidate (the linear ones, and
+``quadratic_drag``, ``clamp_friction``, ``tip_cubic_spring`` by their describing functions) on
+the record's backbone and damping curves, and a :class:`Step` carries that complete ranking and
+its verdict (``report.source == "averaged"``) before any full fit is asked for. The full fits
+then confirm the linear candidates and the nonlinear ones the curves name missing; each full
+figure replaces the averaged one as its fit ends (``Candidate.source``), and a nonlinear
+candidate the curves do not call for keeps its averaged figures in the complete report.
 
 Every fit result the generator receives is kept in its ``engine``
 (:meth:`beam.calibration.Engine.merge`): a driver that runs fits in other processes sends
