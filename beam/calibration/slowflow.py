@@ -326,6 +326,11 @@ class SlowFlowScore:
     nested_limit : bool
         Whether the candidate's search found nothing better than the base with the candidate at
         its null value, so that the score is that nested limit (:func:`score_model`).
+    window_rms_z, heldout_rms_z_identified : float
+        The rms z-score of the window's blocks and of the blocks after it (NaN: none) at the MAP
+        with the identification's own standard errors (unit scales, not the profiled ones): the
+        curves' error of the model, comparable between models (1 when they follow the curves to
+        the identification's errors), as the one rule's errors (:mod:`beam.discovery.averaged`).
     """
 
     effects: tuple[str, ...]
@@ -344,6 +349,8 @@ class SlowFlowScore:
     converged: bool = True
     cpu_s: float = 0.0
     nested_limit: bool = False
+    window_rms_z: float = math.nan
+    heldout_rms_z_identified: float = math.nan
 
 
 def _fit(curve: CurveModel, blocks: CurveBlocks, starts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -557,6 +564,9 @@ def score_model(measurement, effects: Sequence[str], blocks: CurveBlocks, window
     spread = 1.959963984540054 * np.sqrt(np.maximum(np.diag(cov), 0.0))
     intervals = {n: (float(curve.priors[n].from_internal(z[i] - spread[i])),
                      float(curve.priors[n].from_internal(z[i] + spread[i]))) for i, n in enumerate(curve.names)}
+    unit = np.ones((2, curve.modes))
+    window_z = float(np.sqrt(np.mean(curve.residuals(values, fit_blocks, unit) ** 2)))
+    held_z = float(np.sqrt(np.mean(curve.residuals(values, held, unit) ** 2))) if len(held) else math.nan
     if len(held):
         r = curve.residuals(values, held, scales)
         k = held.mode - 1
@@ -570,7 +580,8 @@ def score_model(measurement, effects: Sequence[str], blocks: CurveBlocks, window
                      if min(abs(z[i] - bounds[n][0]), abs(bounds[n][1] - z[i])) < 1e-6 * curve.priors[n].internal_scale)
     return SlowFlowScore(curve.effects, candidate, values, intervals, lp,
                          curve.log_likelihood(values, fit_blocks, scales), evidence, heldout, rms, len(fit_blocks),
-                         len(held), scales, at_bound, converged, time.process_time() - cpu)
+                         len(held), scales, at_bound, converged, time.process_time() - cpu, window_rms_z=window_z,
+                         heldout_rms_z_identified=held_z)
 
 
 def _nested_limit(curve: CurveModel, base: SlowFlowScore, candidate: str | None, embedded: np.ndarray,
@@ -586,7 +597,8 @@ def _nested_limit(curve: CurveModel, base: SlowFlowScore, candidate: str | None,
     return SlowFlowScore(curve.effects, candidate, values, intervals, float(reference), base.log_likelihood,
                          base.log_evidence, base.heldout_log_density, base.heldout_rms_z, base.n_window,
                          base.n_heldout, base.scales, tuple(curve.names[i] for i in added), base.converged, cpu_s,
-                         nested_limit=True)
+                         nested_limit=True, window_rms_z=base.window_rms_z,
+                         heldout_rms_z_identified=base.heldout_rms_z_identified)
 
 
 def centre_values(curve: CurveModel) -> dict[str, float]:

@@ -249,11 +249,15 @@ def format_report(summary: dict) -> str:
     lines += ["", f"candidate effects on the base model, best first ({ORDER_WORDS}; * missing; the ladder judges "
               "the rest again on top of each rung)",
               f"  {'effect':18s} {'Δ log evidence':>15s} {'held-out RMSE':>18s}  {'judged':31s} why"]
+    if any(c.get("source") == "averaged" for c in summary["candidates"]):
+        lines.append("  [averaged]: figures of the averaged forms fitted to the record's backbone and damping curves "
+                     "(evidence of the curves, no RMSE); the others: the full time-domain fits")
     for c in summary["candidates"]:
         mark = "*" if c["material"] else " "
         judged = STATUS_WORDS.get(c.get("status"), "")
+        source = "[averaged] " if c.get("source") == "averaged" else ""
         lines.append(f"{mark} {c['effect']:18s} {_nats(c['delta_log_evidence']):>15s} {_in_unit(c['rmse_prediction'], unit):>18s}"
-                     f"  {judged:31s} {c['explanation']}")
+                     f"  {judged:31s} {source}{c['explanation']}")
     lines += ["", "error ladder"]
     for step in summary["ladder"]:
         name = "base" if step["added"] is None else f"+ {step['added']}"

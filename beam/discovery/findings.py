@@ -282,6 +282,12 @@ def indistinguishable(ranking: Ranking, visible_modes: int = 0) -> list[str]:
     best = material[0]
     out = []
     for c in material[1:]:
+        if getattr(c, "source", "full") != getattr(best, "source", "full"):
+            continue  # the curves' evidence beside a full fit's: of other data
+        if getattr(best, "source", "full") == "averaged":  # the curves: evidence alone (no RMSE, no fit)
+            if best.delta_log_evidence - c.delta_log_evidence < INDISTINGUISHABLE_LOG_EVIDENCE:
+                out.append(c.effect)
+            continue
         close = (best.delta_log_evidence - c.delta_log_evidence < INDISTINGUISHABLE_LOG_EVIDENCE
                  and abs(c.rmse_prediction - best.rmse_prediction) <= INDISTINGUISHABLE_RMSE * best.rmse_prediction)
         if not close and visible_modes > 0 and _has_fit(ranking, best.effect) and _has_fit(ranking, c.effect):
@@ -478,7 +484,10 @@ class VerdictFacts:
         added = {step.added for step in getattr(self, "ladder", ()) or () if step.added is not None}
         # an effect the ladder adds later (named missing on top of a rung) is no longer "not borne out"
         # or "not this effect": those were its judgement on the base alone
-        kept = [c for c in self.ranking.candidates if c.effect not in added]
+        # and a candidate whose figures are of another source than the report's (the curves' beside
+        # the full fits') is judged on other errors: no note compares them
+        source = getattr(self, "source", "full")
+        kept = [c for c in self.ranking.candidates if c.effect not in added and getattr(c, "source", "full") == source]
         contradicted = sorted((c for c in kept if window_only(c, base)), key=lambda c: -c.delta_log_evidence)
         notes = [window_only_words(name(c.effect), c.delta_log_evidence, held_out_change(c, base), base.setup.is_free)
                  for c in contradicted[:MAX_WINDOW_NOTES]]
@@ -539,6 +548,13 @@ class DiagnosisReport(VerdictFacts):
     pending: list[str] = field(default_factory=list)
     #: Whether this is the complete report (ladder climbed, distance to the noise measured).
     complete: bool = True
+    #: Where the ranking's figures come from: ``"averaged"`` (every candidate scored on the
+    #: record's backbone and damping curves, :mod:`beam.discovery.averaged`; a free decay's first
+    #: ranking) or ``"full"`` (the time-domain fits; candidates not fitted yet keep their
+    #: averaged figures, each saying so by its :attr:`~beam.discovery.ranking.Candidate.source`).
+    source: str = "full"
+    #: The averaged ranking's verdict (None: no averaged ranking), said while the full fits confirm it.
+    averaged_verdict: str | None = None
 
     @property
     def base(self) -> CalibrationResult:
@@ -584,7 +600,11 @@ class DiagnosisReport(VerdictFacts):
     @property
     def verdict(self) -> str:
         """One sentence: what is missing, how far the last rung is from the noise, or that nothing in the catalogue is."""
+        if self.source == "averaged" and not self.pending and self.averaged_verdict is not None:
+            return self.averaged_verdict
         if self.pending:
+            if self.averaged_verdict is not None:
+                return f"{self.averaged_verdict} ({len(self.pending)} full fits to go)"
             return f"ranking the candidates: {len(self.pending)} to go"
         return self.verdict_parts().sentence()
 
@@ -631,6 +651,8 @@ class DiagnosisReport(VerdictFacts):
             "rmse_calibration_base": base.rmse_calibration_map,
             "rmse_prediction_base": base.rmse_prediction_map,
             "coverage95_prediction_base": base.coverage95_prediction,
+            "source": self.source,
+            **({"averaged_verdict": self.averaged_verdict} if self.averaged_verdict is not None else {}),
             "candidates": [c.to_json() for c in self.ranking.candidates],
             "missing": self.missing,
             "repair": (None if self.repair_effects is None else

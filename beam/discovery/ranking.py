@@ -89,6 +89,11 @@ class Candidate:
     judgement : Judgement or None
         The one rule's decision (:func:`beam.discovery.judgement.judge`); None for a candidate
         made from numbers alone (then :func:`judgement_of` judges its numbers).
+    source : str
+        Where its figures come from: ``"full"`` (the time-domain calibration of base + effect)
+        or ``"averaged"`` (its averaged form fitted to the record's backbone and damping
+        curves, :mod:`beam.discovery.averaged`: the evidence is the curves', the RMSEs and
+        coverage are unknown, NaN).
     """
 
     effect: str
@@ -100,6 +105,7 @@ class Candidate:
     explanation: str
     parameters: dict
     judgement: Judgement | None = None
+    source: str = "full"
 
     @property
     def status(self) -> str | None:
@@ -116,6 +122,7 @@ class Candidate:
             "material": self.material,
             "explanation": self.explanation,
             "parameters": self.parameters,
+            "source": self.source,
         }
         if self.judgement is not None:
             out.update(self.judgement.to_json())

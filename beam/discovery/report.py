@@ -112,7 +112,8 @@ def diagnose(
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
     from beam.calibration import CalibrationSpec, default_engine
-    from beam.discovery.stream import WAIT, BaseRequest, CheckRequest, FitRequest, Step, diagnosis_stream, run_request
+    from beam.discovery.stream import (WAIT, BaseRequest, CheckRequest, CurveRequest, FitRequest, Step, diagnosis_stream,
+                                       run_request)
 
     say = progress or (lambda text: None)
     engine = default_engine() if engine is None else engine
@@ -132,7 +133,7 @@ def diagnose(
                     running.pop(future)
                     event = stream.send(future.result())
                     continue
-                if isinstance(event, (BaseRequest, FitRequest, CheckRequest)) and event not in asked:
+                if isinstance(event, (BaseRequest, FitRequest, CheckRequest, CurveRequest)) and event not in asked:
                     asked.add(event)
                     running[pool.submit(run_request, event, measurement, engine, progress)] = event
                 elif isinstance(event, Step):

@@ -9,7 +9,7 @@ runs them on threads, the dashboard on its worker processes, a study could run t
 
 **The protocol.** The generator yields, in order of need:
 
-a request (:class:`BaseRequest`, :class:`FitRequest`, :class:`CheckRequest`)
+a request (:class:`BaseRequest`, :class:`CurveRequest`, :class:`FitRequest`, :class:`CheckRequest`)
     A computation to start. The driver starts it (unless it started it already: a request is
     hashable and equal requests are the same computation) and resumes the generator with
     ``send(None)``. Every request computes :meth:`run`; :func:`run_request` runs one and wraps its
@@ -25,6 +25,15 @@ a request (:class:`BaseRequest`, :class:`FitRequest`, :class:`CheckRequest`)
     :class:`~beam.discovery.findings.DiagnosisReport` so far (``pending`` candidates not ranked yet).
 :class:`~beam.discovery.findings.DiagnosisReport`
     The last item: the complete report.
+
+**A free decay is ranked on the averaged forms first** (:mod:`beam.discovery.averaged`): after
+the base, one :class:`CurveRequest` scores every applicable candidate (the linear ones, and
+``quadratic_drag``, ``clamp_friction``, ``tip_cubic_spring`` by their describing functions) on
+the record's backbone and damping curves, and a :class:`Step` carries that complete ranking and
+its verdict (``report.source == "averaged"``) before any full fit is asked for. The full fits
+then confirm the linear candidates and the nonlinear ones the curves name missing; each full
+figure replaces the averaged one as its fit ends (``Candidate.source``), and a nonlinear
+candidate the curves do not call for keeps its averaged figures in the complete report.
 
 Every fit result the generator receives is kept in its ``engine``
 (:meth:`beam.calibration.Engine.merge`): a driver that runs fits in other processes sends
@@ -63,6 +72,15 @@ from beam.discovery.ranking import (
     thread_fitter,
     with_effect,
 )
+from beam.discovery.averaged import (
+    AVERAGED,
+    CurveRequest,
+    averaged_candidates,
+    averaged_ranking,
+    averaged_verdict,
+    confirmed,
+    merged_ranking,
+)
 from beam.discovery.held_out import remember_held_out
 from beam.errors import BeamInputError
 from beam.inference.progress import report, reporting
@@ -77,6 +95,7 @@ __all__ = [
     "error_ladder",
     "BaseRequest",
     "CheckRequest",
+    "CurveRequest",
     "Done",
     "FitRequest",
     "Speculation",
@@ -191,7 +210,7 @@ class CheckRequest:
         return remaining_error(self.result, self.floor)
 
 
-Request = BaseRequest | FitRequest | CheckRequest
+Request = BaseRequest | FitRequest | CheckRequest | CurveRequest
 
 
 class Done(NamedTuple):
@@ -273,7 +292,7 @@ class _Fits:
         value = done.value
         if isinstance(value, BaseException) and not (isinstance(done.request, FitRequest)
                                                      and isinstance(value, FIT_ERRORS)):
-            if not isinstance(done.request, CheckRequest):
+            if not isinstance(done.request, (CheckRequest, CurveRequest)):
                 raise value  # the base fit, or a fit that failed for another reason than its model
         self.done[done.request] = done
         if isinstance(done.request, BaseRequest):
@@ -328,7 +347,7 @@ def _rungs(fits: _Fits, ranking: Ranking, max_steps: int = 3) -> Generator[Any, 
         steps = [ladder_step(base, None, False)]
     effects = list(base.setup.effects)
     previous = base
-    for candidate in [c for c in ranking.candidates if c.material][:max_steps]:
+    for candidate in [c for c in ranking.candidates if c.material and c.source != AVERAGED][:max_steps]:
         chosen = tuple(e for e in EFFECTS if e in set(effects) | {candidate.effect})
         what = f"error ladder rung {len(steps) + 1}: + {candidate.effect}"
         if fits.mcmc:
@@ -476,15 +495,34 @@ def diagnosis_stream(engine: Engine | None, measurement: Measurement, spec: Cali
     names = list(candidate_effects(base.setup.effects, measurement))  # fits the record: sensor_mass for an accelerometer
     explain = explainer(residuals)
 
-    def report(ranking: Ranking, pending: list[str], ladder=None, remaining=None, complete: bool = False):
+    def report(ranking: Ranking, pending: list[str], ladder=None, remaining=None, complete: bool = False,
+               source: str = "full"):
         if ladder is None:
             ladder = [ladder_step(base, None, False)]
-            if not pending and ranking.missing is not None:
+            if not pending and ranking.missing is not None and ranking.missing in ranking.results:
                 ladder.append(ladder_step(ranking.results[ranking.missing], ranking.missing, False))
         return DiagnosisReport(measurement, residuals, ranking, ladder, time.perf_counter() - t0, remaining,
-                               pending=list(pending), complete=complete)
+                               pending=list(pending), complete=complete, source=source, averaged_verdict=said)
 
-    ranking = Ranking(base, [])
+    # a free decay: every applicable candidate ranked on the record's own curves first (averaged
+    # forms, about a second a candidate), that ranking and its verdict streamed; the full fits then
+    # confirm the linear candidates and the nonlinear ones leading on the curves
+    averaged, said = None, None
+    offered = averaged_candidates(base.setup.effects, measurement) if base.setup.is_free else ()
+    if offered:
+        curves = CurveRequest(CalibrationSpec.of_setup(base.setup), tuple(offered))
+        yield Step(f"{curves.label}", 0.1)
+        (scores,) = yield from fits.wait([curves])
+        if isinstance(scores, BaseException):
+            residuals.notes.append(f"no ranking on the averaged forms: {' '.join(str(scores).split())[:200]}")
+        else:
+            averaged = averaged_ranking(base, scores, residuals.explanations)
+            said = averaged_verdict(averaged)
+            names = confirmed(averaged, [e for e in names if not EFFECTS[e].nonlinear])
+            yield Step(f"ranked on the averaged forms ({len(offered)} candidates); confirming "
+                       f"{len(names)} by full fits", 0.25, report(averaged, [], source=AVERAGED))
+
+    ranking = merged_ranking(base, averaged, Ranking(base, []))
     yield Step(f"fitting the candidate effects: ranking {len(names)}", 0.25, report(ranking, names))
     requests = {e: fits.model(with_effect(base.setup.effects, e),
                               what=f"fitting {e} on the base (candidate {i} of {len(names)})")
@@ -495,6 +533,7 @@ def diagnosis_stream(engine: Engine | None, measurement: Measurement, spec: Cali
     ended: dict[str, Any] = {}
     frequencies: dict = {}
     floor = None
+    full = Ranking(base, [])
     try:
         floor = record_noise_floor(base.setup.measurement)  # as calibrated: the one floor shown everywhere
     except BeamInputError as exc:
@@ -509,20 +548,21 @@ def diagnosis_stream(engine: Engine | None, measurement: Measurement, spec: Cali
             if done.frequencies_Hz is not None:
                 frequencies[effect] = done.frequencies_Hz
             ranked = [e for e in names if e in ended]
-            ranking = rank_fits(base, ranked, {e: ended[e] for e in ranked}, explain)
-            ranking.frequencies_Hz = dict(frequencies)
+            full = rank_fits(base, ranked, {e: ended[e] for e in ranked}, explain)
+            full.frequencies_Hz = dict(frequencies)
+            ranking = merged_ranking(base, averaged, full)
             added = " + ".join(e for e in done.request.effects if e not in set(base.setup.effects))
             yield Step(f"candidate {added} fitted ({len(ranked)} of {len(names)}, {len(names) - len(ranked)} left)",
                        0.25 + 0.6 * len(ranked) / max(len(names), 1),
                        report(ranking, [e for e in names if e not in ended]))
-        if ranking.candidates and len(ended) < len(names) and ranking.missing is not None and floor is not None:
-            leader = ranking.results[ranking.missing]
+        if full.candidates and len(ended) < len(names) and full.missing is not None and floor is not None:
+            leader = full.results[full.missing]
             top = tuple(leader.setup.effects)
             ready = [with_effect(top, e) for e in candidate_effects(top, measurement) if e not in names or e in ended]
             yield Speculation(CheckRequest.of(leader, floor),
                               tuple(fits.model(s, search=not screen,
                                                what=f"ahead: fitting {' + '.join(e for e in s if e not in top)} "
-                                                    f"on top of {ranking.missing}")
+                                                    f"on top of {full.missing}")
                                     for s in sorted(ready, key=lambda s: -fits.cost(s))))
 
     yield Step("error ladder" + (" (MCMC at every rung)" if ladder_mcmc else ""), 0.85)
@@ -561,7 +601,7 @@ def drive(stream: Generator, run: Callable[[list], list], *,
                     ready.extend(run(batch))
                 event = stream.send(ready.pop(0))
                 continue
-            if isinstance(event, (BaseRequest, FitRequest, CheckRequest)):
+            if isinstance(event, (BaseRequest, FitRequest, CheckRequest, CurveRequest)):
                 if event not in seen:
                     seen.add(event)
                     asked.append(event)

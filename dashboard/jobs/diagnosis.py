@@ -26,6 +26,7 @@ from beam.discovery import (
     WAIT,
     BaseRequest,
     CheckRequest,
+    CurveRequest,
     DiagnosisReport,
     Done,
     FitRequest,
@@ -204,7 +205,7 @@ def diagnosis_stages(key: CalibrationKey, measurement: Measurement, known: tuple
                         yield sch.progress(last_fraction, stage.message)
                 if len(ready) == len(stages):
                     raise sch.Cancelled()  # no final stage: the run was cancelled
-            elif isinstance(event, CheckRequest):
+            elif isinstance(event, (CheckRequest, CurveRequest)):  # the averaged ranking: first
                 fits.submit(event, first=True)
             elif isinstance(event, FitRequest):
                 fits.submit(event)
