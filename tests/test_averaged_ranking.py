@@ -71,6 +71,24 @@ def test_the_stream_yields_the_averaged_ranking_before_any_full_fit():
     # the averaged figures are the curves': no time-domain RMSE claimed for them
     assert all(c["rmse_prediction"] is None for c in summary["candidates"])
     assert after is not None and "quadratic_drag" in after.effects
+    _check_dashboard_words(report)
+
+
+def _check_dashboard_words(report) -> None:
+    """The Diagnosis tab's row of every averaged candidate says so and quotes the curves' figures
+    and the curves' parameter values (no NaN error, no "% in the band" of a fit that did not run)."""
+    pytest.importorskip("panel")
+    from dashboard.outputs.beam import output_units
+    from dashboard.views.diagnosis import DiagnosisView
+
+    for c in report.candidates:
+        text = DiagnosisView._candidate_text(c, report, output_units(report.base))
+        j = c.judgement
+        assert "(averaged form)" in text and "nan" not in text.lower() and "in the band" not in text, text
+        assert f"{j.judged_after:.2g}" in text and f"{j.judged_before:.2g}" in text, text
+        for name, summary in c.parameters.items():
+            assert summary["q025"] <= summary["mean"] <= summary["q975"], (c.effect, name, summary)
+            assert f"{summary['mean']:.3g}" in text, (name, text)
 
 
 @pytest.mark.slow

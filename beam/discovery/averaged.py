@@ -129,6 +129,14 @@ class _CurveFit:
                    SimpleNamespace(parameters=parameters), SimpleNamespace(measurement=m, modes=base.setup.modes))
 
 
+def _summary(value: float, interval) -> dict[str, float]:
+    """A parameter of the curves' fit in the full candidates' currency (``mean``, ``sd``, ``q025``,
+    ``q975``, as a posterior summary): the Laplace approximation's optimum as its mean, its 95 %
+    interval as the quantiles and a quarter of that interval (1.96 sd a side) as its sd."""
+    lo, hi = (float(v) for v in interval)
+    return {"mean": float(value), "sd": (hi - lo) / (2 * 1.959964), "q025": lo, "q975": hi}
+
+
 def averaged_ranking(base: CalibrationResult, scores: list, explain: dict[str, str] | None = None) -> Ranking:
     """The :class:`~beam.discovery.ranking.Ranking` of the averaged ``scores`` (base first, as
     :func:`~beam.calibration.slowflow.score_candidates` returns them) against ``base`` (the
@@ -144,7 +152,7 @@ def averaged_ranking(base: CalibrationResult, scores: list, explain: dict[str, s
             s.candidate, gain, (first.window_rms_z, s.window_rms_z),
             (first.heldout_rms_z_identified, s.heldout_rms_z_identified),
             judged_label=CURVE_ERROR, held_out_label=CURVE_HELD_OUT, findings=findings, noise=1.0)
-        parameters[s.candidate] = {n: {"map": float(s.values[n]), "interval95": [float(v) for v in s.intervals[n]]}
+        parameters[s.candidate] = {n: _summary(s.values[n], s.intervals[n])
                                    for n in EFFECTS[s.candidate].required_parameter_names_for(base.setup.modes)
                                    if n in s.values}
     if any(j.status == "implausible" for j in judgements.values()):

@@ -15,6 +15,7 @@ import math
 import pandas as pd
 import panel as pn
 
+from beam.discovery.averaged import AVERAGED, FULL
 from beam.discovery.judgement import ORDER_WORDS, STATUS_WORDS
 from beam.discovery.ranking import judgement_of
 from beam.discovery.report import p_words
@@ -382,6 +383,12 @@ class DiagnosisView(TabView):
         else:
             evidence = "fit failed"
         head = " — missing" if judgement.material else f" — {STATUS_WORDS[judgement.status]}"
+        if getattr(c, "source", FULL) == AVERAGED:  # judged on the record's curves: no time-domain error yet
+            return (f"**{title}**{head} <small>(averaged form)</small><br>"
+                    f"{judgement.judged_label} {judgement.judged_after:.2g}, the starting model's "
+                    f"{judgement.judged_before:.2g}; evidence "
+                    f"<span title='{bs.GLOSSES['log evidence']}'>{evidence}</span> of the curves"
+                    f"<br><small>{c.explanation}{' — ' + params if params else ''}</small>")
         return (f"**{title}**{head}<br>"
                 f"{_errors_words(c, diagnosis, u)}, "
                 f"{100 * c.coverage95_prediction:.0f} % in the band; evidence "
