@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 from beam.calibration import CalibrationResult, CalibrationSpec
-from beam.discovery.judgement import effect_kind, elsewhere, judge_numbers, order_key
+from beam.discovery.judgement import MATERIAL_LOG_EVIDENCE, effect_kind, elsewhere, judge_numbers, order_key
 from beam.discovery.plausibility import implausible_parameters
 from beam.discovery.ranking import Candidate, Ranking, candidate_effects, record_features
 from beam.errors import BeamInputError
@@ -104,7 +104,7 @@ class CurveRequest:
         from beam.calibration.slowflow import score_candidates
         try:
             return score_candidates(measurement, self.spec.effects, self.candidates, window=tuple(self.spec.window))
-        except (BeamInputError, ValueError, FloatingPointError, ArithmeticError) as exc:
+        except (BeamInputError, ValueError, ArithmeticError) as exc:
             return exc
 
 
@@ -147,7 +147,7 @@ def averaged_ranking(base: CalibrationResult, scores: list, explain: dict[str, s
     judgements, parameters = {}, {}
     for s in rest:
         gain = float(s.log_evidence - first.log_evidence)
-        findings = implausible_parameters(s.candidate, _CurveFit.of(s, base)) if gain >= 5.0 else []
+        findings = implausible_parameters(s.candidate, _CurveFit.of(s, base)) if gain >= MATERIAL_LOG_EVIDENCE else []
         judgements[s.candidate] = judge_numbers(
             s.candidate, gain, (first.window_rms_z, s.window_rms_z),
             (first.heldout_rms_z_identified, s.heldout_rms_z_identified),
